@@ -1,0 +1,2 @@
+//! Quadrature: Gauss rules and cut-cell rules for implicitly defined domains.
+pub mod gauss;
