@@ -1,0 +1,46 @@
+//! The library's one error type. Every variant names what was being done and
+//! with which input, so that the binary can print it as is and map it to an exit
+//! code (DESIGN §8: 2 bad input, 3 solver failure, 1 internal).
+
+use thiserror::Error;
+
+/// Errors raised by the library.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum Error {
+    /// A geometric parameter is out of range (negative radius, zero axis, ...).
+    #[error("invalid geometry: {what}: {reason}")]
+    InvalidGeometry { what: String, reason: String },
+    /// A CSG operation or the whole geometry encloses no volume.
+    #[error("empty geometry: {what}")]
+    EmptyGeometry { what: String },
+    /// The geometry does not meet the grid box.
+    #[error("geometry lies outside the grid box {lo:?}..{hi:?}")]
+    GeometryOutsideGrid { lo: [f64; 3], hi: [f64; 3] },
+    /// A grid parameter is out of range.
+    #[error("invalid grid: {what}: {reason}")]
+    InvalidGrid { what: String, reason: String },
+    /// The grid would need more memory than allowed.
+    #[error(
+        "level {level} needs about {needed_bytes} bytes, over the memory budget of \
+         {budget_bytes} bytes; the largest level that fits is {max_level}"
+    )]
+    MemoryBudget {
+        level: u32,
+        needed_bytes: u64,
+        budget_bytes: u64,
+        max_level: u32,
+    },
+    /// A boundary tag that no boundary part carries.
+    #[error("unknown boundary tag '{tag}' (known: {known})")]
+    UnknownTag { tag: String, known: String },
+}
+
+impl Error {
+    /// Exit code of the binary for this error (DESIGN §8).
+    pub fn exit_code(&self) -> i32 {
+        2
+    }
+}
+
+/// Result alias of the library.
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,264 @@
+//! Number types the level sets are evaluated with: plain `f64`, intervals (for
+//! sign and monotonicity bounds over a box) and forward-mode duals (gradients).
+//! Each leaf surface is written once, generically over [`Scalar`].
+
+use std::ops::{Add, Mul, Neg, Sub};
+
+/// Arithmetic a level set needs: ring operations and constants.
+pub trait Scalar:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+{
+    /// A constant.
+    fn cst(v: f64) -> Self;
+    /// Multiplication by a constant.
+    fn scale(self, s: f64) -> Self;
+    /// `self * self` (tighter than a product for intervals).
+    fn sqr(self) -> Self {
+        self * self
+    }
+}
+
+/// Scalars that also have min and max, for CSG (union = min, intersection = max).
+pub trait Lattice: Scalar {
+    fn min(self, o: Self) -> Self;
+    fn max(self, o: Self) -> Self;
+}
+
+impl Scalar for f64 {
+    fn cst(v: f64) -> Self {
+        v
+    }
+    fn scale(self, s: f64) -> Self {
+        self * s
+    }
+}
+
+impl Lattice for f64 {
+    fn min(self, o: Self) -> Self {
+        f64::min(self, o)
+    }
+    fn max(self, o: Self) -> Self {
+        f64::max(self, o)
+    }
+}
+
+/// A closed interval `[lo, hi]` (no directed rounding: bounds are exact up to a
+/// few ulps, which is all the cut-cell classification needs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interval {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl Interval {
+    pub fn new(lo: f64, hi: f64) -> Self {
+        Interval { lo, hi }
+    }
+    /// True when every value is `< 0` or every value is `> 0`.
+    pub fn strictly_signed(&self) -> bool {
+        self.hi < 0.0 || self.lo > 0.0
+    }
+    /// True when zero lies strictly inside, so the function changes sign.
+    pub fn straddles_zero(&self) -> bool {
+        self.lo < 0.0 && self.hi > 0.0
+    }
+    pub fn mid(&self) -> f64 {
+        0.5 * (self.lo + self.hi)
+    }
+}
+
+impl Add for Interval {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Interval::new(self.lo + o.lo, self.hi + o.hi)
+    }
+}
+
+impl Sub for Interval {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        Interval::new(self.lo - o.hi, self.hi - o.lo)
+    }
+}
+
+impl Neg for Interval {
+    type Output = Self;
+    fn neg(self) -> Self {
+        Interval::new(-self.hi, -self.lo)
+    }
+}
+
+impl Mul for Interval {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        let p = [self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi];
+        Interval::new(
+            p.iter().copied().fold(f64::INFINITY, f64::min),
+            p.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
+    }
+}
+
+impl Scalar for Interval {
+    fn cst(v: f64) -> Self {
+        Interval::new(v, v)
+    }
+    fn scale(self, s: f64) -> Self {
+        if s >= 0.0 {
+            Interval::new(self.lo * s, self.hi * s)
+        } else {
+            Interval::new(self.hi * s, self.lo * s)
+        }
+    }
+    fn sqr(self) -> Self {
+        if self.lo >= 0.0 {
+            Interval::new(self.lo * self.lo, self.hi * self.hi)
+        } else if self.hi <= 0.0 {
+            Interval::new(self.hi * self.hi, self.lo * self.lo)
+        } else {
+            Interval::new(0.0, f64::max(self.lo * self.lo, self.hi * self.hi))
+        }
+    }
+}
+
+impl Lattice for Interval {
+    fn min(self, o: Self) -> Self {
+        Interval::new(self.lo.min(o.lo), self.hi.min(o.hi))
+    }
+    fn max(self, o: Self) -> Self {
+        Interval::new(self.lo.max(o.lo), self.hi.max(o.hi))
+    }
+}
+
+/// Forward-mode dual number: a value and its gradient in 3D.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dual<T> {
+    pub v: T,
+    pub d: [T; 3],
+}
+
+impl<T: Scalar> Dual<T> {
+    /// The independent variable along `axis` with value `v`.
+    pub fn var(v: T, axis: usize) -> Self {
+        let mut d = [T::cst(0.0); 3];
+        d[axis] = T::cst(1.0);
+        Dual { v, d }
+    }
+}
+
+impl<T: Scalar> Add for Dual<T> {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Dual {
+            v: self.v + o.v,
+            d: [self.d[0] + o.d[0], self.d[1] + o.d[1], self.d[2] + o.d[2]],
+        }
+    }
+}
+
+impl<T: Scalar> Sub for Dual<T> {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        Dual {
+            v: self.v - o.v,
+            d: [self.d[0] - o.d[0], self.d[1] - o.d[1], self.d[2] - o.d[2]],
+        }
+    }
+}
+
+impl<T: Scalar> Neg for Dual<T> {
+    type Output = Self;
+    fn neg(self) -> Self {
+        Dual {
+            v: -self.v,
+            d: [-self.d[0], -self.d[1], -self.d[2]],
+        }
+    }
+}
+
+impl<T: Scalar> Mul for Dual<T> {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        let mut d = [T::cst(0.0); 3];
+        for (i, di) in d.iter_mut().enumerate() {
+            *di = self.v * o.d[i] + self.d[i] * o.v;
+        }
+        Dual { v: self.v * o.v, d }
+    }
+}
+
+impl<T: Scalar> Scalar for Dual<T> {
+    fn cst(v: f64) -> Self {
+        Dual {
+            v: T::cst(v),
+            d: [T::cst(0.0); 3],
+        }
+    }
+    fn scale(self, s: f64) -> Self {
+        Dual {
+            v: self.v.scale(s),
+            d: [self.d[0].scale(s), self.d[1].scale(s), self.d[2].scale(s)],
+        }
+    }
+    fn sqr(self) -> Self {
+        let mut d = [T::cst(0.0); 3];
+        for (i, di) in d.iter_mut().enumerate() {
+            *di = (self.v * self.d[i]).scale(2.0);
+        }
+        Dual { v: self.v.sqr(), d }
+    }
+}
+
+/// Gradients of min/max follow the branch taken (one-sided at ties).
+impl Lattice for Dual<f64> {
+    fn min(self, o: Self) -> Self {
+        if o.v < self.v {
+            o
+        } else {
+            self
+        }
+    }
+    fn max(self, o: Self) -> Self {
+        if o.v > self.v {
+            o
+        } else {
+            self
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interval_encloses_samples() {
+        let a = Interval::new(-1.5, 0.5);
+        let b = Interval::new(0.25, 2.0);
+        let f = |x: Interval, y: Interval| (x * y - x.sqr()).scale(-2.0) + y;
+        let r = f(a, b);
+        for i in 0..=20 {
+            for j in 0..=20 {
+                let x = a.lo + (a.hi - a.lo) * i as f64 / 20.0;
+                let y = b.lo + (b.hi - b.lo) * j as f64 / 20.0;
+                let v = -2.0 * (x * y - x * x) + y;
+                assert!(v >= r.lo - 1e-14 && v <= r.hi + 1e-14, "{v} not in {r:?}");
+            }
+        }
+        assert_eq!(a.sqr(), Interval::new(0.0, 2.25));
+    }
+
+    #[test]
+    fn dual_gradient_matches_analytic() {
+        let x = [Dual::var(0.3, 0), Dual::var(-0.7, 1), Dual::var(1.1, 2)];
+        let f = (x[0] * x[1]).sqr() + x[2].scale(3.0) - x[0];
+        let g = [
+            2.0 * 0.3 * 0.49 - 1.0,
+            2.0 * 0.09 * -0.7,
+            3.0,
+        ];
+        for i in 0..3 {
+            assert!((f.d[i] - g[i]).abs() < 1e-15);
+        }
+    }
+}

@@ -1,0 +1,195 @@
+//! Leaf surfaces of the CSG tree: smooth level sets in a local frame.
+//!
+//! Each leaf is a polynomial level set ψ (negative inside) scaled so that
+//! `|∇ψ| = 1` on its zero set (or close to it, for the torus), placed by a rigid
+//! frame. Polynomials keep interval bounds tight and roots well behaved, which is
+//! what the cut-cell quadrature relies on.
+
+use super::scalar::Scalar;
+
+/// The shape of a leaf in its local frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// `ψ = n·x − d` with `n` a unit vector: the half-space `n·x ≤ d`.
+    Plane { normal: [f64; 3], offset: f64 },
+    /// Ball of radius `r` about the origin: `ψ = (|x|² − r²) / (2r)`.
+    Sphere { r: f64 },
+    /// Infinite solid cylinder of radius `r` about the local z axis:
+    /// `ψ = (x² + y² − r²) / (2r)`.
+    Cylinder { r: f64 },
+    /// Solid torus about the local z axis, major radius `big_r`, tube radius `r`:
+    /// `ψ = ((|x|² + R² − r²)² − 4R²(x² + y²)) / (8R²r)`.
+    Torus { big_r: f64, r: f64 },
+}
+
+/// A rigid placement: local coordinates are `Qᵀ (x − t)`, `Q` orthogonal
+/// (stored by columns: `q[c]` is the image of local axis `c`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub q: [[f64; 3]; 3],
+    pub t: [f64; 3],
+}
+
+impl Frame {
+    pub const IDENTITY: Frame = Frame {
+        q: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        t: [0.0; 3],
+    };
+
+    /// A frame at `origin` whose local z axis is the unit vector `axis`.
+    pub fn with_z_axis(origin: [f64; 3], axis: [f64; 3]) -> Frame {
+        let a = axis;
+        // Any vector not parallel to a, then Gram–Schmidt.
+        let helper = if a[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let e1 = normalize(cross(helper, a));
+        let e2 = cross(a, e1);
+        Frame {
+            q: [e1, e2, a],
+            t: origin,
+        }
+    }
+
+    /// Local coordinates of the global point `x`.
+    pub fn to_local<T: Scalar>(&self, x: [T; 3]) -> [T; 3] {
+        let d = [
+            x[0] - T::cst(self.t[0]),
+            x[1] - T::cst(self.t[1]),
+            x[2] - T::cst(self.t[2]),
+        ];
+        let mut out = [T::cst(0.0); 3];
+        for (c, o) in out.iter_mut().enumerate() {
+            *o = d[0].scale(self.q[c][0]) + d[1].scale(self.q[c][1]) + d[2].scale(self.q[c][2]);
+        }
+        out
+    }
+
+    /// The frame after the global motion `x ↦ R x + s` (R by columns).
+    pub fn moved(&self, r: &[[f64; 3]; 3], s: [f64; 3]) -> Frame {
+        let apply = |v: [f64; 3]| -> [f64; 3] {
+            let mut o = [0.0; 3];
+            for (c, rc) in r.iter().enumerate() {
+                for i in 0..3 {
+                    o[i] += rc[i] * v[c];
+                }
+            }
+            o
+        };
+        let t = apply(self.t);
+        Frame {
+            q: [apply(self.q[0]), apply(self.q[1]), apply(self.q[2])],
+            t: [t[0] + s[0], t[1] + s[1], t[2] + s[2]],
+        }
+    }
+}
+
+/// A leaf of the CSG tree: a shape, its placement and its boundary tag.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Leaf {
+    pub shape: Shape,
+    pub frame: Frame,
+    /// Index into the geometry's tag names.
+    pub tag: u16,
+}
+
+impl Leaf {
+    /// ψ at the global point `x`, in any scalar type.
+    pub fn eval<T: Scalar>(&self, x: [T; 3]) -> T {
+        let p = self.frame.to_local(x);
+        match self.shape {
+            Shape::Plane { normal, offset } => {
+                p[0].scale(normal[0]) + p[1].scale(normal[1]) + p[2].scale(normal[2])
+                    - T::cst(offset)
+            }
+            Shape::Sphere { r } => {
+                (p[0].sqr() + p[1].sqr() + p[2].sqr() - T::cst(r * r)).scale(0.5 / r)
+            }
+            Shape::Cylinder { r } => (p[0].sqr() + p[1].sqr() - T::cst(r * r)).scale(0.5 / r),
+            Shape::Torus { big_r, r } => {
+                let rho2 = p[0].sqr() + p[1].sqr();
+                let s = rho2 + p[2].sqr() + T::cst(big_r * big_r - r * r);
+                (s.sqr() - rho2.scale(4.0 * big_r * big_r)).scale(1.0 / (8.0 * big_r * big_r * r))
+            }
+        }
+    }
+}
+
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+pub fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+
+pub fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let n = norm(a);
+    [a[0] / n, a[1] / n, a[2] / n]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::scalar::Dual;
+
+    fn grad(leaf: &Leaf, x: [f64; 3]) -> [f64; 3] {
+        leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]).d
+    }
+
+    #[test]
+    fn unit_gradient_on_the_zero_set() {
+        let axis = normalize([1.0, 2.0, -0.5]);
+        let f = Frame::with_z_axis([0.1, -0.2, 0.3], axis);
+        let leaves = [
+            Shape::Sphere { r: 0.7 },
+            Shape::Cylinder { r: 0.4 },
+            Shape::Plane {
+                normal: normalize([1.0, 1.0, 0.0]),
+                offset: 0.2,
+            },
+        ];
+        for shape in leaves {
+            let leaf = Leaf { shape, frame: f, tag: 0 };
+            // A point on the zero set: walk along the gradient with Newton.
+            let mut x = [0.5, 0.4, -0.3];
+            for _ in 0..50 {
+                let v = leaf.eval(x);
+                let g = grad(&leaf, x);
+                let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+                for i in 0..3 {
+                    x[i] -= v * g[i] / g2;
+                }
+            }
+            assert!(leaf.eval(x).abs() < 1e-14);
+            assert!((norm(grad(&leaf, x)) - 1.0).abs() < 1e-12, "{shape:?}");
+        }
+    }
+
+    #[test]
+    fn torus_zero_set_is_the_tube() {
+        let leaf = Leaf {
+            shape: Shape::Torus { big_r: 1.0, r: 0.25 },
+            frame: Frame::IDENTITY,
+            tag: 0,
+        };
+        for k in 0..16 {
+            let a = k as f64 * 0.4;
+            let b = k as f64 * 1.3;
+            let x = [
+                (1.0 + 0.25 * b.cos()) * a.cos(),
+                (1.0 + 0.25 * b.cos()) * a.sin(),
+                0.25 * b.sin(),
+            ];
+            assert!(leaf.eval(x).abs() < 1e-14);
+        }
+        assert!(leaf.eval([1.0, 0.0, 0.0]) < 0.0);
+        assert!(leaf.eval([0.0, 0.0, 0.0]) > 0.0);
+    }
+}
