@@ -49,9 +49,9 @@ mod tests {
         let nodes = [0.0, 0.5, 1.0];
         for (b, &t) in nodes.iter().enumerate() {
             let phi = basis_1d(t);
-            for a in 0..3 {
+            for (a, &value) in phi.iter().enumerate() {
                 let expected = if a == b { 1.0 } else { 0.0 };
-                assert!((phi[a] - expected).abs() < 1e-15);
+                assert!((value - expected).abs() < 1e-15);
             }
         }
         for i in 0..=10 {

@@ -1,2 +1,4 @@
 //! Quadrature: Gauss rules and cut-cell rules for implicitly defined domains.
 pub mod gauss;
+mod roots;
+pub mod saye;

@@ -1,0 +1,259 @@
+//! The Cartesian grid at level L (DESIGN §2.1): geometry of cells and nodes,
+//! their indexing, and the memory estimate that guards large levels.
+//!
+//! The longest side of the box is split into `2^L` cubic cells of size `h`; the
+//! other sides get `ceil(side / h)` cells (the box grows to fit). An offset
+//! `o ∈ [0, 1)^3` (in cells) shifts the grid origin to `lo − o h` and adds the
+//! cells needed to still cover the box. Cells are numbered `i + nx (j + ny k)`;
+//! the nodes of order `p` (1 for Q1, 2 for Q2) form a `(p n + 1)^3` lattice
+//! numbered the same way, so cell `(i, j, k)`'s local node `(a, b, c)` is global
+//! node `(p i + a, p j + b, p k + c)`.
+
+use crate::element::ElementOrder;
+use crate::error::{Error, Result};
+use crate::geometry::Aabb;
+
+/// Highest level accepted at all (the memory budget usually stops earlier).
+pub const MAX_LEVEL: u32 = 12;
+
+/// A regular grid of cubic cells.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    pub origin: [f64; 3],
+    pub h: f64,
+    pub n: [usize; 3],
+    pub level: u32,
+}
+
+impl Grid {
+    /// The grid of `level` over `bbox`, shifted by `offset` cells.
+    pub fn new(bbox: &Aabb, level: u32, offset: [f64; 3]) -> Result<Grid> {
+        let bad = |what: &str, reason: String| Error::InvalidGrid {
+            what: what.into(),
+            reason,
+        };
+        if !bbox.is_finite() || (0..3).any(|i| bbox.hi[i] <= bbox.lo[i]) {
+            return Err(bad(
+                "box",
+                format!(
+                    "needs finite corners with max > min, got {:?}..{:?}",
+                    bbox.lo, bbox.hi
+                ),
+            ));
+        }
+        if level > MAX_LEVEL {
+            return Err(bad(
+                "level",
+                format!("{level} is above the maximum {MAX_LEVEL}"),
+            ));
+        }
+        if offset.iter().any(|o| !(0.0..1.0).contains(o)) {
+            return Err(bad(
+                "offset",
+                format!("components must lie in [0, 1), got {offset:?}"),
+            ));
+        }
+        let side = [0, 1, 2].map(|i| bbox.hi[i] - bbox.lo[i]);
+        let longest = side.iter().copied().fold(0.0, f64::max);
+        let h = longest / (1u64 << level) as f64;
+        let origin = [0, 1, 2].map(|i| bbox.lo[i] - offset[i] * h);
+        let n = [0, 1, 2].map(|i| {
+            let cells = (bbox.hi[i] - origin[i]) / h;
+            // Round-off must not add a sliver cell to an exact fit.
+            (cells - 1e-9).ceil().max(1.0) as usize
+        });
+        Ok(Grid {
+            origin,
+            h,
+            n,
+            level,
+        })
+    }
+
+    pub fn num_cells(&self) -> usize {
+        self.n[0] * self.n[1] * self.n[2]
+    }
+
+    pub fn cell_index(&self, ijk: [usize; 3]) -> usize {
+        ijk[0] + self.n[0] * (ijk[1] + self.n[1] * ijk[2])
+    }
+
+    pub fn cell_ijk(&self, c: usize) -> [usize; 3] {
+        [
+            c % self.n[0],
+            (c / self.n[0]) % self.n[1],
+            c / (self.n[0] * self.n[1]),
+        ]
+    }
+
+    /// The box of the cells `lo ≤ ijk < hi` (a single cell when `hi = lo + 1`).
+    pub fn block_box(&self, lo: [usize; 3], hi: [usize; 3]) -> Aabb {
+        Aabb::new(
+            [0, 1, 2].map(|i| self.origin[i] + lo[i] as f64 * self.h),
+            [0, 1, 2].map(|i| self.origin[i] + hi[i] as f64 * self.h),
+        )
+    }
+
+    pub fn cell_box(&self, c: usize) -> Aabb {
+        let ijk = self.cell_ijk(c);
+        self.block_box(ijk, ijk.map(|v| v + 1))
+    }
+
+    /// The whole grid's box.
+    pub fn bounding_box(&self) -> Aabb {
+        self.block_box([0; 3], self.n)
+    }
+
+    /// Nodes per axis for an element order.
+    pub fn nodes_per_axis(&self, order: ElementOrder) -> [usize; 3] {
+        let p = order.degree();
+        self.n.map(|n| p * n + 1)
+    }
+
+    pub fn num_nodes(&self, order: ElementOrder) -> usize {
+        self.nodes_per_axis(order).iter().product()
+    }
+
+    /// Global indices of a cell's nodes, in the element's local order.
+    pub fn cell_nodes(&self, order: ElementOrder, c: usize, out: &mut [usize]) {
+        let p = order.degree();
+        let m = self.nodes_per_axis(order);
+        let [i, j, k] = self.cell_ijk(c);
+        let mut l = 0;
+        for cc in 0..=p {
+            for b in 0..=p {
+                for a in 0..=p {
+                    out[l] = (p * i + a) + m[0] * ((p * j + b) + m[1] * (p * k + cc));
+                    l += 1;
+                }
+            }
+        }
+    }
+
+    /// Position of a node.
+    pub fn node_position(&self, order: ElementOrder, node: usize) -> [f64; 3] {
+        let p = order.degree() as f64;
+        let m = self.nodes_per_axis(order);
+        let ijk = [node % m[0], (node / m[0]) % m[1], node / (m[0] * m[1])];
+        [0, 1, 2].map(|i| self.origin[i] + ijk[i] as f64 * self.h / p)
+    }
+
+    /// Rough peak memory of a solve on this grid: the cell classes, the dof
+    /// maps and a dozen solver vectors of three f64 per node, and the cut-cell
+    /// rules (about `6 · 4^L` cut cells of ~100 points of 64 bytes).
+    pub fn estimated_bytes(&self, order: ElementOrder) -> u64 {
+        let cells = self.num_cells() as u64;
+        let nodes = self.num_nodes(order) as u64;
+        let cut = 6 * 4u64.pow(self.level);
+        cells + nodes * (4 + 12 * 3 * 8) + cut * 100 * 64
+    }
+
+    /// An error naming the largest level that fits when the estimate exceeds
+    /// `budget_bytes`.
+    pub fn check_memory(&self, order: ElementOrder, budget_bytes: u64) -> Result<()> {
+        let needed = self.estimated_bytes(order);
+        if needed <= budget_bytes {
+            return Ok(());
+        }
+        let mut max_level = 0;
+        for l in 0..self.level {
+            let g = self.at_level(l);
+            if g.estimated_bytes(order) <= budget_bytes {
+                max_level = l;
+            }
+        }
+        Err(Error::MemoryBudget {
+            level: self.level,
+            needed_bytes: needed,
+            budget_bytes,
+            max_level,
+        })
+    }
+
+    /// The same box at another level (cell counts scaled by powers of two).
+    fn at_level(&self, level: u32) -> Grid {
+        let scale = 2f64.powi(self.level as i32 - level as i32);
+        Grid {
+            origin: self.origin,
+            h: self.h * scale,
+            n: self.n.map(|n| ((n as f64 / scale).ceil() as usize).max(1)),
+            level,
+        }
+    }
+}
+
+/// Physical memory of this machine (Linux `/proc/meminfo`), or 16 GiB when it
+/// cannot be read: the default memory budget.
+pub fn machine_memory_bytes() -> u64 {
+    let text = std::fs::read_to_string("/proc/meminfo").unwrap_or_default();
+    text.lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        .map(|kb| kb * 1024)
+        .unwrap_or(16 << 30)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn level_splits_the_longest_side() {
+        let b = Aabb::new([-1.0, -1.0, -0.5], [1.0, 1.0, 0.5]);
+        let g = Grid::new(&b, 4, [0.0; 3]).unwrap();
+        assert_eq!(g.n, [16, 16, 8]);
+        assert_eq!(g.h, 0.125);
+        let g = Grid::new(&b, 4, [0.5, 0.0, 0.25]).unwrap();
+        assert_eq!(g.n, [17, 16, 9]);
+        assert!(g.bounding_box().lo[0] < -1.0 && g.bounding_box().hi[2] >= 0.5);
+    }
+
+    #[test]
+    fn indices_round_trip_and_cell_nodes_are_lexicographic() {
+        let g = Grid::new(&Aabb::new([0.0; 3], [3.0, 2.0, 1.0]), 2, [0.0; 3]).unwrap();
+        assert_eq!(g.n, [4, 3, 2]);
+        for c in 0..g.num_cells() {
+            assert_eq!(g.cell_index(g.cell_ijk(c)), c);
+        }
+        let c = g.cell_index([1, 2, 1]);
+        for order in [ElementOrder::Q1, ElementOrder::Q2] {
+            let mut nodes = vec![0; order.nodes_per_cell()];
+            g.cell_nodes(order, c, &mut nodes);
+            let b = g.cell_box(c);
+            let first = g.node_position(order, nodes[0]);
+            let last = g.node_position(order, nodes[nodes.len() - 1]);
+            for i in 0..3 {
+                assert!((first[i] - b.lo[i]).abs() < 1e-15 && (last[i] - b.hi[i]).abs() < 1e-15);
+            }
+            assert!(nodes.windows(2).all(|w| w[0] < w[1]));
+        }
+    }
+
+    #[test]
+    fn bad_grids_are_typed_errors() {
+        let b = Aabb::new([0.0; 3], [1.0; 3]);
+        assert!(matches!(
+            Grid::new(&b, 13, [0.0; 3]),
+            Err(Error::InvalidGrid { .. })
+        ));
+        assert!(matches!(
+            Grid::new(&b, 3, [1.0, 0.0, 0.0]),
+            Err(Error::InvalidGrid { .. })
+        ));
+        assert!(matches!(
+            Grid::new(&Aabb::EVERYTHING, 3, [0.0; 3]),
+            Err(Error::InvalidGrid { .. })
+        ));
+        let g = Grid::new(&b, 9, [0.0; 3]).unwrap();
+        match g.check_memory(ElementOrder::Q1, 1 << 30) {
+            Err(Error::MemoryBudget { max_level, .. }) => {
+                assert!(max_level < 9);
+                let ok = Grid::new(&b, max_level, [0.0; 3]).unwrap();
+                assert!(ok.check_memory(ElementOrder::Q1, 1 << 30).is_ok());
+                let over = Grid::new(&b, max_level + 1, [0.0; 3]).unwrap();
+                assert!(over.check_memory(ElementOrder::Q1, 1 << 30).is_err());
+            }
+            other => panic!("expected a memory error, got {other:?}"),
+        }
+    }
+}

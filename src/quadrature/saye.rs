@@ -1,0 +1,552 @@
+//! Saye's high-order quadrature for implicitly defined domains in a box
+//! (R. Saye, SIAM J. Sci. Comput. 37(2), A993–A1019, 2015), written for the CSG
+//! trees of [`crate::geometry`].
+//!
+//! In a box `U` the leaves whose level set ψ can vanish are kept. A *height
+//! direction* `k` is an axis along which every kept ψ is monotone on `U`
+//! (`∂ψ/∂x_k` has one sign, checked with interval arithmetic). Then each line
+//! parallel to `k` meets each ψ at most once, and
+//!
+//! ```text
+//! ∫_{U∩Ω} f = ∫_{U'} F(x') dx',   F(x') = Σ_{segments s ⊂ Ω} ∫_s f(x', t) dt,
+//! ```
+//!
+//! where the segments split the line at the roots of every ψ, and a segment is in
+//! Ω when the CSG level set is negative at its midpoint. `F` is smooth on `U'`
+//! away from the zero sets of the face restrictions `ψ(·, x_k = lo_k)` and
+//! `ψ(·, x_k = hi_k)`, so `U'` is integrated by the same algorithm one dimension
+//! down with those restrictions, ending in 1D with Gauss rules between roots.
+//! The surface rule comes from the same sweep: a root where the segment class
+//! changes is a boundary point `(x', t*)` of weight
+//! `w' |∇ψ| / |∂ψ/∂x_k|` (the surface Jacobian) with the exact normal `±∇ψ/|∇ψ|`.
+//! When no height direction exists the box is split in halves (up to a depth
+//! limit, after which the best axis is used with a scanning root finder).
+//!
+//! A boundary point on the box's own face (boundaries aligned with the grid) is
+//! claimed by the box whose side of the face is inside Ω, so a face shared by two
+//! cells is counted once.
+
+use super::roots::roots_on_segment;
+use crate::geometry::scalar::{Dual, Interval, Scalar};
+use crate::geometry::{Aabb, Geometry};
+
+/// A volume quadrature point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumePoint {
+    pub x: [f64; 3],
+    pub w: f64,
+}
+
+/// A boundary quadrature point: weight includes the surface Jacobian, `n` is the
+/// exact outward unit normal, `tag` the boundary part.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    pub x: [f64; 3],
+    pub w: f64,
+    pub n: [f64; 3],
+    pub tag: u16,
+}
+
+/// Volume and surface points of one box.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BoxRule {
+    pub volume: Vec<VolumePoint>,
+    pub surface: Vec<SurfacePoint>,
+}
+
+const MAX_TOP_DEPTH: u32 = 3;
+const MAX_LOWER_DEPTH: u32 = 4;
+/// Smallest accepted `|∂ψ/∂x_k| / |∇ψ|` before the depth limit (see [`height_axis`]).
+const MIN_QUALITY: f64 = 0.4;
+
+/// A leaf level set with some coordinates pinned (its restriction to a face).
+#[derive(Clone, Copy, Debug)]
+struct Restricted {
+    leaf: usize,
+    pinned: [Option<f64>; 3],
+}
+
+impl Restricted {
+    fn apply<T: Scalar>(&self, mut x: [T; 3]) -> [T; 3] {
+        for (xi, p) in x.iter_mut().zip(self.pinned) {
+            if let Some(v) = p {
+                *xi = T::cst(v);
+            }
+        }
+        x
+    }
+
+    fn value_grad(&self, g: &Geometry, x: [f64; 3]) -> (f64, [f64; 3]) {
+        let d = self.apply([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]);
+        let v = g.leaves()[self.leaf].eval(d);
+        (v.v, v.d)
+    }
+
+    /// Interval bounds of ψ and ∇ψ over the box.
+    fn bounds(&self, g: &Geometry, b: &Aabb) -> Dual<Interval> {
+        let x = [0, 1, 2].map(|i| Dual::var(Interval::new(b.lo[i], b.hi[i]), i));
+        g.leaves()[self.leaf].eval(self.apply(x))
+    }
+
+    fn pinned_at(&self, axis: usize, v: f64) -> Restricted {
+        let mut r = *self;
+        r.pinned[axis] = Some(v);
+        r
+    }
+}
+
+/// Shared state of one rule computation.
+struct Ctx<'a> {
+    g: &'a Geometry,
+    gauss_x: Vec<f64>,
+    gauss_w: Vec<f64>,
+}
+
+/// Volume rule on `b ∩ Ω` and, when all three axes are free, surface rule on
+/// `b ∩ ∂Ω`, with `q` Gauss points per segment and dimension. `free` lists the
+/// axes the box spans (three for a cell, two for a cell face; the others are
+/// degenerate in `b`).
+pub fn box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
+    let (gauss_x, gauss_w) = super::gauss::gauss_legendre_unit(q);
+    let ctx = Ctx {
+        g,
+        gauss_x,
+        gauss_w,
+    };
+    let mut rule = BoxRule::default();
+    top(&ctx, b, free, 0, &mut rule);
+    rule
+}
+
+fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
+    let phi = ctx.g.bounds(b);
+    if phi.hi < 0.0 {
+        tensor(ctx, b, free, 1.0, &mut |x, w| {
+            rule.volume.push(VolumePoint { x, w })
+        });
+        return;
+    }
+    if phi.lo > 0.0 {
+        return;
+    }
+    let pins = pins_of(b, free);
+    let fns: Vec<(Restricted, Dual<Interval>)> = (0..ctx.g.leaves().len())
+        .map(|leaf| Restricted { leaf, pinned: pins })
+        .map(|r| (r, r.bounds(ctx.g, b)))
+        .filter(|(_, bd)| bd.v.lo <= 0.0 && bd.v.hi >= 0.0)
+        .collect();
+    if fns.is_empty() {
+        if ctx.g.inside(center(b)) {
+            tensor(ctx, b, free, 1.0, &mut |x, w| {
+                rule.volume.push(VolumePoint { x, w })
+            });
+        }
+        return;
+    }
+    let want_surface = free.len() == 3;
+    let min_quality = if depth < MAX_TOP_DEPTH {
+        MIN_QUALITY
+    } else {
+        0.0
+    };
+    let Some(plan) = sweep_plan(&fns, free, want_surface, min_quality) else {
+        if depth < MAX_TOP_DEPTH {
+            for child in halves(b, free) {
+                top(ctx, &child, free, depth + 1, rule);
+            }
+        } else {
+            // Last resort: one sweep along the best axis with scanning roots.
+            let k = best_axis(&fns, free);
+            let emit = vec![want_surface; fns.len()];
+            sweep_box(ctx, &fns, b, free, k, false, true, &emit, rule);
+        }
+        return;
+    };
+    for (sweep, (k, emit)) in plan.into_iter().enumerate() {
+        sweep_box(ctx, &fns, b, free, k, true, sweep == 0, &emit, rule);
+    }
+}
+
+/// The sweeps that cover a box: the first gives the volume rule and the surface
+/// points of the leaves with a nonzero derivative along its axis; further
+/// sweeps along other axes give the surface points of the remaining leaves
+/// (a boundary parallel to a sweep direction has no points on its lines).
+/// `None` when some leaf has no usable axis.
+fn sweep_plan(
+    fns: &[(Restricted, Dual<Interval>)],
+    free: &[usize],
+    want_surface: bool,
+    min_quality: f64,
+) -> Option<Vec<(usize, Vec<bool>)>> {
+    let k = height_axis(fns, free, min_quality)?;
+    let strict = |k: usize, i: usize| fns[i].1.d[k].strictly_signed();
+    let mut plan = vec![(
+        k,
+        (0..fns.len())
+            .map(|i| want_surface && strict(k, i))
+            .collect::<Vec<_>>(),
+    )];
+    if !want_surface {
+        return Some(plan);
+    }
+    let mut done: Vec<bool> = plan[0].1.clone();
+    while let Some(i) = done.iter().position(|d| !d) {
+        let k = free.iter().copied().find(|&k| {
+            strict(k, i)
+                && fns.iter().all(|(_, bd)| {
+                    monotone_or_constant(bd, k) && quality(bd, k, free) >= min_quality
+                })
+        })?;
+        let emit: Vec<bool> = (0..fns.len()).map(|j| !done[j] && strict(k, j)).collect();
+        for (d, e) in done.iter_mut().zip(&emit) {
+            *d |= e;
+        }
+        plan.push((k, emit));
+    }
+    Some(plan)
+}
+
+/// One height-direction sweep of the box along `k`.
+#[allow(clippy::too_many_arguments)]
+fn sweep_box(
+    ctx: &Ctx,
+    fns: &[(Restricted, Dual<Interval>)],
+    b: &Aabb,
+    free: &[usize],
+    k: usize,
+    monotone: bool,
+    emit_volume: bool,
+    emit_surface: &[bool],
+    rule: &mut BoxRule,
+) {
+    let lower_free: Vec<usize> = free.iter().copied().filter(|&a| a != k).collect();
+    let faces = face_restrictions(fns, k, b);
+    let line_fns: Vec<Restricted> = fns.iter().map(|(r, _)| *r).collect();
+    let mut sink = |x: [f64; 3], w: f64| {
+        let line = Line { k, x, w, monotone };
+        sweep_line(ctx, &line_fns, b, &line, emit_volume, emit_surface, rule);
+    };
+    lower(ctx, &faces, b, &lower_free, 0, &mut sink);
+}
+
+/// A line of a sweep: direction `k` through `x`, carrying the weight `w`.
+struct Line {
+    k: usize,
+    x: [f64; 3],
+    w: f64,
+    monotone: bool,
+}
+
+/// Integrates over the free axes of `b` a function that is smooth away from the
+/// zero sets of `fns`, emitting points to `sink`.
+fn lower(
+    ctx: &Ctx,
+    fns: &[Restricted],
+    b: &Aabb,
+    free: &[usize],
+    depth: u32,
+    sink: &mut dyn FnMut([f64; 3], f64),
+) {
+    let active: Vec<(Restricted, Dual<Interval>)> = fns
+        .iter()
+        .map(|r| (*r, r.bounds(ctx.g, b)))
+        .filter(|(_, bd)| bd.v.straddles_zero())
+        .collect();
+    if active.is_empty() {
+        tensor(ctx, b, free, 1.0, sink);
+        return;
+    }
+    if free.len() == 1 {
+        let k = free[0];
+        let line: Vec<Restricted> = active.iter().map(|(r, _)| *r).collect();
+        let monotone = active.iter().all(|(_, bd)| monotone_or_constant(bd, k));
+        split_line(ctx, &line, k, b, b.lo, 1.0, monotone, sink);
+        return;
+    }
+    let min_quality = if depth < MAX_LOWER_DEPTH {
+        MIN_QUALITY
+    } else {
+        0.0
+    };
+    let (k, monotone) = match height_axis(&active, free, min_quality) {
+        Some(k) => (k, true),
+        None if depth < MAX_LOWER_DEPTH => {
+            for child in halves(b, free) {
+                lower(ctx, fns, &child, free, depth + 1, sink);
+            }
+            return;
+        }
+        None => (best_axis(&active, free), false),
+    };
+    let lower_free: Vec<usize> = free.iter().copied().filter(|&a| a != k).collect();
+    let faces = face_restrictions(&active, k, b);
+    let line: Vec<Restricted> = active.iter().map(|(r, _)| *r).collect();
+    let mut inner = |x: [f64; 3], w: f64| split_line(ctx, &line, k, b, x, w, monotone, sink);
+    lower(ctx, &faces, b, &lower_free, depth, &mut inner);
+}
+
+/// Sorted roots of `fns` on the line through `x` along `k` within the box.
+fn line_roots(
+    ctx: &Ctx,
+    fns: &[Restricted],
+    k: usize,
+    b: &Aabb,
+    x: [f64; 3],
+    monotone: bool,
+) -> Vec<(f64, usize)> {
+    let mut roots: Vec<(f64, usize)> = Vec::new();
+    let mut found = Vec::new();
+    for (i, r) in fns.iter().enumerate() {
+        let f = |t: f64| {
+            let mut p = x;
+            p[k] = t;
+            let (v, d) = r.value_grad(ctx.g, p);
+            (v, d[k])
+        };
+        found.clear();
+        roots_on_segment(&f, b.lo[k], b.hi[k], monotone, &mut found);
+        roots.extend(found.iter().map(|&t| (t, i)));
+    }
+    roots.sort_by(|a, b| a.0.total_cmp(&b.0));
+    roots
+}
+
+/// Intermediate-level line: Gauss points on every segment between roots.
+#[allow(clippy::too_many_arguments)]
+fn split_line(
+    ctx: &Ctx,
+    fns: &[Restricted],
+    k: usize,
+    b: &Aabb,
+    x: [f64; 3],
+    w: f64,
+    monotone: bool,
+    sink: &mut dyn FnMut([f64; 3], f64),
+) {
+    let roots = line_roots(ctx, fns, k, b, x, monotone);
+    let mut a = b.lo[k];
+    for t in roots.iter().map(|r| r.0).chain(std::iter::once(b.hi[k])) {
+        if t > a {
+            gauss_segment(ctx, x, k, a, t, w, sink);
+            a = t;
+        }
+    }
+}
+
+/// Top-level line: volume points on the segments inside Ω and a surface point at
+/// each root where the segment class changes.
+fn sweep_line(
+    ctx: &Ctx,
+    fns: &[Restricted],
+    b: &Aabb,
+    line: &Line,
+    emit_volume: bool,
+    emit_surface: &[bool],
+    rule: &mut BoxRule,
+) {
+    let Line { k, x, w, monotone } = *line;
+    let roots = line_roots(ctx, fns, k, b, x, monotone);
+    let (lo, hi) = (b.lo[k], b.hi[k]);
+    let at = |t: f64| {
+        let mut p = x;
+        p[k] = t;
+        p
+    };
+    let tol = 1e-14 * (hi - lo);
+    // Segment ends: distinct root positions strictly inside, plus the box ends.
+    let mut ends = vec![lo];
+    for &(t, _) in &roots {
+        if t - ends[ends.len() - 1] > tol && hi - t > tol {
+            ends.push(t);
+        }
+    }
+    ends.push(hi);
+    let inside: Vec<bool> = ends
+        .windows(2)
+        .map(|s| ctx.g.inside(at(0.5 * (s[0] + s[1]))))
+        .collect();
+    for (s, &ins) in ends.windows(2).zip(&inside) {
+        if ins && emit_volume {
+            gauss_segment(ctx, x, k, s[0], s[1], w, &mut |p, wp| {
+                rule.volume.push(VolumePoint { x: p, w: wp })
+            });
+        }
+    }
+    let delta = 1e-9 * (hi - lo);
+    let mut last_emitted = f64::NAN;
+    for &(t, i) in roots.iter().filter(|r| emit_surface[r.1]) {
+        // Classes just below and just above the root (outside the box: probe).
+        let below = if t - lo <= tol {
+            ctx.g.inside(at(lo - delta))
+        } else {
+            inside[segment_of(&ends, t - tol)]
+        };
+        let above = if hi - t <= tol {
+            ctx.g.inside(at(hi + delta))
+        } else {
+            inside[segment_of(&ends, t + tol)]
+        };
+        let own_inside = if t - lo <= tol {
+            above
+        } else if hi - t <= tol {
+            below
+        } else {
+            true
+        };
+        if below == above || !own_inside || (t - last_emitted).abs() <= tol {
+            continue;
+        }
+        last_emitted = t;
+        let p = at(t);
+        let (_, grad) = fns[i].value_grad(ctx.g, p);
+        let gnorm = (grad[0] * grad[0] + grad[1] * grad[1] + grad[2] * grad[2]).sqrt();
+        if grad[k] == 0.0 || gnorm == 0.0 {
+            continue;
+        }
+        // Outward: along +k when the inside lies below.
+        let s = if below == (grad[k] > 0.0) { 1.0 } else { -1.0 };
+        let n = grad.map(|c| s * c / gnorm);
+        let tag = ctx.g.leaves()[fns[i].leaf].tag;
+        rule.surface.push(SurfacePoint {
+            x: p,
+            w: w * gnorm / grad[k].abs(),
+            n,
+            tag,
+        });
+    }
+}
+
+fn segment_of(ends: &[f64], t: f64) -> usize {
+    let n = ends.len() - 1;
+    ends[1..n]
+        .iter()
+        .take_while(|&&e| e <= t)
+        .count()
+        .min(n - 1)
+}
+
+fn gauss_segment(
+    ctx: &Ctx,
+    x: [f64; 3],
+    k: usize,
+    a: f64,
+    c: f64,
+    w: f64,
+    sink: &mut dyn FnMut([f64; 3], f64),
+) {
+    let len = c - a;
+    for (gx, gw) in ctx.gauss_x.iter().zip(&ctx.gauss_w) {
+        let mut p = x;
+        p[k] = a + gx * len;
+        sink(p, w * gw * len);
+    }
+}
+
+/// Tensor Gauss rule over the free axes of `b`.
+fn tensor(ctx: &Ctx, b: &Aabb, free: &[usize], w: f64, sink: &mut dyn FnMut([f64; 3], f64)) {
+    match free.split_first() {
+        None => sink(b.lo, w),
+        Some((&k, rest)) => {
+            let mut inner = |x: [f64; 3], wx: f64| {
+                gauss_segment(ctx, x, k, b.lo[k], b.hi[k], wx, sink);
+            };
+            tensor(ctx, b, rest, w, &mut inner);
+        }
+    }
+}
+
+/// An axis along which every function is strictly monotone on the box (or
+/// independent of it), the one with the largest normalised gradient component
+/// first. With `min_quality > 0` the axis must also keep
+/// `min |∂ψ/∂x_k| / max |∇ψ| ≥ min_quality` over the box for every function
+/// that depends on it: a steep height function (the line nearly tangent to the
+/// boundary) converges slowly, and splitting the box is then the better deal.
+fn height_axis(
+    fns: &[(Restricted, Dual<Interval>)],
+    free: &[usize],
+    min_quality: f64,
+) -> Option<usize> {
+    let mut axes: Vec<usize> = free.to_vec();
+    let score = |k: usize| -> f64 { fns.iter().map(|(_, bd)| bd.d[k].mid().abs()).sum() };
+    axes.sort_by(|&a, &c| score(c).total_cmp(&score(a)));
+    axes.into_iter().find(|&k| {
+        fns.iter()
+            .all(|(_, bd)| monotone_or_constant(bd, k) && quality(bd, k, free) >= min_quality)
+    })
+}
+
+/// `min |∂ψ/∂x_k| / max |∇ψ|` over the box (1 for a function independent of `x_k`).
+fn quality(bd: &Dual<Interval>, k: usize, free: &[usize]) -> f64 {
+    let d = bd.d[k];
+    if d.lo == 0.0 && d.hi == 0.0 {
+        return 1.0;
+    }
+    let mig = if d.strictly_signed() {
+        d.lo.abs().min(d.hi.abs())
+    } else {
+        0.0
+    };
+    let mag2: f64 = free
+        .iter()
+        .map(|&a| bd.d[a].lo.abs().max(bd.d[a].hi.abs()).powi(2))
+        .sum();
+    mig / mag2.sqrt()
+}
+
+/// ψ is strictly monotone along `k` on the box, or does not depend on `x_k`.
+fn monotone_or_constant(bd: &Dual<Interval>, k: usize) -> bool {
+    bd.d[k].strictly_signed() || (bd.d[k].lo == 0.0 && bd.d[k].hi == 0.0)
+}
+
+fn best_axis(fns: &[(Restricted, Dual<Interval>)], free: &[usize]) -> usize {
+    let score = |k: usize| -> f64 { fns.iter().map(|(_, bd)| bd.d[k].mid().abs()).sum() };
+    *free
+        .iter()
+        .max_by(|&&a, &&c| score(a).total_cmp(&score(c)))
+        .expect("at least one free axis")
+}
+
+fn face_restrictions(fns: &[(Restricted, Dual<Interval>)], k: usize, b: &Aabb) -> Vec<Restricted> {
+    let mut out = Vec::with_capacity(2 * fns.len());
+    for (r, bd) in fns {
+        out.push(r.pinned_at(k, b.lo[k]));
+        // A function independent of x_k has the same restriction on both faces.
+        if !(bd.d[k].lo == 0.0 && bd.d[k].hi == 0.0) {
+            out.push(r.pinned_at(k, b.hi[k]));
+        }
+    }
+    out
+}
+
+fn pins_of(b: &Aabb, free: &[usize]) -> [Option<f64>; 3] {
+    [0, 1, 2].map(|i| {
+        if free.contains(&i) {
+            None
+        } else {
+            Some(b.lo[i])
+        }
+    })
+}
+
+fn center(b: &Aabb) -> [f64; 3] {
+    [0, 1, 2].map(|i| 0.5 * (b.lo[i] + b.hi[i]))
+}
+
+/// The 2^d boxes halving `b` along its free axes.
+fn halves(b: &Aabb, free: &[usize]) -> Vec<Aabb> {
+    let c = center(b);
+    let mut out = vec![*b];
+    for &a in free {
+        out = out
+            .into_iter()
+            .flat_map(|bx| {
+                let mut l = bx;
+                let mut r = bx;
+                l.hi[a] = c[a];
+                r.lo[a] = c[a];
+                [l, r]
+            })
+            .collect();
+    }
+    out
+}
