@@ -69,7 +69,13 @@ impl Geometry {
         if bbox.is_finite() && bbox.intersection(&other.bbox) == bbox {
             let c = [0, 1, 2].map(|i| 0.5 * (bbox.lo[i] + bbox.hi[i]));
             let corners_inside = (0..8).all(|k| {
-                let p = [0, 1, 2].map(|i| if k >> i & 1 == 1 { bbox.hi[i] } else { bbox.lo[i] });
+                let p = [0, 1, 2].map(|i| {
+                    if k >> i & 1 == 1 {
+                        bbox.hi[i]
+                    } else {
+                        bbox.lo[i]
+                    }
+                });
                 other.phi(p) < 0.0
             });
             if corners_inside && other.phi(c) < 0.0 && other.is_convex() {

@@ -85,7 +85,12 @@ impl Geometry {
         let n = unit_axis("half_space", "normal", normal)?;
         let offset = n[0] * point[0] + n[1] * point[1] + n[2] * point[2];
         let shape = Shape::Plane { normal: n, offset };
-        Ok(Geometry::leaf(shape, Frame::IDENTITY, "plane", Aabb::EVERYTHING))
+        Ok(Geometry::leaf(
+            shape,
+            Frame::IDENTITY,
+            "plane",
+            Aabb::EVERYTHING,
+        ))
     }
 
     /// Axis-aligned box `lo ≤ x ≤ hi`; tags `xmin, xmax, ymin, ymax, zmin, zmax`.
@@ -146,7 +151,12 @@ impl Geometry {
         let outer = Geometry::cylinder(p0, p1, r_out)?.retag("side", "outer")?;
         let d = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
         let frame = Frame::with_z_axis(p0, normalize(d));
-        let hole = Geometry::leaf(Shape::Cylinder { r: r_in }, frame, "inner", Aabb::EVERYTHING);
+        let hole = Geometry::leaf(
+            Shape::Cylinder { r: r_in },
+            frame,
+            "inner",
+            Aabb::EVERYTHING,
+        );
         let bbox = outer.bbox;
         let mut g = outer.difference(hole)?;
         g.bbox = bbox;
@@ -174,7 +184,12 @@ impl Geometry {
             [0, 1, 2].map(|i| center[i] - half[i]),
             [0, 1, 2].map(|i| center[i] + half[i]),
         );
-        Ok(Geometry::leaf(Shape::Torus { big_r, r }, frame, "surface", bbox))
+        Ok(Geometry::leaf(
+            Shape::Torus { big_r, r },
+            frame,
+            "surface",
+            bbox,
+        ))
     }
 }
 

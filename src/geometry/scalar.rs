@@ -91,7 +91,12 @@ impl Neg for Interval {
 impl Mul for Interval {
     type Output = Self;
     fn mul(self, o: Self) -> Self {
-        let p = [self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi];
+        let p = [
+            self.lo * o.lo,
+            self.lo * o.hi,
+            self.hi * o.lo,
+            self.hi * o.hi,
+        ];
         Interval::new(
             p.iter().copied().fold(f64::INFINITY, f64::min),
             p.iter().copied().fold(f64::NEG_INFINITY, f64::max),
@@ -252,11 +257,7 @@ mod tests {
     fn dual_gradient_matches_analytic() {
         let x = [Dual::var(0.3, 0), Dual::var(-0.7, 1), Dual::var(1.1, 2)];
         let f = (x[0] * x[1]).sqr() + x[2].scale(3.0) - x[0];
-        let g = [
-            2.0 * 0.3 * 0.49 - 1.0,
-            2.0 * 0.09 * -0.7,
-            3.0,
-        ];
+        let g = [2.0 * 0.3 * 0.49 - 1.0, 2.0 * 0.09 * -0.7, 3.0];
         for i in 0..3 {
             assert!((f.d[i] - g[i]).abs() < 1e-15);
         }

@@ -140,7 +140,8 @@ mod tests {
     use crate::geometry::scalar::Dual;
 
     fn grad(leaf: &Leaf, x: [f64; 3]) -> [f64; 3] {
-        leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]).d
+        leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)])
+            .d
     }
 
     #[test]
@@ -156,7 +157,11 @@ mod tests {
             },
         ];
         for shape in leaves {
-            let leaf = Leaf { shape, frame: f, tag: 0 };
+            let leaf = Leaf {
+                shape,
+                frame: f,
+                tag: 0,
+            };
             // A point on the zero set: walk along the gradient with Newton.
             let mut x = [0.5, 0.4, -0.3];
             for _ in 0..50 {
@@ -175,7 +180,10 @@ mod tests {
     #[test]
     fn torus_zero_set_is_the_tube() {
         let leaf = Leaf {
-            shape: Shape::Torus { big_r: 1.0, r: 0.25 },
+            shape: Shape::Torus {
+                big_r: 1.0,
+                r: 0.25,
+            },
             frame: Frame::IDENTITY,
             tag: 0,
         };

@@ -15,7 +15,10 @@ fn sphere_sign_normal_and_box() {
     let p = [0.1 + 0.3, 0.2 + 0.4, 0.3];
     assert!(g.phi(p).abs() < 1e-15);
     assert!(close(g.normal(p), [0.6, 0.8, 0.0], 1e-14));
-    assert_eq!(g.bounding_box(), Aabb::new([-0.4, -0.3, -0.2], [0.6, 0.7, 0.8]));
+    assert_eq!(
+        g.bounding_box(),
+        Aabb::new([-0.4, -0.3, -0.2], [0.6, 0.7, 0.8])
+    );
 }
 
 #[test]
@@ -41,7 +44,10 @@ fn cuboid_cylinder_annulus_torus_membership() {
     assert!(c.inside([0.3, 0.3, 1.0]) && !c.inside([0.3, 0.3, 2.1]) && !c.inside([0.4, 0.4, 1.0]));
     assert!(close(c.normal([0.5, 0.0, 1.0]), [1.0, 0.0, 0.0], 1e-14));
     assert!(close(c.normal([0.1, 0.0, 2.0]), [0.0, 0.0, 1.0], 1e-14));
-    assert_eq!(c.bounding_box(), Aabb::new([-0.5, -0.5, 0.0], [0.5, 0.5, 2.0]));
+    assert_eq!(
+        c.bounding_box(),
+        Aabb::new([-0.5, -0.5, 0.0], [0.5, 0.5, 2.0])
+    );
 
     let a = Geometry::annulus([0.0; 3], [0.0, 0.0, 1.0], 0.6, 1.0).unwrap();
     assert!(a.inside([0.8, 0.0, 0.5]) && !a.inside([0.3, 0.0, 0.5]));
@@ -74,7 +80,9 @@ fn rotation_and_translation_move_the_solid() {
 #[test]
 fn csg_combines_signs_and_tags() {
     let a = Geometry::sphere([0.0; 3], 1.0).unwrap().with_tag("a");
-    let b = Geometry::sphere([1.0, 0.0, 0.0], 1.0).unwrap().with_tag("b");
+    let b = Geometry::sphere([1.0, 0.0, 0.0], 1.0)
+        .unwrap()
+        .with_tag("b");
     let u = a.clone().union(b.clone());
     let i = a.clone().intersection(b.clone()).unwrap();
     let d = a.difference(b).unwrap();
@@ -99,7 +107,11 @@ fn interval_bounds_enclose_samples() {
     let b = Aabb::new([0.2, -0.1, 0.0], [0.45, 0.2, 0.3]);
     let r = g.bounds(&b);
     for k in 0..1000 {
-        let t = [(k % 10) as f64 / 9.0, (k / 10 % 10) as f64 / 9.0, (k / 100) as f64 / 9.0];
+        let t = [
+            (k % 10) as f64 / 9.0,
+            (k / 10 % 10) as f64 / 9.0,
+            (k / 100) as f64 / 9.0,
+        ];
         let p = [0, 1, 2].map(|i| b.lo[i] + t[i] * (b.hi[i] - b.lo[i]));
         let v = g.phi(p);
         assert!(v >= r.lo - 1e-12 && v <= r.hi + 1e-12);
@@ -108,9 +120,18 @@ fn interval_bounds_enclose_samples() {
 
 #[test]
 fn bad_parameters_are_typed_errors() {
-    assert!(matches!(Geometry::sphere([0.0; 3], -1.0), Err(Error::InvalidGeometry { .. })));
-    assert!(matches!(Geometry::sphere([0.0; 3], f64::NAN), Err(Error::InvalidGeometry { .. })));
-    assert!(matches!(Geometry::shell([0.0; 3], 1.0, 0.5), Err(Error::InvalidGeometry { .. })));
+    assert!(matches!(
+        Geometry::sphere([0.0; 3], -1.0),
+        Err(Error::InvalidGeometry { .. })
+    ));
+    assert!(matches!(
+        Geometry::sphere([0.0; 3], f64::NAN),
+        Err(Error::InvalidGeometry { .. })
+    ));
+    assert!(matches!(
+        Geometry::shell([0.0; 3], 1.0, 0.5),
+        Err(Error::InvalidGeometry { .. })
+    ));
     assert!(matches!(
         Geometry::cylinder([0.0; 3], [0.0; 3], 1.0),
         Err(Error::InvalidGeometry { .. })
@@ -121,8 +142,17 @@ fn bad_parameters_are_typed_errors() {
     ));
     let a = Geometry::sphere([0.0; 3], 1.0).unwrap();
     let far = Geometry::sphere([5.0, 0.0, 0.0], 1.0).unwrap();
-    assert!(matches!(a.clone().intersection(far), Err(Error::EmptyGeometry { .. })));
+    assert!(matches!(
+        a.clone().intersection(far),
+        Err(Error::EmptyGeometry { .. })
+    ));
     let big = Geometry::sphere([0.0; 3], 3.0).unwrap();
-    assert!(matches!(a.clone().difference(big), Err(Error::EmptyGeometry { .. })));
-    assert!(matches!(a.retag("nope", "x"), Err(Error::UnknownTag { .. })));
+    assert!(matches!(
+        a.clone().difference(big),
+        Err(Error::EmptyGeometry { .. })
+    ));
+    assert!(matches!(
+        a.retag("nope", "x"),
+        Err(Error::UnknownTag { .. })
+    ));
 }
