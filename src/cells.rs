@@ -92,7 +92,7 @@ impl Cells {
         };
         for (c, rule) in candidates.into_iter().zip(rules) {
             let vol: f64 = rule.volume.iter().map(|p| p.w).sum();
-            if !(vol > 0.0) {
+            if vol.is_nan() || vol <= 0.0 {
                 continue;
             }
             let fraction = (vol / cell_volume).clamp(0.0, 1.0);

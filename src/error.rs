@@ -33,12 +33,43 @@ pub enum Error {
     /// A boundary tag that no boundary part carries.
     #[error("unknown boundary tag '{tag}' (known: {known})")]
     UnknownTag { tag: String, known: String },
+    /// A Krylov solver option is out of range (tolerance not in (0, ∞), ...).
+    #[error("invalid solver options: {what}: {reason}")]
+    InvalidSolverOptions { what: String, reason: String },
+    /// A Krylov solve used up its iteration budget without converging.
+    #[error(
+        "{method} did not converge in {iterations} iterations \
+         (true relative residual {residual:.3e})"
+    )]
+    MaxIterations {
+        method: String,
+        iterations: usize,
+        residual: f64,
+    },
+    /// A Krylov solve broke down (a zero divisor, a non-finite value, an
+    /// operator or preconditioner that is not positive definite for CG).
+    #[error("{method} broke down at iteration {iterations}: {what}")]
+    Breakdown {
+        method: String,
+        iterations: usize,
+        what: String,
+    },
+    /// An analytic expression that does not parse; `position` is a byte offset.
+    #[error("cannot parse expression '{expr}' at {position}: {reason}")]
+    Expression {
+        expr: String,
+        position: usize,
+        reason: String,
+    },
 }
 
 impl Error {
     /// Exit code of the binary for this error (DESIGN §8).
     pub fn exit_code(&self) -> i32 {
-        2
+        match self {
+            Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
+            _ => 2,
+        }
     }
 }
 

@@ -3,11 +3,18 @@
 //! The foundation: implicit geometry ([`geometry`]), the Cartesian grid
 //! ([`grid`]), cell classification and cut-cell quadrature ([`cells`],
 //! [`quadrature`]) and the hex8/hex27 elements ([`element`]).
+// Kernels are written with explicit index loops, to read side by side with
+// their WGSL twins and the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
+pub mod backend;
 pub mod cells;
 pub mod element;
 pub mod error;
+pub mod expr;
 pub mod geometry;
 pub mod grid;
 pub mod quadrature;
+pub mod solver;
 
 pub use error::{Error, Result};

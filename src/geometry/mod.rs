@@ -113,9 +113,31 @@ impl Geometry {
         surface::normalize(self.gradient(x))
     }
 
-    /// Bounds of φ over a box (interval arithmetic).
+    /// Bounds of φ over a box: each leaf's tight enclosure ([`Leaf::bounds`])
+    /// combined through the tree.
     pub fn bounds(&self, b: &Aabb) -> Interval {
-        self.eval(b.intervals())
+        // The natural extension is cheap and often decisive already.
+        let natural: Interval = self.eval(b.intervals());
+        if natural.strictly_signed() {
+            return natural;
+        }
+        let leaf_bounds: Vec<Interval> = self.leaves.iter().map(|l| l.bounds(b).v).collect();
+        self.combine(&self.root, &leaf_bounds)
+    }
+
+    fn combine<T: Lattice>(&self, node: &Node, leaf_values: &[T]) -> T {
+        match node {
+            Node::Leaf(i) => leaf_values[*i],
+            Node::Union(a, b) => self
+                .combine(a, leaf_values)
+                .min(self.combine(b, leaf_values)),
+            Node::Intersection(a, b) => self
+                .combine(a, leaf_values)
+                .max(self.combine(b, leaf_values)),
+            Node::Difference(a, b) => self
+                .combine(a, leaf_values)
+                .max(-self.combine(b, leaf_values)),
+        }
     }
 
     /// A box containing the solid (infinite along unbounded directions).

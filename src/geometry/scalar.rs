@@ -232,6 +232,113 @@ impl Lattice for Dual<f64> {
     }
 }
 
+/// Second-order forward-mode number: value, gradient and Hessian in 3D.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dual2<T> {
+    pub v: T,
+    pub d: [T; 3],
+    pub h: [[T; 3]; 3],
+}
+
+impl<T: Scalar> Dual2<T> {
+    /// The independent variable along `axis` with value `v`.
+    pub fn var(v: T, axis: usize) -> Self {
+        let mut x = Self::cst(0.0);
+        x.v = v;
+        x.d[axis] = T::cst(1.0);
+        x
+    }
+
+    fn map2(self, o: Self, f: impl Fn(T, T) -> T) -> Self {
+        let mut r = self;
+        r.v = f(self.v, o.v);
+        for i in 0..3 {
+            r.d[i] = f(self.d[i], o.d[i]);
+            for j in 0..3 {
+                r.h[i][j] = f(self.h[i][j], o.h[i][j]);
+            }
+        }
+        r
+    }
+}
+
+impl<T: Scalar> Add for Dual2<T> {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        self.map2(o, |a, b| a + b)
+    }
+}
+
+impl<T: Scalar> Sub for Dual2<T> {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        self.map2(o, |a, b| a - b)
+    }
+}
+
+impl<T: Scalar> Neg for Dual2<T> {
+    type Output = Self;
+    fn neg(self) -> Self {
+        self.scale(-1.0)
+    }
+}
+
+/// `(ab)'' = a b'' + b a'' + a'⊗b' + b'⊗a'`.
+impl<T: Scalar> Mul for Dual2<T> {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        let mut r = Self::cst(0.0);
+        r.v = self.v * o.v;
+        for i in 0..3 {
+            r.d[i] = self.v * o.d[i] + self.d[i] * o.v;
+            for j in 0..3 {
+                r.h[i][j] = self.v * o.h[i][j]
+                    + self.h[i][j] * o.v
+                    + self.d[i] * o.d[j]
+                    + self.d[j] * o.d[i];
+            }
+        }
+        r
+    }
+}
+
+impl<T: Scalar> Scalar for Dual2<T> {
+    fn cst(v: f64) -> Self {
+        let z = T::cst(0.0);
+        Dual2 {
+            v: T::cst(v),
+            d: [z; 3],
+            h: [[z; 3]; 3],
+        }
+    }
+    fn scale(self, s: f64) -> Self {
+        let mut r = self;
+        r.v = self.v.scale(s);
+        for i in 0..3 {
+            r.d[i] = self.d[i].scale(s);
+            for j in 0..3 {
+                r.h[i][j] = self.h[i][j].scale(s);
+            }
+        }
+        r
+    }
+    fn sqr(self) -> Self {
+        let mut r = self * self;
+        r.v = self.v.sqr();
+        for i in 0..3 {
+            r.h[i][i] = (self.v * self.h[i][i]).scale(2.0) + self.d[i].sqr().scale(2.0);
+        }
+        r
+    }
+}
+
+impl Interval {
+    /// `self ∩ o` (the tighter of two enclosures of the same set).
+    pub fn meet(self, o: Interval) -> Interval {
+        Interval::new(self.lo.max(o.lo), self.hi.min(o.hi))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -251,6 +358,19 @@ mod tests {
             }
         }
         assert_eq!(a.sqr(), Interval::new(0.0, 2.25));
+    }
+
+    #[test]
+    fn dual2_hessian_matches_analytic() {
+        let x = [Dual2::var(0.3, 0), Dual2::var(-0.7, 1), Dual2::var(1.1, 2)];
+        // f = (x y)^2 + 3 z x: H = [[2y², 4xy, 3], [4xy, 2x², 0], [3, 0, 0]].
+        let f = (x[0] * x[1]).sqr() + (x[2] * x[0]).scale(3.0);
+        let h = [[0.98, -0.84, 3.0], [-0.84, 0.18, 0.0], [3.0, 0.0, 0.0]];
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((f.h[i][j] - h[i][j]).abs() < 1e-14, "{i}{j}: {}", f.h[i][j]);
+            }
+        }
     }
 
     #[test]

@@ -5,7 +5,8 @@
 //! frame. Polynomials keep interval bounds tight and roots well behaved, which is
 //! what the cut-cell quadrature relies on.
 
-use super::scalar::Scalar;
+use super::scalar::{Dual, Dual2, Interval, Scalar};
+use super::Aabb;
 
 /// The shape of a leaf in its local frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,6 +114,37 @@ impl Leaf {
                 let s = rho2 + p[2].sqr() + T::cst(big_r * big_r - r * r);
                 (s.sqr() - rho2.scale(4.0 * big_r * big_r)).scale(1.0 / (8.0 * big_r * big_r * r))
             }
+        }
+    }
+}
+
+impl Leaf {
+    /// Enclosures of ψ and ∇ψ over the box `b` (degenerate axes allowed): the
+    /// natural interval extension intersected with the mean-value forms
+    /// `ψ(c) + ∇ψ(B)·(B − c)` and `∇ψ(c) + ∇²ψ(B)(B − c)`, which are tight to
+    /// second order in the box size where the natural extension is not.
+    pub fn bounds(&self, b: &Aabb) -> Dual<Interval> {
+        if let Shape::Plane { .. } = self.shape {
+            // Linear: the first-order extension is already exact.
+            let x = [0, 1, 2].map(|i| Dual::var(Interval::new(b.lo[i], b.hi[i]), i));
+            return self.eval(x);
+        }
+        let x = [0, 1, 2].map(|i| Dual2::var(Interval::new(b.lo[i], b.hi[i]), i));
+        let nat = self.eval(x);
+        let c = [0, 1, 2].map(|i| 0.5 * (b.lo[i] + b.hi[i]));
+        let at_c = self.eval([Dual::var(c[0], 0), Dual::var(c[1], 1), Dual::var(c[2], 2)]);
+        let dx = [0, 1, 2].map(|i| Interval::new(b.lo[i] - c[i], b.hi[i] - c[i]));
+        let mut v = Interval::cst(at_c.v);
+        let mut d = [0, 1, 2].map(|k| Interval::cst(at_c.d[k]));
+        for j in 0..3 {
+            v = v + nat.d[j] * dx[j];
+            for (k, dk) in d.iter_mut().enumerate() {
+                *dk = *dk + nat.h[k][j] * dx[j];
+            }
+        }
+        Dual {
+            v: nat.v.meet(v),
+            d: [0, 1, 2].map(|k| nat.d[k].meet(d[k])),
         }
     }
 }

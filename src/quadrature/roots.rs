@@ -70,7 +70,7 @@ fn bracket_root(
             hi = x;
         }
         let newton = x - fx / dfx;
-        let inside = (newton - lo) * (newton - hi) < 0.0;
+        let inside = (newton - lo) * (newton - hi) <= 0.0;
         let next = if inside && dfx.is_finite() && dfx != 0.0 {
             newton
         } else {
@@ -95,7 +95,11 @@ mod tests {
         let mut r = vec![];
         roots_on_segment(&f, 0.0, 1.0, true, &mut r);
         assert_eq!(r.len(), 1);
-        assert!((r[0] - 0.2f64.cbrt()).abs() < 1e-15);
+        assert!(
+            (r[0] - 0.2f64.cbrt()).abs() < 2e-16,
+            "{}",
+            r[0] - 0.2f64.cbrt()
+        );
     }
 
     #[test]

@@ -56,7 +56,7 @@ pub struct BoxRule {
 
 const MAX_TOP_DEPTH: u32 = 3;
 const MAX_LOWER_DEPTH: u32 = 4;
-/// Smallest accepted `|∂ψ/∂x_k| / |∇ψ|` before the depth limit (see [`height_axis`]).
+/// Smallest accepted [`quality`] before the depth limit (see [`height_axis`]).
 const MIN_QUALITY: f64 = 0.4;
 
 /// A leaf level set with some coordinates pinned (its restriction to a face).
@@ -82,10 +82,42 @@ impl Restricted {
         (v.v, v.d)
     }
 
-    /// Interval bounds of ψ and ∇ψ over the box.
-    fn bounds(&self, g: &Geometry, b: &Aabb) -> Dual<Interval> {
-        let x = [0, 1, 2].map(|i| Dual::var(Interval::new(b.lo[i], b.hi[i]), i));
-        g.leaves()[self.leaf].eval(self.apply(x))
+    /// The box with the pinned axes collapsed onto their pins.
+    fn pinned_box(&self, b: &Aabb) -> Aabb {
+        let mut pb = *b;
+        for (i, p) in self.pinned.iter().enumerate() {
+            if let Some(v) = p {
+                pb.lo[i] = *v;
+                pb.hi[i] = *v;
+            }
+        }
+        pb
+    }
+
+    /// Interval bounds of ψ and ∇ψ over the box (pinned axes at their pins),
+    /// or `None` when ψ keeps one strict sign there (`keep_touching`: also
+    /// keep a ψ whose bounds only touch zero).
+    fn bounds_if_active(
+        &self,
+        g: &Geometry,
+        b: &Aabb,
+        keep_touching: bool,
+    ) -> Option<Dual<Interval>> {
+        let pb = self.pinned_box(b);
+        let leaf = &g.leaves()[self.leaf];
+        let active = |v: Interval| {
+            if keep_touching {
+                v.lo <= 0.0 && v.hi >= 0.0
+            } else {
+                v.straddles_zero()
+            }
+        };
+        // The natural extension is cheap and usually decides far-away leaves.
+        if !active(leaf.eval(pb.intervals())) {
+            return None;
+        }
+        let bd = leaf.bounds(&pb);
+        active(bd.v).then_some(bd)
     }
 
     fn pinned_at(&self, axis: usize, v: f64) -> Restricted {
@@ -132,8 +164,7 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
     let pins = pins_of(b, free);
     let fns: Vec<(Restricted, Dual<Interval>)> = (0..ctx.g.leaves().len())
         .map(|leaf| Restricted { leaf, pinned: pins })
-        .map(|r| (r, r.bounds(ctx.g, b)))
-        .filter(|(_, bd)| bd.v.lo <= 0.0 && bd.v.hi >= 0.0)
+        .filter_map(|r| r.bounds_if_active(ctx.g, b, true).map(|bd| (r, bd)))
         .collect();
     if fns.is_empty() {
         if ctx.g.inside(center(b)) {
@@ -249,8 +280,7 @@ fn lower(
 ) {
     let active: Vec<(Restricted, Dual<Interval>)> = fns
         .iter()
-        .map(|r| (*r, r.bounds(ctx.g, b)))
-        .filter(|(_, bd)| bd.v.straddles_zero())
+        .filter_map(|r| r.bounds_if_active(ctx.g, b, false).map(|bd| (*r, bd)))
         .collect();
     if active.is_empty() {
         tensor(ctx, b, free, 1.0, sink);
@@ -457,10 +487,10 @@ fn tensor(ctx: &Ctx, b: &Aabb, free: &[usize], w: f64, sink: &mut dyn FnMut([f64
 
 /// An axis along which every function is strictly monotone on the box (or
 /// independent of it), the one with the largest normalised gradient component
-/// first. With `min_quality > 0` the axis must also keep
-/// `min |∂ψ/∂x_k| / max |∇ψ| ≥ min_quality` over the box for every function
-/// that depends on it: a steep height function (the line nearly tangent to the
-/// boundary) converges slowly, and splitting the box is then the better deal.
+/// first. With `min_quality > 0` the axis must also keep [`quality`] at least
+/// `min_quality` for every function: a steep height function on a curved
+/// boundary (lines near tangency, curvature on the scale of the box) converges
+/// slowly, and splitting the box is then the better deal.
 fn height_axis(
     fns: &[(Restricted, Dual<Interval>)],
     free: &[usize],
@@ -475,22 +505,24 @@ fn height_axis(
     })
 }
 
-/// `min |∂ψ/∂x_k| / max |∇ψ|` over the box (1 for a function independent of `x_k`).
+/// `min |∂ψ/∂x_k| / max |∇ψ|` over the box: how steep the height function may
+/// get. Steepness amplifies curvature, so a linear ψ (constant gradient: its
+/// height function is linear whatever the slope) scores 1, as does a function
+/// independent of `x_k`.
 fn quality(bd: &Dual<Interval>, k: usize, free: &[usize]) -> f64 {
     let d = bd.d[k];
-    if d.lo == 0.0 && d.hi == 0.0 {
+    let linear = free.iter().all(|&a| bd.d[a].lo == bd.d[a].hi);
+    if linear || (d.lo == 0.0 && d.hi == 0.0) {
         return 1.0;
     }
-    let mig = if d.strictly_signed() {
-        d.lo.abs().min(d.hi.abs())
-    } else {
-        0.0
-    };
+    if !d.strictly_signed() {
+        return 0.0;
+    }
     let mag2: f64 = free
         .iter()
         .map(|&a| bd.d[a].lo.abs().max(bd.d[a].hi.abs()).powi(2))
         .sum();
-    mig / mag2.sqrt()
+    d.lo.abs().min(d.hi.abs()) / mag2.sqrt()
 }
 
 /// ψ is strictly monotone along `k` on the box, or does not depend on `x_k`.
