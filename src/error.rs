@@ -30,6 +30,16 @@ pub enum Error {
         budget_bytes: u64,
         max_level: u32,
     },
+    /// A case file that cannot be read or has a bad key.
+    #[error("{file}: {key}: {reason}")]
+    CaseFile {
+        file: String,
+        key: String,
+        reason: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {reason}")]
+    Io { path: String, reason: String },
     /// A boundary tag that no boundary part carries.
     #[error("unknown boundary tag '{tag}' (known: {known})")]
     UnknownTag { tag: String, known: String },

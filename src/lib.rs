@@ -8,13 +8,16 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod backend;
+pub mod case;
 pub mod cells;
 pub mod element;
 pub mod error;
 pub mod expr;
 pub mod geometry;
 pub mod grid;
+pub mod output;
 pub mod quadrature;
+pub mod report;
 pub mod solver;
 
 pub use error::{Error, Result};

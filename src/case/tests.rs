@@ -1,0 +1,85 @@
+//! Case-file parsing: the geometry tree, defaults, and errors that name the key.
+
+use super::*;
+
+const BRACKET: &str = r#"
+name = "plate"
+element = "q2"
+[grid]
+level = 3
+offset = [0.25, 0.5, 0.0]
+[geometry]
+type = "difference"
+of = [
+  { type = "cuboid", min = [-1, -1, -0.25], max = [1, 1, 0.25] },
+  { type = "tag", name = "hole", of = { type = "cylinder", start = [0, 0, -1], end = [0, 0, 1], radius = 0.3 } },
+]
+"#;
+
+#[test]
+fn parses_a_csg_case() {
+    let case = Case::from_str("plate.toml", BRACKET).unwrap();
+    assert_eq!(case.spec.element, ElementOrder::Q2);
+    assert_eq!(case.spec.name.as_deref(), Some("plate"));
+    let g = &case.geometry;
+    assert!(g.inside([0.5, 0.5, 0.0]) && !g.inside([0.1, 0.1, 0.0]));
+    assert!(g.tag_id("hole").is_some() && g.tag_id("xmin").is_some());
+    let grid = case.grid(None).unwrap();
+    assert_eq!((grid.level, grid.n), (3, [9, 9, 2]));
+    assert_eq!(case.grid(Some(5)).unwrap().level, 5);
+}
+
+#[test]
+fn motions_apply_in_order() {
+    let text = r#"
+[geometry]
+type = "translate"
+by = [1, 0, 0]
+of = { type = "rotate", axis = [0, 0, 1], angle_deg = 90, of = { type = "cylinder", start = [0, 0, 0], end = [1, 0, 0], radius = 0.1 } }
+"#;
+    let case = Case::from_str("t.toml", text).unwrap();
+    // The rod along +x turned to +y, then moved by +x.
+    assert!(case.geometry.inside([1.0, 0.5, 0.0]));
+    assert!(!case.geometry.inside([0.5, 0.0, 0.0]));
+    assert_eq!(case.spec.name.as_deref(), Some("t"));
+}
+
+fn error_of(text: &str) -> (String, String) {
+    match Case::from_str("case.toml", text).and_then(|c| c.grid(None).map(|_| c)) {
+        Err(Error::CaseFile { file, key, reason }) => {
+            assert_eq!(file, "case.toml");
+            (key, reason)
+        }
+        other => panic!("expected a case-file error, got {other:?}"),
+    }
+}
+
+#[test]
+fn errors_name_the_key() {
+    let (key, reason) = error_of("[geometry]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = -1\n");
+    assert_eq!(key, "geometry");
+    assert!(reason.contains("radius"), "{reason}");
+    let (key, reason) = error_of("[geometry]\ntype = \"sphere\"\ncentre = [0,0,0]\nradius = 1\n");
+    assert_eq!(key, "geometry");
+    assert!(reason.contains("centre"), "{reason}");
+    let (key, _) = error_of(
+        "[geometry]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = 1\n[grid]\nlevle = 3\n",
+    );
+    assert_eq!(key, "grid.levle");
+    let (key, _) = error_of(
+        "[geometry]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = 1\n[grid]\nlevel = 99\n",
+    );
+    assert_eq!(key, "grid.level");
+    // Inside a tagged table the path stops at the table; the reason says more.
+    let (key, reason) = error_of("[geometry]\ntype = \"sphere\"\ncenter = [0,0]\nradius = 1\n");
+    assert_eq!(key, "geometry");
+    assert!(reason.contains("length 2"), "{reason}");
+    let (key, _) = error_of("[geometry]\ntype = \"union\"\nof = [{ type = \"sphere\", center = [0,0,0], radius = 1 }, { type = \"torus\", center = [0,0,0], axis = [0,0,1], major_radius = 0.1, minor_radius = 0.5 }]\n");
+    assert_eq!(key, "geometry.of[1]");
+    let (key, _) =
+        error_of("[geometry]\ntype = \"half_space\"\npoint = [0,0,0]\nnormal = [0,0,1]\n");
+    assert_eq!(key, "grid.box_min");
+    let (key, _) =
+        error_of("element = \"q3\"\n[geometry]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = 1\n");
+    assert_eq!(key, "element");
+}
