@@ -71,6 +71,10 @@ pub enum Error {
         position: usize,
         reason: String,
     },
+    /// A node's recovery patch has no acceptable fit, or a recovered field was
+    /// evaluated where no patch was recovered.
+    #[error("patch recovery at node {node}: {reason}")]
+    Recovery { node: usize, reason: String },
 }
 
 impl Error {
@@ -78,6 +82,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
+            Error::Recovery { .. } => 1,
             _ => 2,
         }
     }

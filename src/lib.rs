@@ -13,6 +13,7 @@ pub mod cells;
 pub mod element;
 pub mod error;
 pub mod expr;
+pub mod fem;
 pub mod geometry;
 pub mod grid;
 pub mod output;

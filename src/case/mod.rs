@@ -1,11 +1,11 @@
 //! Case files (TOML): what to solve, read with every key checked. Unknown keys
 //! are rejected, and every error names the file, the key path and the reason.
 //!
-//! This is the foundation's part of the format: the geometry, the grid and the
-//! element order. The elasticity issue adds material, loads, stabilisation and
-//! solver tables.
+//! The geometry tree is in [`geometry`], the physics tables in [`physics`].
+//! `--set key=value` overrides any key (dotted path) before checking.
 
 pub mod geometry;
+pub mod physics;
 
 use std::path::Path;
 
@@ -17,6 +17,10 @@ use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 pub use geometry::GeometrySpec;
+use physics::{
+    BodyLoadSpec, DirichletTable, ExactSpec, FieldValue, MaterialSpec, NeumannTable, SolverSpec,
+    StabilisationSpec,
+};
 
 /// A case as written in its file.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -31,6 +35,19 @@ pub struct CaseSpec {
     pub geometry: GeometrySpec,
     #[serde(default)]
     pub grid: GridSpec,
+    pub material: MaterialSpec,
+    #[serde(default)]
+    pub exact: Option<ExactSpec>,
+    #[serde(default)]
+    pub body_load: Option<BodyLoadSpec>,
+    #[serde(default)]
+    pub dirichlet: DirichletTable,
+    #[serde(default)]
+    pub neumann: NeumannTable,
+    #[serde(default)]
+    pub stabilisation: StabilisationSpec,
+    #[serde(default)]
+    pub solver: SolverSpec,
 }
 
 fn default_element() -> ElementOrder {
@@ -80,29 +97,48 @@ pub struct Case {
 impl Case {
     /// Reads and checks a case file.
     pub fn from_file(path: &Path) -> Result<Case> {
+        Case::from_file_with(path, &[])
+    }
+
+    /// Reads a case file with `key=value` overrides (dotted keys, TOML values;
+    /// a value that is not valid TOML is taken as a string).
+    pub fn from_file_with(path: &Path, overrides: &[String]) -> Result<Case> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
             path: file.clone(),
             reason: e.to_string(),
         })?;
-        Case::from_str(&file, &text)
+        Case::from_str_with(&file, &text, overrides)
     }
 
     /// Parses and checks case text; `file` names it in errors.
     pub fn from_str(file: &str, text: &str) -> Result<Case> {
-        let de = toml::Deserializer::new(text);
-        let mut spec: CaseSpec = serde_path_to_error::deserialize(de).map_err(|e| {
-            let key = e.path().to_string();
-            Error::CaseFile {
-                file: file.into(),
-                key: if key == "." {
-                    "(top level)".into()
-                } else {
-                    key
-                },
-                reason: e.into_inner().message().trim().to_string(),
-            }
+        Case::from_str_with(file, text, &[])
+    }
+
+    /// Parses case text, applies `key=value` overrides, then checks it.
+    pub fn from_str_with(file: &str, text: &str, overrides: &[String]) -> Result<Case> {
+        let bad = |key: &str, reason: String| Error::CaseFile {
+            file: file.into(),
+            key: key.into(),
+            reason,
+        };
+        let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            let at = match e.span() {
+                Some(s) => format!("line {}", text[..s.start].lines().count().max(1)),
+                None => "(syntax)".into(),
+            };
+            bad(&at, e.message().trim().to_string())
         })?;
+        for o in overrides {
+            apply_override(&mut table, o).map_err(|reason| bad(&format!("--set {o}"), reason))?;
+        }
+        let mut spec: CaseSpec = serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| {
+                let key = e.path().to_string();
+                let key = if key == "." { "(top level)".to_string() } else { key };
+                bad(&key, e.into_inner().message().trim().to_string())
+            })?;
         if spec.name.is_none() {
             let stem = Path::new(file)
                 .file_stem()
@@ -110,11 +146,87 @@ impl Case {
             spec.name = stem;
         }
         let geometry = spec.geometry.build(file)?;
-        Ok(Case {
+        let case = Case {
             file: file.into(),
             spec,
             geometry,
-        })
+        };
+        case.check_physics()?;
+        Ok(case)
+    }
+
+    /// Ranges of the physics keys, and boundary tags that exist.
+    fn check_physics(&self) -> Result<()> {
+        let s = &self.spec;
+        let m = &s.material;
+        if !(m.young.is_finite() && m.young > 0.0) {
+            return Err(self.bad_key("material.young", format!("E must be positive, got {}", m.young)));
+        }
+        if !(m.poisson > -1.0 && m.poisson < 0.5) {
+            return Err(self.bad_key(
+                "material.poisson",
+                format!("ν must lie in (-1, 0.5), got {}", m.poisson),
+            ));
+        }
+        let st = &s.stabilisation;
+        if !(st.k1.is_finite() && st.k1 > 0.0) {
+            return Err(self.bad_key("stabilisation.k1", format!("must be positive, got {}", st.k1)));
+        }
+        if !(st.k2.is_finite() && st.k2 >= 0.0) {
+            return Err(self.bad_key("stabilisation.k2", format!("must be ≥ 0, got {}", st.k2)));
+        }
+        if !(0.0..1.0).contains(&st.a) {
+            return Err(self.bad_key("stabilisation.A", format!("must lie in [0, 1), got {}", st.a)));
+        }
+        let so = &s.solver;
+        for (key, v) in [
+            ("solver.rel_tol", so.rel_tol),
+            ("solver.min_rel_tol", so.min_rel_tol),
+            ("solver.fixed_point_tol", so.fixed_point_tol),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v < 1.0) {
+                return Err(self.bad_key(key, format!("must lie in (0, 1), got {v}")));
+            }
+        }
+        if so.max_iterations == 0 || so.max_fixed_point == 0 {
+            return Err(self.bad_key("solver", "iteration limits must be at least 1".into()));
+        }
+        let known = self.geometry.tag_names().join(", ");
+        let uses_exact = |v: &FieldValue| *v == FieldValue::Exact;
+        for (tag, d) in &s.dirichlet {
+            if self.geometry.tag_id(tag).is_none() {
+                return Err(self.bad_key(
+                    &format!("dirichlet.{tag}"),
+                    format!("no boundary part is tagged '{tag}' (known: {known})"),
+                ));
+            }
+            if uses_exact(&d.value) && s.exact.is_none() {
+                return Err(self.bad_key(&format!("dirichlet.{tag}.value"), "\"exact\" needs [exact]".into()));
+            }
+        }
+        for (tag, n) in &s.neumann {
+            if self.geometry.tag_id(tag).is_none() {
+                return Err(self.bad_key(
+                    &format!("neumann.{tag}"),
+                    format!("no boundary part is tagged '{tag}' (known: {known})"),
+                ));
+            }
+            if s.dirichlet.contains_key(tag) {
+                return Err(self.bad_key(
+                    &format!("neumann.{tag}"),
+                    format!("'{tag}' already has a Dirichlet condition"),
+                ));
+            }
+            if uses_exact(&n.traction) && s.exact.is_none() {
+                return Err(self.bad_key(&format!("neumann.{tag}.traction"), "\"exact\" needs [exact]".into()));
+            }
+        }
+        if let Some(b) = &s.body_load {
+            if uses_exact(&b.value) && s.exact.is_none() {
+                return Err(self.bad_key("body_load.value", "\"exact\" needs [exact]".into()));
+            }
+        }
+        Ok(())
     }
 
     /// The grid of the case at its level (or `level` when given).
@@ -168,6 +280,33 @@ impl Case {
             reason,
         }
     }
+}
+
+/// Sets the dotted `key` of `table` to `value` (`key=value`).
+fn apply_override(table: &mut toml::Table, assignment: &str) -> std::result::Result<(), String> {
+    let (key, value) = assignment
+        .split_once('=')
+        .ok_or_else(|| "expected key=value".to_string())?;
+    let parts: Vec<&str> = key.trim().split('.').collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(format!("bad key '{key}'"));
+    }
+    let parsed: toml::Value = format!("v = {}", value.trim())
+        .parse::<toml::Table>()
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(value.trim().to_string()));
+    let mut t = table;
+    for p in &parts[..parts.len() - 1] {
+        let entry = t
+            .entry(p.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        t = entry
+            .as_table_mut()
+            .ok_or_else(|| format!("'{p}' is not a table"))?;
+    }
+    t.insert(parts[parts.len() - 1].to_string(), parsed);
+    Ok(())
 }
 
 #[cfg(test)]

@@ -2,6 +2,8 @@
 
 use super::*;
 
+const MATERIAL: &str = "[material]\nyoung = 1000\npoisson = 0.3\n";
+
 const BRACKET: &str = r#"
 name = "plate"
 element = "q2"
@@ -14,6 +16,9 @@ of = [
   { type = "cuboid", min = [-1, -1, -0.25], max = [1, 1, 0.25] },
   { type = "tag", name = "hole", of = { type = "cylinder", start = [0, 0, -1], end = [0, 0, 1], radius = 0.3 } },
 ]
+[material]
+young = 1000
+poisson = 0.3
 "#;
 
 #[test]
@@ -32,6 +37,9 @@ fn parses_a_csg_case() {
 #[test]
 fn motions_apply_in_order() {
     let text = r#"
+[material]
+young = 1
+poisson = 0
 [geometry]
 type = "translate"
 by = [1, 0, 0]
@@ -45,7 +53,8 @@ of = { type = "rotate", axis = [0, 0, 1], angle_deg = 90, of = { type = "cylinde
 }
 
 fn error_of(text: &str) -> (String, String) {
-    match Case::from_str("case.toml", text).and_then(|c| c.grid(None).map(|_| c)) {
+    let text = format!("{text}{MATERIAL}");
+    match Case::from_str("case.toml", &text).and_then(|c| c.grid(None).map(|_| c)) {
         Err(Error::CaseFile { file, key, reason }) => {
             assert_eq!(file, "case.toml");
             (key, reason)
@@ -82,4 +91,42 @@ fn errors_name_the_key() {
     let (key, _) =
         error_of("element = \"q3\"\n[geometry]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = 1\n");
     assert_eq!(key, "element");
+}
+
+const SPHERE: &str = "[geometry]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = 1\n";
+
+#[test]
+fn physics_tables_and_overrides() {
+    let text = format!(
+        "{SPHERE}{MATERIAL}[exact]\ndisplacement = [\"x\", \"2*y\", \"0\"]\n[dirichlet.surface]\nvalue = \"exact\"\n"
+    );
+    let overrides = ["solver.method=cg".into(), "material.young = 5".into(), "grid.level=2".into()];
+    let case = Case::from_str_with("c.toml", &text, &overrides).unwrap();
+    assert_eq!(case.spec.solver.method, crate::solver::KrylovMethod::Cg);
+    assert_eq!(case.spec.material.young, 5.0);
+    assert_eq!(case.spec.grid.level, 2);
+    assert_eq!(case.spec.dirichlet["surface"].value, physics::FieldValue::Exact);
+    assert_eq!(case.spec.stabilisation.k1, 100.0);
+}
+
+#[test]
+fn physics_errors_name_the_key() {
+    let cases: &[(&str, &str)] = &[
+        ("[material]\nyoung = 1000\npoisson = 0.5\n", "material.poisson"),
+        ("[material]\nyoung = -1\npoisson = 0.3\n", "material.young"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.top]\nvalue = [\"0\",\"0\",\"0\"]\n", "dirichlet.top"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = \"exact\"\n", "dirichlet.surface.value"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"x +\",\"0\",\"0\"]\n", "dirichlet.surface.value[0]"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"w\",\"0\",\"0\"]\n", "dirichlet.surface.value[0]"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[solver]\nmethod = \"gmres\"\n", "solver.method"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[stabilisation]\nk1 = 0\n", "stabilisation.k1"),
+        ("[materail]\nyoung = 1\npoisson = 0.3\n", "materail"),
+    ];
+    for (physics, key) in cases {
+        let text = format!("{SPHERE}{physics}");
+        match Case::from_str("c.toml", &text) {
+            Err(Error::CaseFile { key: k, reason, .. }) => assert_eq!(&k, key, "{reason}"),
+            other => panic!("{physics}: expected a case error, got {other:?}"),
+        }
+    }
 }

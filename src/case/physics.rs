@@ -1,0 +1,169 @@
+//! The physics tables of a case file: material, exact field, loads, boundary
+//! conditions per boundary tag, stabilisation and solver settings.
+//!
+//! ```toml
+//! [material]
+//! young = 1000.0          # E, in the case's stress unit
+//! poisson = 0.3           # ν, in (-1, 0.5)
+//!
+//! [exact]                 # optional: exact displacement, gives b, g and errors
+//! displacement = ["x + x^2", "-y", "0"]
+//!
+//! [body_load]             # optional: default from the exact field, else zero
+//! value = ["0", "0", "-9.81"]
+//!
+//! [dirichlet.surface]     # per boundary tag: "exact" or three expressions
+//! value = "exact"
+//!
+//! [neumann.top]           # per tag: traction, "exact" (σ(u) n) or expressions
+//! traction = ["0", "0", "-1"]
+//!
+//! [stabilisation]
+//! k1 = 100.0              # Dirichlet penalty β = k1 E
+//! k2 = 0.0                # S-term weight (0: off)
+//! A = 0.01                # pathological volume fraction threshold
+//!
+//! [solver]
+//! method = "cgs"          # cgs | cg | bicgstab
+//! preconditioner = "none" # none | jacobi
+//! rel_tol = 1e-8          # Krylov tolerance of the first solve (τ0)
+//! min_rel_tol = 1e-12     # floor of the adaptive Krylov tolerance (τ_min)
+//! max_iterations = 20000  # per Krylov solve
+//! fixed_point_tol = 1e-8  # stop when ‖U_k+1 − U_k‖/‖U_k+1‖ < this
+//! max_fixed_point = 50
+//! ```
+//! Boundary parts named in neither table are traction free.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+
+use crate::expr::VectorExpr;
+use crate::solver::{KrylovMethod, Preconditioner};
+
+/// `[material]`: isotropic linear elasticity.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub young: f64,
+    pub poisson: f64,
+}
+
+/// `[exact]`: an exact displacement field.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ExactSpec {
+    pub displacement: VectorExpr,
+}
+
+/// `[body_load]`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BodyLoadSpec {
+    pub value: FieldValue,
+}
+
+/// `[dirichlet.<tag>]`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DirichletSpec {
+    pub value: FieldValue,
+}
+
+/// `[neumann.<tag>]`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NeumannSpec {
+    pub traction: FieldValue,
+}
+
+/// A vector field given as three expressions, or `"exact"`: derived from the
+/// exact displacement (its value, its traction σ(u)n or its body load −∇·σ).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FieldValue {
+    Exact,
+    Given(VectorExpr),
+}
+
+impl<'de> Deserialize<'de> for FieldValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = FieldValue;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("\"exact\" or an array of three expressions")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<FieldValue, E> {
+                if s == "exact" {
+                    Ok(FieldValue::Exact)
+                } else {
+                    Err(E::custom(format!(
+                        "expected \"exact\" or an array of three expressions, got \"{s}\""
+                    )))
+                }
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<FieldValue, A::Error> {
+                let v = VectorExpr::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(FieldValue::Given(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// `[stabilisation]`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct StabilisationSpec {
+    /// Dirichlet penalty factor: β = k1 E (dimensionless).
+    pub k1: f64,
+    /// Weight of the S-term, `k2 E / h²` (0 switches it off).
+    pub k2: f64,
+    /// Volume fraction under which a cut cell is pathological.
+    #[serde(rename = "A")]
+    pub a: f64,
+}
+
+impl Default for StabilisationSpec {
+    fn default() -> Self {
+        StabilisationSpec {
+            k1: 100.0,
+            k2: 0.0,
+            a: 0.01,
+        }
+    }
+}
+
+/// `[solver]`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSpec {
+    pub method: KrylovMethod,
+    pub preconditioner: Preconditioner,
+    pub rel_tol: f64,
+    pub min_rel_tol: f64,
+    pub max_iterations: usize,
+    pub fixed_point_tol: f64,
+    pub max_fixed_point: usize,
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        SolverSpec {
+            method: KrylovMethod::Cgs,
+            preconditioner: Preconditioner::None,
+            rel_tol: 1e-8,
+            min_rel_tol: 1e-12,
+            max_iterations: 20_000,
+            fixed_point_tol: 1e-8,
+            max_fixed_point: 50,
+        }
+    }
+}
+
+/// Boundary conditions per tag.
+pub type DirichletTable = BTreeMap<String, DirichletSpec>;
+/// Tractions per tag.
+pub type NeumannTable = BTreeMap<String, NeumannSpec>;

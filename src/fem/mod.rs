@@ -1,0 +1,9 @@
+//! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
+//! assembled), right-hand sides, the discrete field and its error norms.
+pub mod dofs;
+pub mod field;
+pub mod fixed_point;
+pub mod operator;
+pub mod problem;
+pub mod rhs;
+pub mod setup;

@@ -1,0 +1,114 @@
+//! A case's loads and boundary conditions resolved into functions of the
+//! position: body load, Dirichlet data and tractions per boundary tag, each
+//! given by expressions or derived from the exact displacement field
+//! (`g = u`, `t = σ(u) n`, `b = −∇·σ(u)`, by automatic differentiation).
+
+use crate::case::physics::FieldValue;
+use crate::case::Case;
+use crate::element::reference::lame;
+use crate::expr::{body_load_from_displacement, stress_from_displacement, VectorExpr};
+
+/// The condition on one boundary part.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Boundary {
+    /// Traction free.
+    Free,
+    /// Prescribed displacement, imposed weakly.
+    Dirichlet(FieldValue),
+    /// Prescribed traction.
+    Neumann(FieldValue),
+}
+
+/// Loads and boundary conditions of a case.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    pub young: f64,
+    pub poisson: f64,
+    pub lambda: f64,
+    pub mu: f64,
+    pub exact: Option<VectorExpr>,
+    body: Option<FieldValue>,
+    /// Per boundary tag id.
+    pub boundary: Vec<Boundary>,
+}
+
+impl Problem {
+    /// Resolves the case's tables (already checked by [`Case`]).
+    pub fn new(case: &Case) -> Problem {
+        let s = &case.spec;
+        let (lambda, mu) = lame(s.material.young, s.material.poisson);
+        let exact = s.exact.as_ref().map(|e| e.displacement.clone());
+        let body = match (&s.body_load, &exact) {
+            (Some(b), _) => Some(b.value.clone()),
+            (None, Some(_)) => Some(FieldValue::Exact),
+            (None, None) => None,
+        };
+        let boundary = case
+            .geometry
+            .tag_names()
+            .iter()
+            .map(|t| {
+                if let Some(d) = s.dirichlet.get(t) {
+                    Boundary::Dirichlet(d.value.clone())
+                } else if let Some(n) = s.neumann.get(t) {
+                    Boundary::Neumann(n.traction.clone())
+                } else {
+                    Boundary::Free
+                }
+            })
+            .collect();
+        Problem {
+            young: s.material.young,
+            poisson: s.material.poisson,
+            lambda,
+            mu,
+            exact,
+            body,
+            boundary,
+        }
+    }
+
+    fn exact(&self) -> &VectorExpr {
+        self.exact.as_ref().expect("\"exact\" is checked against [exact] when the case is read")
+    }
+
+    /// Per tag: is it a Dirichlet part?
+    pub fn dirichlet_tags(&self) -> Vec<bool> {
+        self.boundary.iter().map(|b| matches!(b, Boundary::Dirichlet(_))).collect()
+    }
+
+    /// True when some body load is applied.
+    pub fn has_body_load(&self) -> bool {
+        self.body.is_some()
+    }
+
+    /// The body load at `x`.
+    pub fn body_load(&self, x: [f64; 3]) -> [f64; 3] {
+        match &self.body {
+            None => [0.0; 3],
+            Some(FieldValue::Given(v)) => v.eval(x),
+            Some(FieldValue::Exact) => body_load_from_displacement(self.exact(), self.lambda, self.mu, x),
+        }
+    }
+
+    /// The prescribed displacement at `x` on a Dirichlet part.
+    pub fn dirichlet_value(&self, tag: u16, x: [f64; 3]) -> [f64; 3] {
+        match &self.boundary[tag as usize] {
+            Boundary::Dirichlet(FieldValue::Given(v)) => v.eval(x),
+            Boundary::Dirichlet(FieldValue::Exact) => self.exact().eval(x),
+            _ => [0.0; 3],
+        }
+    }
+
+    /// The prescribed traction at `x` (outward normal `n`) on a Neumann part.
+    pub fn traction(&self, tag: u16, x: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+        match &self.boundary[tag as usize] {
+            Boundary::Neumann(FieldValue::Given(v)) => v.eval(x),
+            Boundary::Neumann(FieldValue::Exact) => {
+                let s = stress_from_displacement(self.exact(), self.lambda, self.mu, x);
+                [0, 1, 2].map(|i| s[i][0] * n[0] + s[i][1] * n[1] + s[i][2] * n[2])
+            }
+            _ => [0.0; 3],
+        }
+    }
+}

@@ -1,0 +1,62 @@
+//! Everything a linear-elastic solve of a case needs, built once: the grid and
+//! its cut-cell rules, the resolved loads, the operator and the fixed part of
+//! the right-hand side.
+
+use std::time::Instant;
+
+use super::operator::{ElasticOperator, OperatorParams};
+use super::problem::Problem;
+use super::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
+use crate::case::Case;
+use crate::cells::Cells;
+use crate::error::Result;
+use crate::grid::{machine_memory_bytes, Grid};
+
+/// A case set up on its grid.
+pub struct Setup {
+    pub grid: Grid,
+    pub cells: Cells,
+    pub problem: Problem,
+    pub op: ElasticOperator,
+    pub beta: f64,
+    pub dirichlet: Vec<DirichletPoint>,
+    pub fixed_rhs: Vec<f64>,
+    /// Seconds per phase.
+    pub timings: Vec<(String, f64)>,
+}
+
+impl Setup {
+    /// Builds the grid at `level` (default: the case's), classifies it, and
+    /// assembles the operator data and the fixed right-hand side.
+    pub fn new(case: &Case, level: Option<u32>) -> Result<Setup> {
+        let grid = case.grid(level)?;
+        case.check_memory(&grid, machine_memory_bytes())?;
+        let t = Instant::now();
+        let cells = case.classify(&grid)?;
+        let mut timings = vec![("quadrature".to_string(), t.elapsed().as_secs_f64())];
+        let problem = Problem::new(case);
+        let beta = case.spec.stabilisation.k1 * problem.young;
+        let t = Instant::now();
+        let dirichlet_tags = problem.dirichlet_tags();
+        let params = OperatorParams {
+            young: problem.young,
+            poisson: problem.poisson,
+            beta,
+            dirichlet_tags: &dirichlet_tags,
+        };
+        let op = ElasticOperator::new(&grid, &cells, case.spec.element, &params);
+        let dirichlet = dirichlet_points(&cells, &problem);
+        let fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
+        timings.push(("operator_and_rhs".to_string(), t.elapsed().as_secs_f64()));
+        Ok(Setup {
+            grid,
+            cells,
+            problem,
+            op,
+            beta,
+            dirichlet,
+            fixed_rhs,
+            timings,
+        })
+    }
+}
