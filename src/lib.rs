@@ -18,7 +18,9 @@ pub mod geometry;
 pub mod grid;
 pub mod output;
 pub mod quadrature;
+pub mod recovery;
 pub mod report;
 pub mod solver;
+pub mod vtu;
 
 pub use error::{Error, Result};

@@ -5,5 +5,7 @@ pub mod field;
 pub mod fixed_point;
 pub mod operator;
 pub mod problem;
+pub mod recovery;
 pub mod rhs;
 pub mod setup;
+pub mod solve;

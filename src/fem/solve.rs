@@ -1,0 +1,71 @@
+//! The linear-elastic solve of a set-up case: the fixed-point loop with the
+//! SPR-recovered Dirichlet traction, then the recovered tractions at the
+//! converged solution and the reactions.
+
+use super::fixed_point::{fixed_point, FixedPointOptions, FixedPointReport};
+use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
+use super::rhs::traction_rhs;
+use super::setup::Setup;
+use crate::case::physics::SolverSpec;
+use crate::error::Result;
+use crate::solver::KrylovOptions;
+
+/// A converged solution.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    pub u: Vec<f64>,
+    /// Recovered traction `t̂` at each Dirichlet point.
+    pub t_hat: Vec<[f64; 3]>,
+    /// Reaction `λ_q` at each Dirichlet point.
+    pub reactions: Vec<[f64; 3]>,
+}
+
+/// The loop settings of a case's `[solver]` table.
+pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
+    FixedPointOptions {
+        krylov: KrylovOptions {
+            method: spec.method,
+            preconditioner: spec.preconditioner,
+            rel_tol: spec.rel_tol,
+            max_iterations: spec.max_iterations,
+        },
+        min_rel_tol: spec.min_rel_tol,
+        tol: spec.fixed_point_tol,
+        max_iterations: spec.max_fixed_point,
+    }
+}
+
+/// Solves; the loop's report is filled in even when the solve fails.
+pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) -> Result<Solution> {
+    let nodes = traction_patch_nodes(setup);
+    let mut traction_load = |u: &[f64]| -> Result<Vec<f64>> {
+        let sigma = recover_stress(setup, u, &nodes)?;
+        let t = recovered_tractions(&setup.dirichlet, &sigma)?;
+        Ok(traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t))
+    };
+    let opts = fixed_point_options(spec);
+    let u = if setup.dirichlet.is_empty() {
+        // Nothing is recovered into the right-hand side: one solve is the answer.
+        solve_once(setup, &opts, report)?
+    } else {
+        fixed_point(&setup.op, &setup.fixed_rhs, &mut traction_load, &opts, report)?
+    };
+    let sigma = recover_stress(setup, &u, &nodes)?;
+    let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
+    let reactions = reactions(setup, &u, &t_hat);
+    Ok(Solution { u, t_hat, reactions })
+}
+
+/// A single Krylov solve of `A U = F` (no Dirichlet points).
+fn solve_once(setup: &Setup, opts: &FixedPointOptions, report: &mut FixedPointReport) -> Result<Vec<f64>> {
+    let be = crate::backend::CpuBackend::new();
+    let diag = crate::backend::LinearOperator::diagonal(&setup.op);
+    let mut u = vec![0.0; setup.fixed_rhs.len()];
+    let stats = crate::solver::solve(&be, &setup.op, Some(&diag), &setup.fixed_rhs, &mut u, &opts.krylov)?;
+    report.iterations_per_solve.push(stats.iterations);
+    report.total_iterations = stats.iterations;
+    report.tolerances.push(opts.krylov.rel_tol);
+    report.final_relative_residual = stats.true_relative_residual;
+    report.converged = true;
+    Ok(u)
+}

@@ -1,0 +1,163 @@
+//! Superconvergent Patch Recovery (SPR, Zienkiewicz–Zhu) with Conjoint
+//! Polynomial Enhancement (CPE), DESIGN §5. Owns the monomial basis
+//! ([`Monomials`]), the per-patch least-squares fit with optional linear
+//! equality constraints ([`fit_polynomial`]) and the patch recovery over the
+//! grid's Q1 vertex nodes ([`recover`], [`Recovered`]).
+//!
+//! # The maths
+//! A *patch* of ring `r` around the vertex node `x_i` is the set of cells with
+//! positive volume (kind ≠ outside) whose index lies within `r` cells of the
+//! node along every axis (ring 1: the up to 8 cells sharing the vertex). Its
+//! *sample points* `x_s` are the quadrature points of those cells that lie in Ω
+//! (Gauss points of inside cells, the cut-cell volume points of cut cells) with
+//! the FE field values `σ_h(x_s)` there, both supplied by the caller
+//! ([`PatchSamples`]).
+//!
+//! On each patch every component `c` of the field is fitted by a complete
+//! polynomial of degree `p`, `σ*_{i,c}(x) = Σ_j a_{c j} φ_j(ξ)` in the scaled
+//! coordinates `ξ = (x − x_i)/h`, by least squares:
+//! `min Σ_s (σ*_{i,c}(x_s) − σ_{h,c}(x_s))²`, optionally subject to linear
+//! equality constraints `C a = d` on the stacked coefficients of all components
+//! (Lagrange multipliers, [`fit_polynomial`]). A patch with too few points or an
+//! ill-conditioned normal matrix is enlarged by one ring, up to
+//! [`SprOptions::max_rings`].
+//!
+//! The recovered field is the CPE blend of the patch polynomials of the cell's 8
+//! vertices with the trilinear hat functions `N_i^lin`:
+//! `σ̂(x) = Σ_{i ∈ vertices(cell(x))} N_i^lin(x) σ*_i(x)`. It reproduces every
+//! polynomial of degree `p` exactly (each `σ*_i` does and `Σ_i N_i^lin = 1`), and
+//! it is defined on the whole cell box, also outside Ω (polynomial extension).
+
+mod fit;
+mod spr;
+#[cfg(test)]
+mod spr_tests;
+#[cfg(test)]
+mod tests;
+
+use nalgebra::DMatrix;
+
+pub use fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
+pub use spr::{recover, Patch, PatchInfo, PatchSamples, Recovered, RecoveryStats, SprOptions};
+
+/// Highest polynomial degree of a [`Monomials`] basis (165 terms).
+pub const MAX_DEGREE: usize = 8;
+
+/// The complete monomial basis of degree `p` in three variables:
+/// `ξ^a η^b ζ^c` with `a + b + c ≤ p`, `(p+1)(p+2)(p+3)/6` terms (4, 10, 20 for
+/// p = 1, 2, 3).
+///
+/// Terms are graded: by total degree, then lexicographically with higher powers
+/// of `ξ` first, then of `η` (p = 2: `1, ξ, η, ζ, ξ², ξη, ξζ, η², ηζ, ζ²`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Monomials {
+    degree: usize,
+    exponents: Vec<[usize; 3]>,
+}
+
+impl Monomials {
+    /// The complete basis of `degree`.
+    ///
+    /// # Panics
+    /// When `degree > MAX_DEGREE`.
+    pub fn new(degree: usize) -> Monomials {
+        assert!(
+            degree <= MAX_DEGREE,
+            "monomial degree {degree} > {MAX_DEGREE}"
+        );
+        let mut exponents = Vec::new();
+        for total in 0..=degree {
+            for a in (0..=total).rev() {
+                for b in (0..=total - a).rev() {
+                    exponents.push([a, b, total - a - b]);
+                }
+            }
+        }
+        Monomials { degree, exponents }
+    }
+
+    pub fn degree(&self) -> usize {
+        self.degree
+    }
+
+    /// Number of terms, `(p+1)(p+2)(p+3)/6`.
+    pub fn len(&self) -> usize {
+        self.exponents.len()
+    }
+
+    /// Always false: the constant is a term of every degree.
+    pub fn is_empty(&self) -> bool {
+        self.exponents.is_empty()
+    }
+
+    /// The exponents `[a, b, c]` of each term, in basis order.
+    pub fn exponents(&self) -> &[[usize; 3]] {
+        &self.exponents
+    }
+
+    /// The change of coefficients under a shift of the origin by `t`:
+    /// `φ_e(ξ − t) = Σ_f T_fe φ_f(ξ)`, so a polynomial with coefficients `b` in
+    /// `ξ − t` has coefficients `T b` in `ξ`. By the binomial theorem per axis,
+    /// `T_fe = Π_k C(e_k, f_k) (−t_k)^{e_k − f_k}` for `f ≤ e` componentwise,
+    /// else 0 (upper triangular in the graded order, unit diagonal).
+    pub fn translation(&self, t: [f64; 3]) -> DMatrix<f64> {
+        let n = self.len();
+        let pw = self.powers(t.map(|v| -v));
+        DMatrix::from_fn(n, n, |f, e| {
+            let (f, e) = (self.exponents[f], self.exponents[e]);
+            let mut v = 1.0;
+            for k in 0..3 {
+                if f[k] > e[k] {
+                    return 0.0;
+                }
+                v *= binomial(e[k], f[k]) * pw[e[k] - f[k]][k];
+            }
+            v
+        })
+    }
+
+    /// Powers `ξ_k^e` for `e ≤ p`, per axis.
+    fn powers(&self, xi: [f64; 3]) -> [[f64; 3]; MAX_DEGREE + 1] {
+        let mut pw = [[1.0; 3]; MAX_DEGREE + 1];
+        for e in 1..=self.degree {
+            for k in 0..3 {
+                pw[e][k] = pw[e - 1][k] * xi[k];
+            }
+        }
+        pw
+    }
+
+    /// Basis values `φ_j(ξ)`; `out` must hold [`Monomials::len`] entries.
+    pub fn values(&self, xi: [f64; 3], out: &mut [f64]) {
+        assert_eq!(out.len(), self.len(), "monomial value buffer");
+        let pw = self.powers(xi);
+        for (o, e) in out.iter_mut().zip(&self.exponents) {
+            *o = pw[e[0]][0] * pw[e[1]][1] * pw[e[2]][2];
+        }
+    }
+
+    /// Basis gradients `∇_ξ φ_j(ξ)`, e.g. `∂_ξ ξ^a η^b ζ^c = a ξ^{a−1} η^b ζ^c`.
+    /// With `ξ = (x − x_i)/h` the physical gradient is `∇_ξ φ_j / h`.
+    pub fn gradients(&self, xi: [f64; 3], out: &mut [[f64; 3]]) {
+        assert_eq!(out.len(), self.len(), "monomial gradient buffer");
+        let pw = self.powers(xi);
+        for (o, e) in out.iter_mut().zip(&self.exponents) {
+            for k in 0..3 {
+                if e[k] == 0 {
+                    o[k] = 0.0;
+                    continue;
+                }
+                let mut g = e[k] as f64;
+                for m in 0..3 {
+                    g *= pw[if m == k { e[m] - 1 } else { e[m] }][m];
+                }
+                o[k] = g;
+            }
+        }
+    }
+}
+
+/// `C(n, k)` as a float.
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}

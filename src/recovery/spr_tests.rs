@@ -1,0 +1,371 @@
+//! Tests of patch recovery on a sphere: polynomial reproduction, convergence on
+//! the boundary, patch enlargement, typed errors and the constraint hook.
+
+use super::*;
+use crate::cells::{cut_rule_points, CellKind, Cells};
+use crate::element::{tensor_gauss_rule, ElementOrder};
+use crate::error::Error;
+use crate::geometry::{Aabb, Geometry};
+use crate::grid::Grid;
+
+const CENTER: [f64; 3] = [0.031, -0.017, 0.009];
+
+/// The grid of `level` over `[−half, half]³` and its cells against a sphere of
+/// radius `r` about [`CENTER`], with cut rules for element `order`.
+fn sphere(level: u32, half: f64, r: f64, order: ElementOrder) -> (Grid, Cells) {
+    let bbox = Aabb::new([-half; 3], [half; 3]);
+    let grid = Grid::new(&bbox, level, [0.0; 3]).unwrap();
+    let g = Geometry::sphere(CENTER, r).unwrap();
+    let cells = Cells::classify(&grid, &g, cut_rule_points(order)).unwrap();
+    (grid, cells)
+}
+
+/// Samples of `f`: the `gauss³` Gauss points of inside cells, the cut-cell
+/// volume points of cut cells.
+fn analytic<'a, const NC: usize>(
+    grid: &'a Grid,
+    cells: &'a Cells,
+    gauss: usize,
+    f: impl Fn([f64; 3]) -> [f64; NC] + Sync + 'a,
+) -> impl Fn(usize, &mut Vec<([f64; 3], [f64; NC])>) + Sync + 'a {
+    let rule = tensor_gauss_rule(gauss);
+    move |c, out| match cells.kinds[c] {
+        CellKind::Inside => {
+            let lo = grid.cell_box(c).lo;
+            for (xi, _) in &rule {
+                let x = [0, 1, 2].map(|k| lo[k] + grid.h * xi[k]);
+                out.push((x, f(x)));
+            }
+        }
+        CellKind::Cut => {
+            let i = cells.cut.binary_search(&c).unwrap();
+            out.extend(cells.volume_points(i).iter().map(|p| (p.x, f(p.x))));
+        }
+        CellKind::Outside => {}
+    }
+}
+
+/// The Q1 vertices of the cells for which `keep(kind)` holds.
+fn vertices(grid: &Grid, cells: &Cells, keep: impl Fn(CellKind) -> bool) -> Vec<usize> {
+    let mut nodes = Vec::new();
+    let mut v = [0; 8];
+    for (c, k) in cells.kinds.iter().enumerate() {
+        if keep(*k) {
+            grid.cell_nodes(ElementOrder::Q1, c, &mut v);
+            nodes.extend_from_slice(&v);
+        }
+    }
+    nodes
+}
+
+/// A fixed polynomial field of degree `p` with 3 components.
+fn polynomial(p: usize, x: [f64; 3]) -> [f64; 3] {
+    let [a, b, c] = x;
+    let lin = [1.0 + 2.0 * a - b + 0.5 * c, -0.3 + a + 3.0 * c, 2.0 - b - c];
+    if p == 1 {
+        return lin;
+    }
+    [
+        lin[0] + a * a - 2.0 * b * c + 0.7 * c * c,
+        lin[1] + 3.0 * a * b - b * b,
+        lin[2] + a * c + 0.4 * b * b - c * c,
+    ]
+}
+
+/// Largest `|σ̂ − f|` over the boundary points of the cut cells.
+fn boundary_error<const NC: usize>(
+    rec: &Recovered<NC>,
+    cells: &Cells,
+    f: impl Fn([f64; 3]) -> [f64; NC],
+) -> f64 {
+    let mut err: f64 = 0.0;
+    for (i, &c) in cells.cut.iter().enumerate() {
+        for p in cells.surface_points(i) {
+            let (got, want) = (rec.eval(c, p.x).unwrap(), f(p.x));
+            for k in 0..NC {
+                err = err.max((got[k] - want[k]).abs());
+            }
+        }
+    }
+    err
+}
+
+#[test]
+fn polynomials_of_the_fit_degree_are_recovered_exactly() {
+    for (p, order) in [(1, ElementOrder::Q1), (2, ElementOrder::Q2)] {
+        let (grid, cells) = sphere(3, 1.0, 0.9, order);
+        let f = move |x| polynomial(p, x);
+        let samples = analytic(&grid, &cells, p + 1, f);
+        let nodes = vertices(&grid, &cells, |k| k != CellKind::Outside);
+        let rec = recover(
+            &grid,
+            &cells.kinds,
+            &nodes,
+            p,
+            &samples,
+            &SprOptions::default(),
+        )
+        .unwrap();
+        // Volume and boundary points of the cut cells, corners of every cell
+        // with volume (outside Ω too: the polynomial extension).
+        let mut points: Vec<(usize, [f64; 3])> = Vec::new();
+        for (i, &c) in cells.cut.iter().enumerate() {
+            points.extend(cells.volume_points(i).iter().map(|q| (c, q.x)));
+            points.extend(cells.surface_points(i).iter().map(|q| (c, q.x)));
+        }
+        for (c, k) in cells.kinds.iter().enumerate() {
+            if *k != CellKind::Outside {
+                let b = grid.cell_box(c);
+                points.push((c, b.lo));
+                points.push((c, b.hi));
+                points.push((c, [0, 1, 2].map(|i| 0.3 * b.lo[i] + 0.7 * b.hi[i])));
+            }
+        }
+        let (mut err, mut scale): (f64, f64) = (0.0, 0.0);
+        for (c, x) in points {
+            let (got, want) = (rec.eval(c, x).unwrap(), f(x));
+            for k in 0..3 {
+                err = err.max((got[k] - want[k]).abs());
+                scale = scale.max(want[k].abs());
+            }
+        }
+        let stats = rec.stats();
+        println!("p = {p}: relative error {:.2e}, {stats:?}", err / scale);
+        assert!(err <= 1e-10 * scale, "p = {p}: {err:e}");
+        assert_eq!(stats.patches, rec.nodes().len());
+    }
+}
+
+/// A smooth, non-polynomial 2-component field.
+fn smooth(x: [f64; 3]) -> [f64; 2] {
+    [
+        (1.3 * x[0] + 0.7 * x[1]).sin() * (0.5 * x[2]).exp(),
+        (x[0] * x[1] - x[2]).cos(),
+    ]
+}
+
+/// Boundary errors at levels 3, 4, 5 and the rates between them, recovering
+/// only the patches of the cut cells' vertices.
+fn boundary_rates(p: usize, order: ElementOrder) -> ([f64; 3], [f64; 2]) {
+    let errors = [3, 4, 5].map(|level| {
+        let (grid, cells) = sphere(level, 1.0, 0.9, order);
+        let samples = analytic(&grid, &cells, p + 1, smooth);
+        let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
+        let rec = recover(
+            &grid,
+            &cells.kinds,
+            &nodes,
+            p,
+            &samples,
+            &SprOptions::default(),
+        )
+        .unwrap();
+        println!("p = {p}, level {level}: {:?}", rec.stats());
+        boundary_error(&rec, &cells, smooth)
+    });
+    let rates = [0, 1].map(|i| (errors[i] / errors[i + 1]).log2());
+    println!("p = {p}: boundary max errors {errors:?}, rates {rates:.2?}");
+    (errors, rates)
+}
+
+#[test]
+fn smooth_fields_converge_on_the_boundary() {
+    let (_, rates) = boundary_rates(1, ElementOrder::Q1);
+    assert!(rates.iter().all(|&r| r >= 1.8), "p = 1 rates {rates:?}");
+    let (_, rates) = boundary_rates(2, ElementOrder::Q2);
+    assert!(rates.iter().all(|&r| r >= 2.7), "p = 2 rates {rates:?}");
+}
+
+#[test]
+fn small_cut_patches_are_enlarged_and_stay_exact() {
+    let (grid, cells) = sphere(4, 1.0, 0.9, ElementOrder::Q1);
+    let f = |x| polynomial(1, x);
+    let samples = analytic(&grid, &cells, 2, f);
+    let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
+    let rec = recover(
+        &grid,
+        &cells.kinds,
+        &nodes,
+        1,
+        &samples,
+        &SprOptions::default(),
+    )
+    .unwrap();
+    let stats = rec.stats();
+    println!("{stats:?}");
+    assert!(stats.enlarged > 0, "{stats:?}");
+    assert!(stats.min_samples >= 6);
+    for &node in rec.nodes() {
+        let info = rec.patch(node).unwrap();
+        if info.ring == 1 {
+            continue;
+        }
+        // Enlarged: the ring-1 cells hold little of Ω ...
+        let ring1: Vec<usize> = (0..cells.cut.len())
+            .filter(|&i| {
+                let mut v = [0; 8];
+                grid.cell_nodes(ElementOrder::Q1, cells.cut[i], &mut v);
+                v.contains(&node)
+            })
+            .collect();
+        let inside_ring1 = vertices_inside(&grid, &cells, node);
+        let volume: f64 = ring1.iter().map(|&i| cells.fraction[i]).sum();
+        assert!(inside_ring1 == 0 && volume < 4.0, "node {node}: {volume}");
+        // ... and the enlarged fit is still exact, on and off its patch.
+        let x0 = grid.node_position(ElementOrder::Q1, node);
+        for d in [[0.0; 3], [0.5, -0.5, 0.25], [-1.5, 1.0, 2.0]] {
+            let x = [0, 1, 2].map(|k| x0[k] + d[k] * grid.h);
+            let (got, want) = (rec.eval_node_polynomial(node, x).unwrap(), f(x));
+            for k in 0..3 {
+                assert!((got[k] - want[k]).abs() < 1e-11, "node {node}");
+            }
+        }
+    }
+}
+
+/// Number of inside cells sharing the vertex `node`.
+fn vertices_inside(grid: &Grid, cells: &Cells, node: usize) -> usize {
+    let mut v = [0; 8];
+    (0..grid.num_cells())
+        .filter(|&c| {
+            grid.cell_nodes(ElementOrder::Q1, c, &mut v);
+            cells.kinds[c] == CellKind::Inside && v.contains(&node)
+        })
+        .count()
+}
+
+#[test]
+fn unfittable_and_unknown_nodes_are_typed_errors() {
+    // A small ball in a big box: the box corner is more than 3 rings away.
+    let (grid, cells) = sphere(3, 2.0, 0.5, ElementOrder::Q1);
+    let samples = analytic(&grid, &cells, 2, |x| [x[0]]);
+    let opts = SprOptions::default();
+    let cut_nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
+    let mut nodes = cut_nodes.clone();
+    nodes.push(0);
+    match recover(&grid, &cells.kinds, &nodes, 1, &samples, &opts) {
+        Err(e @ Error::Recovery { node: 0, .. }) => {
+            assert_eq!(e.exit_code(), 1);
+            assert!(e.to_string().contains("3 ring"), "{e}");
+        }
+        other => panic!("expected a recovery error at node 0, got {other:?}"),
+    }
+    let bad = grid.num_nodes(ElementOrder::Q1);
+    assert!(matches!(
+        recover(&grid, &cells.kinds, &[bad], 1, &samples, &opts),
+        Err(Error::Recovery { node, .. }) if node == bad
+    ));
+    // Evaluating on a cell whose vertices were not all recovered.
+    let rec = recover(&grid, &cells.kinds, &cut_nodes[..8], 1, &samples, &opts).unwrap();
+    assert!(rec
+        .eval(cells.cut[0], grid.cell_box(cells.cut[0]).lo)
+        .is_ok());
+    let far = cells.cut[cells.cut.len() - 1];
+    assert!(matches!(
+        rec.eval(far, grid.cell_box(far).lo),
+        Err(Error::Recovery { .. })
+    ));
+    assert!(rec.patch(0).is_none());
+}
+
+/// Samples of a smooth field whose patch fits must match it at the vertex.
+struct PinnedAtNode<'a> {
+    grid: &'a Grid,
+    cells: &'a Cells,
+}
+
+impl PatchSamples<2> for PinnedAtNode<'_> {
+    fn samples(&self, cell: usize, out: &mut Vec<([f64; 3], [f64; 2])>) {
+        analytic(self.grid, self.cells, 2, smooth)(cell, out)
+    }
+
+    /// `σ*_c(x_node) = f_c(x_node)`: row `c` picks the constant term of
+    /// component `c` (the basis is 1 at `ξ = 0` only for the constant).
+    fn constraints(&self, patch: &Patch<'_>, basis: &Monomials) -> Option<LinearConstraints> {
+        let nb = basis.len();
+        let mut phi = vec![0.0; nb];
+        basis.values(patch.scaled(patch.center), &mut phi);
+        let want = smooth(patch.center);
+        let mut k = LinearConstraints {
+            c: nalgebra::DMatrix::zeros(2, 2 * nb),
+            d: nalgebra::DVector::from_row_slice(&want),
+        };
+        for c in 0..2 {
+            for j in 0..nb {
+                k.c[(c, c * nb + j)] = phi[j];
+            }
+        }
+        Some(k)
+    }
+}
+
+#[test]
+fn patch_constraints_reach_the_fit() {
+    let (grid, cells) = sphere(3, 1.0, 0.9, ElementOrder::Q1);
+    let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
+    let opts = SprOptions::default();
+    let pinned = recover(
+        &grid,
+        &cells.kinds,
+        &nodes,
+        1,
+        &PinnedAtNode {
+            grid: &grid,
+            cells: &cells,
+        },
+        &opts,
+    )
+    .unwrap();
+    let free = recover(
+        &grid,
+        &cells.kinds,
+        &nodes,
+        1,
+        &analytic(&grid, &cells, 2, smooth),
+        &opts,
+    )
+    .unwrap();
+    let mut moved: f64 = 0.0;
+    for &node in pinned.nodes() {
+        let x = grid.node_position(ElementOrder::Q1, node);
+        let (got, want) = (pinned.eval_node_polynomial(node, x).unwrap(), smooth(x));
+        let loose = free.eval_node_polynomial(node, x).unwrap();
+        for c in 0..2 {
+            assert!((got[c] - want[c]).abs() < 1e-12, "node {node}");
+            moved = moved.max((loose[c] - want[c]).abs());
+        }
+    }
+    assert!(moved > 1e-6, "the free fits already matched: {moved:e}");
+}
+
+#[test]
+fn tmp_explore() {
+    let fields: [(&str, fn([f64; 3]) -> [f64; 2]); 2] = [("smooth", smooth), ("s2", |x: [f64; 3]| [(x[0] + 0.5 * x[1]).sin(), (0.5 * x[2]).exp()])];
+    for (name, f) in fields {
+    for p in [1usize, 2, 3] {
+    for noise in [0.0, 0.3] {
+    for tau in [1e-1, 1e-2, 3e-3, 1e-3, 1e-4] {
+        let mut errs = vec![];
+        let mut st = vec![];
+        for level in [3u32, 4, 5] {
+            let bbox = Aabb::new([-1.0; 3], [1.0; 3]);
+            let grid = Grid::new(&bbox, level, [0.0; 3]).unwrap();
+            let g = Geometry::sphere(CENTER, 0.9).unwrap();
+            let cells = Cells::classify(&grid, &g, 2 * p.min(2)).unwrap();
+            let amp = noise * grid.h.powi(p as i32 + 1);
+            let fnoise = move |x: [f64; 3]| { let v = f(x); let r = 2.0 * ((x[0] * 12.9898 + x[1] * 78.233 + x[2] * 37.719).sin() * 43758.5453).fract().abs() - 1.0; [v[0] + amp * r, v[1] - amp * r] };
+            let samples = analytic(&grid, &cells, p + 1, fnoise);
+            let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
+            let mut opts = SprOptions::default();
+            opts.fit.stability = tau;
+            let rec = match recover(&grid, &cells.kinds, &nodes, p, &samples, &opts) { Ok(r) => r, Err(e) => { println!("{e}"); break; } };
+            errs.push(boundary_error(&rec, &cells, f) / grid.h.powi(p as i32 + 1));
+            st.push(rec.stats().per_ring);
+        }
+        if errs.len() < 3 { continue; }
+        println!("{name} p{p} noise {noise} tau {tau}: e/h^(p+1) {:.3} {:.3} {:.3} rings {st:?}", errs[0], errs[1], errs[2]);
+    }
+    }
+    }
+    }
+}

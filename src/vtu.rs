@@ -1,0 +1,289 @@
+//! VTK XML output for ParaView: `.vtu` UnstructuredGrid files with point and
+//! cell data, and `.pvd` collections that string them into a time series.
+//!
+//! This file owns the public data model ([`VtuMesh`], [`VtuCell`],
+//! [`DataArray`]), the checks run before anything is written, and the two
+//! writers. Node reordering from our lexicographic numbering lives in
+//! `vtu/order.rs`; the XML text itself is assembled in `vtu/xml.rs`.
+//!
+//! Files are written with [`crate::output::write_atomic`], so a reader never
+//! sees half a file, and nothing is written at all when a check fails.
+//!
+//! Encodings ([`VtuEncoding`]): `Binary` is VTK's inline base64 format
+//! (`format="binary"`, `header_type="UInt64"`, little endian): each
+//! DataArray is the base64 of an 8-byte little-endian byte count followed by
+//! the raw little-endian values, bit-exact. `Ascii` writes the values as text
+//! (shortest decimal that parses back to the same `f64`; non-finite values as
+//! `nan`, `inf`, `-inf`) and is meant for small debugging outputs; note that
+//! VTK 9.3's ASCII reader reads `-inf` back as `+inf`, so use `Binary` where
+//! infinities matter.
+
+mod order;
+mod xml;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
+
+pub use order::{hex27_vtk_order_from_lexicographic, hex8_vtk_order_from_lexicographic};
+
+/// One cell with its node indices (into [`VtuMesh::points`]) in VTK's own
+/// node order; [`hex8_vtk_order_from_lexicographic`] and
+/// [`hex27_vtk_order_from_lexicographic`] convert our lexicographic numbering.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum VtuCell {
+    /// `VTK_VERTEX` (1): a single point, for point clouds.
+    Vertex(usize),
+    /// `VTK_HEXAHEDRON` (12): 8 corners.
+    Hexahedron([usize; 8]),
+    /// `VTK_TRIQUADRATIC_HEXAHEDRON` (29): 8 corners, 12 edge midpoints,
+    /// 6 face centres, the body centre.
+    TriQuadraticHexahedron([usize; 27]),
+}
+
+impl VtuCell {
+    /// A hexahedron from node indices in lexicographic order `a + 2b + 4c`.
+    pub fn hex8_from_lexicographic(lex: [usize; 8]) -> Self {
+        VtuCell::Hexahedron(hex8_vtk_order_from_lexicographic(lex))
+    }
+
+    /// A triquadratic hexahedron from node indices in lexicographic order
+    /// `a + 3b + 9c`.
+    pub fn hex27_from_lexicographic(lex: [usize; 27]) -> Self {
+        VtuCell::TriQuadraticHexahedron(hex27_vtk_order_from_lexicographic(lex))
+    }
+
+    /// The VTK cell type id.
+    pub fn vtk_type(&self) -> u8 {
+        match self {
+            VtuCell::Vertex(_) => 1,
+            VtuCell::Hexahedron(_) => 12,
+            VtuCell::TriQuadraticHexahedron(_) => 29,
+        }
+    }
+
+    /// The node indices in VTK order.
+    pub fn nodes(&self) -> &[usize] {
+        match self {
+            VtuCell::Vertex(n) => std::slice::from_ref(n),
+            VtuCell::Hexahedron(n) => n,
+            VtuCell::TriQuadraticHexahedron(n) => n,
+        }
+    }
+}
+
+/// Points and cells of an unstructured grid.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VtuMesh {
+    /// Point coordinates; must all be finite.
+    pub points: Vec<[f64; 3]>,
+    /// Cells referring to `points` by index.
+    pub cells: Vec<VtuCell>,
+}
+
+impl VtuMesh {
+    /// A point cloud: one [`VtuCell::Vertex`] per point, so that ParaView
+    /// shows the points without a glyph filter.
+    pub fn point_cloud(points: Vec<[f64; 3]>) -> Self {
+        let cells = (0..points.len()).map(VtuCell::Vertex).collect();
+        VtuMesh { points, cells }
+    }
+}
+
+/// The values of a data array, tuple after tuple, components interleaved.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DataValues {
+    /// Written as `Float64`.
+    F64(Vec<f64>),
+    /// Written as `Int32`.
+    I32(Vec<i32>),
+    /// Written as `UInt8` (classification flags and the like).
+    U8(Vec<u8>),
+}
+
+impl DataValues {
+    /// Number of values (tuples × components).
+    pub fn len(&self) -> usize {
+        match self {
+            DataValues::F64(v) => v.len(),
+            DataValues::I32(v) => v.len(),
+            DataValues::U8(v) => v.len(),
+        }
+    }
+
+    /// Whether there are no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A named point or cell data array. NaN and infinities are allowed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DataArray {
+    /// Name shown in ParaView; any text (it is escaped in the XML).
+    pub name: String,
+    /// Components per tuple: 1 scalar, 3 vector, 9 tensor.
+    pub components: usize,
+    /// `components` values per point (or cell).
+    pub values: DataValues,
+}
+
+impl DataArray {
+    /// A scalar `Float64` array.
+    pub fn scalars_f64(name: impl Into<String>, values: Vec<f64>) -> Self {
+        Self::with(name, 1, DataValues::F64(values))
+    }
+
+    /// A scalar `Int32` array.
+    pub fn scalars_i32(name: impl Into<String>, values: Vec<i32>) -> Self {
+        Self::with(name, 1, DataValues::I32(values))
+    }
+
+    /// A scalar `UInt8` array.
+    pub fn scalars_u8(name: impl Into<String>, values: Vec<u8>) -> Self {
+        Self::with(name, 1, DataValues::U8(values))
+    }
+
+    /// A 3-component `Float64` vector array.
+    pub fn vectors(name: impl Into<String>, values: &[[f64; 3]]) -> Self {
+        let flat = values.iter().flatten().copied().collect();
+        Self::with(name, 3, DataValues::F64(flat))
+    }
+
+    /// A symmetric tensor array from Voigt-ordered tensor components
+    /// `(xx, yy, zz, yz, xz, xy)` (the crate's stress order; pass tensor
+    /// shear components, not engineering shear strains). Written as a full
+    /// 9-component row-major tensor `(xx, xy, xz, yx, yy, yz, zx, zy, zz)`,
+    /// which ParaView recognises as a tensor (components `XX` … `ZZ`).
+    pub fn sym_tensors(name: impl Into<String>, voigt: &[[f64; 6]]) -> Self {
+        let flat = voigt.iter().flat_map(full_tensor).collect();
+        Self::with(name, 9, DataValues::F64(flat))
+    }
+
+    fn with(name: impl Into<String>, components: usize, values: DataValues) -> Self {
+        DataArray {
+            name: name.into(),
+            components,
+            values,
+        }
+    }
+}
+
+/// Row-major 3×3 tensor from Voigt `(xx, yy, zz, yz, xz, xy)`.
+fn full_tensor(v: &[f64; 6]) -> [f64; 9] {
+    let [xx, yy, zz, yz, xz, xy] = *v;
+    [xx, xy, xz, xy, yy, yz, xz, yz, zz]
+}
+
+/// How DataArray values are written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum VtuEncoding {
+    /// Inline base64 with a `UInt64` byte-count header: compact, bit-exact.
+    #[default]
+    Binary,
+    /// Whitespace-separated text, for small debugging outputs (VTK 9.3
+    /// reads `-inf` back as `+inf`; see the module doc).
+    Ascii,
+}
+
+/// Writes `mesh` with its point and cell data to the `.vtu` file `path`.
+///
+/// Fails with [`Error::Io`] (and writes nothing) when a point is not finite,
+/// a cell refers to a missing point, an array has a length other than
+/// count × components or zero components, or two arrays of the same kind
+/// share a name; and when the file cannot be written.
+pub fn write_vtu(
+    path: &Path,
+    mesh: &VtuMesh,
+    point_data: &[DataArray],
+    cell_data: &[DataArray],
+    encoding: VtuEncoding,
+) -> Result<()> {
+    let fail = |reason: String| Error::Io {
+        path: path.display().to_string(),
+        reason,
+    };
+    check_mesh(mesh).map_err(fail)?;
+    check_arrays("point", point_data, mesh.points.len()).map_err(fail)?;
+    check_arrays("cell", cell_data, mesh.cells.len()).map_err(fail)?;
+    let text = xml::unstructured_grid(mesh, point_data, cell_data, encoding);
+    write_atomic(path, text.as_bytes())
+}
+
+/// Writes the `.pvd` collection `path` listing `(time, file)` entries, each
+/// file given relative to the `.pvd`'s folder (as ParaView resolves it).
+///
+/// Fails with [`Error::Io`] (and writes nothing) when a time is not finite or
+/// a file name is not valid UTF-8; and when the file cannot be written.
+pub fn write_pvd<P: AsRef<Path>>(path: &Path, entries: &[(f64, P)]) -> Result<()> {
+    let fail = |reason: String| Error::Io {
+        path: path.display().to_string(),
+        reason,
+    };
+    let mut checked = Vec::with_capacity(entries.len());
+    for (i, (time, file)) in entries.iter().enumerate() {
+        checked.push(check_pvd_entry(i, *time, file.as_ref()).map_err(fail)?);
+    }
+    write_atomic(path, xml::collection(&checked).as_bytes())
+}
+
+fn check_pvd_entry(i: usize, time: f64, file: &Path) -> std::result::Result<(f64, &str), String> {
+    if !time.is_finite() {
+        return Err(format!("collection entry {i}: time {time} is not finite"));
+    }
+    let name = file.to_str().ok_or_else(|| {
+        format!(
+            "collection entry {i}: file name {} is not valid UTF-8",
+            file.display()
+        )
+    })?;
+    Ok((time, name))
+}
+
+/// Points finite, cell nodes in range.
+fn check_mesh(mesh: &VtuMesh) -> std::result::Result<(), String> {
+    if let Some(i) = mesh
+        .points
+        .iter()
+        .position(|p| !p.iter().all(|x| x.is_finite()))
+    {
+        return Err(format!(
+            "point {i} has a non-finite coordinate {:?}",
+            mesh.points[i]
+        ));
+    }
+    let n = mesh.points.len();
+    for (c, cell) in mesh.cells.iter().enumerate() {
+        if let Some(&bad) = cell.nodes().iter().find(|&&k| k >= n) {
+            return Err(format!(
+                "cell {c} refers to point {bad}, but the mesh has {n} points"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Every array has `count` tuples of at least one component; names unique.
+fn check_arrays(kind: &str, arrays: &[DataArray], count: usize) -> std::result::Result<(), String> {
+    let mut names = HashSet::new();
+    for a in arrays {
+        if !names.insert(a.name.as_str()) {
+            return Err(format!("{kind} data '{}' is given twice", a.name));
+        }
+        let expected = count.checked_mul(a.components);
+        if a.components == 0 || expected != Some(a.values.len()) {
+            return Err(format!(
+                "{kind} data '{}' has {} values, expected {count} {kind}s × {} components",
+                a.name,
+                a.values.len(),
+                a.components
+            ));
+        }
+    }
+    Ok(())
+}

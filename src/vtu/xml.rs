@@ -1,0 +1,243 @@
+//! The XML text of `.vtu` and `.pvd` files: element layout, DataArray
+//! encoding (inline base64 with a `UInt64` byte-count header, or ASCII),
+//! attribute escaping and a small base64 encoder. Inputs are checked by the
+//! caller (`vtu.rs`) before they get here.
+
+use std::fmt::Write;
+
+use super::{DataArray, DataValues, VtuEncoding, VtuMesh};
+
+/// The whole `.vtu` document.
+pub(super) fn unstructured_grid(
+    mesh: &VtuMesh,
+    point_data: &[DataArray],
+    cell_data: &[DataArray],
+    encoding: VtuEncoding,
+) -> String {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n");
+    s.push_str(
+        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    s.push_str("  <UnstructuredGrid>\n");
+    let _ = writeln!(
+        s,
+        "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">",
+        mesh.points.len(),
+        mesh.cells.len()
+    );
+    push_data_section(&mut s, "PointData", point_data, encoding);
+    push_data_section(&mut s, "CellData", cell_data, encoding);
+    push_points(&mut s, mesh, encoding);
+    push_cells(&mut s, mesh, encoding);
+    s.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+    s
+}
+
+/// The whole `.pvd` document for checked `(time, file)` entries.
+pub(super) fn collection(entries: &[(f64, &str)]) -> String {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n");
+    s.push_str("<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n");
+    s.push_str("  <Collection>\n");
+    for (time, file) in entries {
+        let _ = writeln!(
+            s,
+            "    <DataSet timestep=\"{}\" group=\"\" part=\"0\" file=\"{}\"/>",
+            format_f64(*time),
+            escape(file)
+        );
+    }
+    s.push_str("  </Collection>\n</VTKFile>\n");
+    s
+}
+
+fn push_data_section(s: &mut String, tag: &str, arrays: &[DataArray], encoding: VtuEncoding) {
+    let _ = writeln!(s, "      <{tag}>");
+    for a in arrays {
+        push_array(s, &a.name, a.components, &a.values, encoding);
+    }
+    let _ = writeln!(s, "      </{tag}>");
+}
+
+fn push_points(s: &mut String, mesh: &VtuMesh, encoding: VtuEncoding) {
+    let coords = mesh.points.iter().flatten().copied().collect();
+    s.push_str("      <Points>\n");
+    push_array(s, "Points", 3, &DataValues::F64(coords), encoding);
+    s.push_str("      </Points>\n");
+}
+
+fn push_cells(s: &mut String, mesh: &VtuMesh, encoding: VtuEncoding) {
+    let mut connectivity = Vec::new();
+    let mut offsets = Vec::with_capacity(mesh.cells.len());
+    for cell in &mesh.cells {
+        connectivity.extend(cell.nodes().iter().map(|&n| n as i64));
+        offsets.push(connectivity.len() as i64);
+    }
+    let types: Vec<u8> = mesh.cells.iter().map(|c| c.vtk_type()).collect();
+    s.push_str("      <Cells>\n");
+    push_i64_array(s, "connectivity", &connectivity, encoding);
+    push_i64_array(s, "offsets", &offsets, encoding);
+    push_array(s, "types", 1, &DataValues::U8(types), encoding);
+    s.push_str("      </Cells>\n");
+}
+
+fn push_i64_array(s: &mut String, name: &str, values: &[i64], encoding: VtuEncoding) {
+    let body = match encoding {
+        VtuEncoding::Binary => binary_body(values.len() * 8, values, |v| v.to_le_bytes()),
+        VtuEncoding::Ascii => ascii_body(values, |v| v.to_string()),
+    };
+    push_element(s, name, "Int64", 1, encoding, &body);
+}
+
+fn push_array(
+    s: &mut String,
+    name: &str,
+    components: usize,
+    values: &DataValues,
+    encoding: VtuEncoding,
+) {
+    let (vtk_type, body) = match (values, encoding) {
+        (DataValues::F64(v), VtuEncoding::Binary) => {
+            ("Float64", binary_body(v.len() * 8, v, |x| x.to_le_bytes()))
+        }
+        (DataValues::F64(v), VtuEncoding::Ascii) => ("Float64", ascii_body(v, |x| format_f64(*x))),
+        (DataValues::I32(v), VtuEncoding::Binary) => {
+            ("Int32", binary_body(v.len() * 4, v, |x| x.to_le_bytes()))
+        }
+        (DataValues::I32(v), VtuEncoding::Ascii) => ("Int32", ascii_body(v, |x| x.to_string())),
+        (DataValues::U8(v), VtuEncoding::Binary) => ("UInt8", binary_body(v.len(), v, |x| [*x])),
+        (DataValues::U8(v), VtuEncoding::Ascii) => ("UInt8", ascii_body(v, |x| x.to_string())),
+    };
+    push_element(s, name, vtk_type, components, encoding, &body);
+}
+
+fn push_element(
+    s: &mut String,
+    name: &str,
+    vtk_type: &str,
+    components: usize,
+    encoding: VtuEncoding,
+    body: &str,
+) {
+    let format = match encoding {
+        VtuEncoding::Binary => "binary",
+        VtuEncoding::Ascii => "ascii",
+    };
+    let _ = writeln!(
+        s,
+        "        <DataArray type=\"{vtk_type}\" Name=\"{}\" NumberOfComponents=\"{components}\" \
+         format=\"{format}\">",
+        escape(name)
+    );
+    let _ = writeln!(s, "          {body}");
+    s.push_str("        </DataArray>\n");
+}
+
+/// base64 of the `UInt64` little-endian byte count followed by the raw
+/// little-endian bytes of every value (`bytes` gives one value's bytes).
+fn binary_body<T, const N: usize>(
+    byte_count: usize,
+    values: &[T],
+    bytes: impl Fn(&T) -> [u8; N],
+) -> String {
+    let mut raw = Vec::with_capacity(8 + byte_count);
+    raw.extend_from_slice(&(byte_count as u64).to_le_bytes());
+    for v in values {
+        raw.extend_from_slice(&bytes(v));
+    }
+    base64_encode(&raw)
+}
+
+fn ascii_body<T>(values: &[T], text: impl Fn(&T) -> String) -> String {
+    values.iter().map(text).collect::<Vec<_>>().join(" ")
+}
+
+/// Shortest text that parses back to the same value, in a form C's `strtod`
+/// reads (`nan`, `inf`, `-inf` for the non-finite values).
+fn format_f64(x: f64) -> String {
+    if x.is_nan() {
+        "nan".to_string()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf" } else { "-inf" }.to_string()
+    } else {
+        format!("{x:?}")
+    }
+}
+
+/// Escapes text for a double-quoted XML attribute value.
+fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+const BASE64_ALPHABET: &[u8; 64] =
+    b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+/// Standard base64 (RFC 4648, with `=` padding).
+pub(super) fn base64_encode(bytes: &[u8]) -> String {
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(BASE64_ALPHABET[(n >> (18 - 6 * k)) as usize & 63] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        let cases = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ];
+        for (input, expected) in cases {
+            assert_eq!(base64_encode(input.as_bytes()), expected, "{input:?}");
+        }
+        assert_eq!(base64_encode(&[0xfb, 0xff, 0xbf]), "+/+/");
+    }
+
+    #[test]
+    fn f64_text_round_trips_and_strtod_reads_non_finite() {
+        for x in [0.1, -0.0, 1e-300, 5e-324, 1.7976931348623157e308, -2.5] {
+            let back: f64 = format_f64(x).parse().unwrap();
+            assert_eq!(back.to_bits(), x.to_bits(), "{x}");
+        }
+        assert_eq!(format_f64(f64::NAN), "nan");
+        assert_eq!(format_f64(f64::NEG_INFINITY), "-inf");
+        assert_eq!(format_f64(f64::INFINITY), "inf");
+    }
+
+    #[test]
+    fn escape_replaces_markup_characters() {
+        assert_eq!(escape(r#"a<b>&"c'"#), "a&lt;b&gt;&amp;&quot;c&apos;");
+    }
+}
