@@ -1,8 +1,9 @@
 //! The `cgfem-gpu` command line. Exit codes (DESIGN §8): 0 success, 2 bad
-//! input (the message names the file, key and reason), 3 solver failure, 1
-//! internal error.
+//! input (the message names the file, key and reason), 3 solver failure (the
+//! report is still written, marked failed), 1 internal error.
 
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -10,9 +11,13 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::grid::machine_memory_bytes;
+use cgfem_gpu::fem::field::{error_norms, interpolate};
+use cgfem_gpu::fem::fixed_point::FixedPointReport;
+use cgfem_gpu::fem::output::write_solution;
+use cgfem_gpu::fem::setup::Setup;
+use cgfem_gpu::fem::solve::solve;
 use cgfem_gpu::output::write_atomic;
-use cgfem_gpu::report::Report;
+use cgfem_gpu::report::{FixedPoint, Krylov, Report, Stabilisation};
 
 #[derive(Parser)]
 #[command(
@@ -27,14 +32,16 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run a case: classify the grid, build the cut-cell quadrature, write
-    /// DIR/report.json.
+    /// Solve a case; writes DIR/report.json and DIR/solution.vtu.
     Run {
         /// The case file (TOML).
         case: PathBuf,
         /// Grid level (overrides grid.level).
         #[arg(long)]
         level: Option<u32>,
+        /// Override any case key: --set solver.method=cg (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Output folder (default: out/<case name>).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -59,51 +66,151 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Run { case, level, out } => run_case(case, level, out),
+        Command::Run {
+            case,
+            level,
+            set,
+            out,
+        } => run_case(&case, level, &set, out),
     }
 }
 
-fn run_case(path: PathBuf, level: Option<u32>, out: Option<PathBuf>) -> anyhow::Result<()> {
-    let case = Case::from_file(&path)?;
-    let order = case.spec.element;
-    let grid = case.grid(level)?;
-    case.check_memory(&grid, machine_memory_bytes())?;
+fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
+    write_atomic(&dir.join("report.json"), &json)?;
+    Ok(())
+}
+
+fn run_case(
+    path: &Path,
+    level: Option<u32>,
+    set: &[String],
+    out: Option<PathBuf>,
+) -> anyhow::Result<()> {
+    let case = Case::from_file_with(path, set)?;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let start = Instant::now();
-    let cells = case.classify(&grid)?;
-    let classify_s = start.elapsed().as_secs_f64();
-    let mut report = Report::geometry(&name, &case.file, order, &case.geometry, &grid, &cells);
+    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
+    let setup = Setup::new(&case, level)?;
+    let order = case.spec.element;
+    let mut report = Report::geometry(
+        &name,
+        &case.file,
+        order,
+        &case.geometry,
+        &setup.grid,
+        &setup.cells,
+    );
+    report.timings.extend(setup.timings.iter().cloned());
+    let st = &case.spec.stabilisation;
+    report.stabilisation = Some(Stabilisation {
+        k1: st.k1,
+        k2: st.k2,
+        a: st.a,
+    });
+    println!(
+        "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
+        case.file, setup.grid.level, report.dofs, report.cells.inside, report.cells.cut
+    );
+
+    let t = Instant::now();
+    let mut fp = FixedPointReport::default();
+    let result = solve(&setup, &case.spec.solver, &mut fp);
     report
         .timings
-        .insert("classification_and_quadrature".into(), classify_s);
-
-    println!(
-        "case {name} ({}), level {}, element {order:?}",
-        case.file, grid.level
-    );
-    println!(
-        "  grid {}x{}x{} cells of h = {:.6}: {} inside, {} cut, {} outside; {} dofs",
-        grid.n[0],
-        grid.n[1],
-        grid.n[2],
-        grid.h,
-        report.cells.inside,
-        report.cells.cut,
-        report.cells.outside,
-        report.dofs
-    );
-    println!(
-        "  domain volume {:.12}, boundary area {:.12} (cut-cell quadrature, {classify_s:.3} s)",
-        report.domain.volume, report.domain.boundary_area
-    );
-    for (tag, area) in &report.domain.boundary_area_by_tag {
-        println!("    boundary '{tag}': area {area:.12}");
+        .insert("solve".into(), t.elapsed().as_secs_f64());
+    let so = &case.spec.solver;
+    report.krylov = Some(Krylov {
+        method: so.method.name().into(),
+        preconditioner: format!("{:?}", so.preconditioner).to_lowercase(),
+        iterations_per_solve: fp.iterations_per_solve.clone(),
+        total_iterations: fp.total_iterations,
+        final_relative_residual: fp.final_relative_residual,
+    });
+    report.fixed_point = Some(FixedPoint {
+        iterations: fp.iterations,
+        eps_history: fp.eps_history.clone(),
+        converged: fp.converged,
+    });
+    let solution = match result {
+        Ok(s) => s,
+        Err(e) => {
+            report.status = "failed".into();
+            report.failure = Some(e.to_string());
+            write_report(&dir, &report)?;
+            eprintln!(
+                "report (marked failed): {}",
+                dir.join("report.json").display()
+            );
+            return Err(e.into());
+        }
+    };
+    if let Some(exact) = &setup.problem.exact {
+        let (l, m) = (setup.problem.lambda, setup.problem.mu);
+        let dofs = &setup.op.dofs;
+        report.error = Some(error_norms(
+            &setup.grid,
+            &setup.cells,
+            dofs,
+            &solution.u,
+            exact,
+            l,
+            m,
+        ));
+        let ui = interpolate(&setup.grid, dofs, exact);
+        report.interpolant_error = Some(error_norms(
+            &setup.grid,
+            &setup.cells,
+            dofs,
+            &ui,
+            exact,
+            l,
+            m,
+        ));
     }
+    let mut reactions: BTreeMap<String, [f64; 3]> = BTreeMap::new();
+    for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
+        let e = reactions
+            .entry(case.geometry.tag_name(p.tag).to_string())
+            .or_default();
+        for i in 0..3 {
+            e[i] += p.w * r[i];
+        }
+    }
+    report.reactions = reactions;
 
-    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
+    let t = Instant::now();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let json = serde_json::to_vec_pretty(&report).context("serialising the report")?;
-    write_atomic(&dir.join("report.json"), &json)?;
-    println!("  wrote {}", dir.join("report.json").display());
+    write_solution(&setup, &solution.u, &dir.join("solution.vtu"))?;
+    report
+        .timings
+        .insert("output".into(), t.elapsed().as_secs_f64());
+    write_report(&dir, &report)?;
+
+    println!(
+        "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
+        so.method.name(),
+        format!("{:?}", so.preconditioner).to_lowercase(),
+        fp.iterations,
+        fp.iterations_per_solve,
+        fp.total_iterations,
+        fp.final_relative_residual
+    );
+    if let (Some(e), Some(ei)) = (&report.error, &report.interpolant_error) {
+        println!(
+            "  energy error {:.4e} (relative {:.4e}; interpolant {:.4e}), L2 relative {:.4e}",
+            e.energy, e.energy_relative, ei.energy_relative, e.l2_relative
+        );
+    }
+    for (tag, r) in &report.reactions {
+        println!(
+            "  reaction on '{tag}': [{:.6e}, {:.6e}, {:.6e}]",
+            r[0], r[1], r[2]
+        );
+    }
+    println!(
+        "  wrote {} and solution.vtu",
+        dir.join("report.json").display()
+    );
     Ok(())
 }

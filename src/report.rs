@@ -30,19 +30,68 @@ pub struct Domain {
     pub boundary_area_by_tag: BTreeMap<String, f64>,
 }
 
+/// `stabilisation`: the parameters used.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Stabilisation {
+    pub k1: f64,
+    pub k2: f64,
+    #[serde(rename = "A")]
+    pub a: f64,
+}
+
+/// `krylov`: the linear solves.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Krylov {
+    pub method: String,
+    pub preconditioner: String,
+    pub iterations_per_solve: Vec<usize>,
+    pub total_iterations: usize,
+    pub final_relative_residual: f64,
+}
+
+/// `fixed_point`: the recovery loop.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FixedPoint {
+    pub iterations: usize,
+    pub eps_history: Vec<f64>,
+    pub converged: bool,
+}
+
 /// The report of a run.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Report {
     pub case: String,
     pub file: String,
+    /// `"ok"`, `"failed"` (with `failure`).
     pub status: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
     pub level: u32,
     pub element: ElementOrder,
+    pub backend: String,
+    pub adapter: Option<String>,
+    pub precision: String,
     pub h: f64,
     pub grid_cells: [usize; 3],
     pub dofs: usize,
     pub cells: CellCounts,
     pub domain: Domain,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stabilisation: Option<Stabilisation>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fixed_point: Option<FixedPoint>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub krylov: Option<Krylov>,
+    /// Errors against the exact field, when the case gives one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<crate::fem::field::ErrorNorms>,
+    /// The same norms for the nodal interpolant of the exact field (the
+    /// best-approximation reference).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpolant_error: Option<crate::fem::field::ErrorNorms>,
+    /// Total reaction force `Σ w_q λ_q` per Dirichlet boundary tag.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub reactions: BTreeMap<String, [f64; 3]>,
     /// Seconds per phase.
     pub timings: BTreeMap<String, f64>,
 }
@@ -75,8 +124,12 @@ impl Report {
             case: case.into(),
             file: file.into(),
             status: "ok".into(),
+            failure: None,
             level: grid.level,
             element: order,
+            backend: "cpu".into(),
+            adapter: None,
+            precision: "f64".into(),
             h: grid.h,
             grid_cells: grid.n,
             dofs: 3 * active,
@@ -91,6 +144,12 @@ impl Report {
                 boundary_area: cells.boundary_area(),
                 boundary_area_by_tag: by_tag,
             },
+            stabilisation: None,
+            fixed_point: None,
+            krylov: None,
+            error: None,
+            interpolant_error: None,
+            reactions: BTreeMap::new(),
             timings: BTreeMap::new(),
         }
     }

@@ -35,6 +35,10 @@ pub struct CaseSpec {
     pub geometry: GeometrySpec,
     #[serde(default)]
     pub grid: GridSpec,
+    /// `[quadrature] points`: Gauss points per segment of the cut-cell rules
+    /// (default: [`cut_rule_points`] of the element).
+    #[serde(default)]
+    pub quadrature: Option<QuadratureSpec>,
     pub material: MaterialSpec,
     #[serde(default)]
     pub exact: Option<ExactSpec>,
@@ -84,6 +88,13 @@ impl Default for GridSpec {
             offset: [0.0; 3],
         }
     }
+}
+
+/// The `[quadrature]` table.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct QuadratureSpec {
+    pub points: usize,
 }
 
 /// A case ready to run: its spec, its solid and its file name.
@@ -136,7 +147,11 @@ impl Case {
         let mut spec: CaseSpec = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| {
                 let key = e.path().to_string();
-                let key = if key == "." { "(top level)".to_string() } else { key };
+                let key = if key == "." {
+                    "(top level)".to_string()
+                } else {
+                    key
+                };
                 bad(&key, e.into_inner().message().trim().to_string())
             })?;
         if spec.name.is_none() {
@@ -160,7 +175,10 @@ impl Case {
         let s = &self.spec;
         let m = &s.material;
         if !(m.young.is_finite() && m.young > 0.0) {
-            return Err(self.bad_key("material.young", format!("E must be positive, got {}", m.young)));
+            return Err(self.bad_key(
+                "material.young",
+                format!("E must be positive, got {}", m.young),
+            ));
         }
         if !(m.poisson > -1.0 && m.poisson < 0.5) {
             return Err(self.bad_key(
@@ -170,13 +188,19 @@ impl Case {
         }
         let st = &s.stabilisation;
         if !(st.k1.is_finite() && st.k1 > 0.0) {
-            return Err(self.bad_key("stabilisation.k1", format!("must be positive, got {}", st.k1)));
+            return Err(self.bad_key(
+                "stabilisation.k1",
+                format!("must be positive, got {}", st.k1),
+            ));
         }
         if !(st.k2.is_finite() && st.k2 >= 0.0) {
             return Err(self.bad_key("stabilisation.k2", format!("must be ≥ 0, got {}", st.k2)));
         }
         if !(0.0..1.0).contains(&st.a) {
-            return Err(self.bad_key("stabilisation.A", format!("must lie in [0, 1), got {}", st.a)));
+            return Err(self.bad_key(
+                "stabilisation.A",
+                format!("must lie in [0, 1), got {}", st.a),
+            ));
         }
         let so = &s.solver;
         for (key, v) in [
@@ -186,6 +210,14 @@ impl Case {
         ] {
             if !(v.is_finite() && v > 0.0 && v < 1.0) {
                 return Err(self.bad_key(key, format!("must lie in (0, 1), got {v}")));
+            }
+        }
+        if let Some(q) = &s.quadrature {
+            if !(1..=12).contains(&q.points) {
+                return Err(self.bad_key(
+                    "quadrature.points",
+                    format!("must lie in 1..=12, got {}", q.points),
+                ));
             }
         }
         if so.max_iterations == 0 || so.max_fixed_point == 0 {
@@ -201,7 +233,10 @@ impl Case {
                 ));
             }
             if uses_exact(&d.value) && s.exact.is_none() {
-                return Err(self.bad_key(&format!("dirichlet.{tag}.value"), "\"exact\" needs [exact]".into()));
+                return Err(self.bad_key(
+                    &format!("dirichlet.{tag}.value"),
+                    "\"exact\" needs [exact]".into(),
+                ));
             }
         }
         for (tag, n) in &s.neumann {
@@ -218,7 +253,10 @@ impl Case {
                 ));
             }
             if uses_exact(&n.traction) && s.exact.is_none() {
-                return Err(self.bad_key(&format!("neumann.{tag}.traction"), "\"exact\" needs [exact]".into()));
+                return Err(self.bad_key(
+                    &format!("neumann.{tag}.traction"),
+                    "\"exact\" needs [exact]".into(),
+                ));
             }
         }
         if let Some(b) = &s.body_load {
@@ -261,10 +299,18 @@ impl Case {
             .map_err(|e| self.bad_key("grid.level", e.to_string()))
     }
 
+    /// Points per segment of the cut-cell rules.
+    pub fn rule_points(&self) -> usize {
+        match &self.spec.quadrature {
+            Some(q) => q.points,
+            None => cut_rule_points(self.spec.element),
+        }
+    }
+
     /// Classifies the grid against the case's solid with the element's rule;
     /// an empty or misplaced solid is reported against the case's keys.
     pub fn classify(&self, grid: &Grid) -> Result<Cells> {
-        Cells::classify(grid, &self.geometry, cut_rule_points(self.spec.element)).map_err(|e| {
+        Cells::classify(grid, &self.geometry, self.rule_points()).map_err(|e| {
             let key = match e {
                 Error::GeometryOutsideGrid { .. } => "grid.box_min",
                 _ => "geometry",

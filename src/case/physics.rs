@@ -129,7 +129,7 @@ pub struct StabilisationSpec {
 impl Default for StabilisationSpec {
     fn default() -> Self {
         StabilisationSpec {
-            k1: 100.0,
+            k1: 30.0,
             k2: 0.0,
             a: 0.01,
         }

@@ -100,13 +100,20 @@ fn physics_tables_and_overrides() {
     let text = format!(
         "{SPHERE}{MATERIAL}[exact]\ndisplacement = [\"x\", \"2*y\", \"0\"]\n[dirichlet.surface]\nvalue = \"exact\"\n"
     );
-    let overrides = ["solver.method=cg".into(), "material.young = 5".into(), "grid.level=2".into()];
+    let overrides = [
+        "solver.method=cg".into(),
+        "material.young = 5".into(),
+        "grid.level=2".into(),
+    ];
     let case = Case::from_str_with("c.toml", &text, &overrides).unwrap();
     assert_eq!(case.spec.solver.method, crate::solver::KrylovMethod::Cg);
     assert_eq!(case.spec.material.young, 5.0);
     assert_eq!(case.spec.grid.level, 2);
-    assert_eq!(case.spec.dirichlet["surface"].value, physics::FieldValue::Exact);
-    assert_eq!(case.spec.stabilisation.k1, 100.0);
+    assert_eq!(
+        case.spec.dirichlet["surface"].value,
+        physics::FieldValue::Exact
+    );
+    assert_eq!(case.spec.stabilisation.k1, 30.0);
 }
 
 #[test]

@@ -57,15 +57,16 @@ pub fn fixed_point(
     let be = CpuBackend::new();
     let diag = op.diagonal();
     let mut krylov = opts.krylov.clone();
-    let mut run_solve = |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
-        krylov.rel_tol = tol;
-        let stats: KrylovStats = solve(&be, op, Some(&diag), &rhs.to_vec(), u, &krylov)?;
-        report.iterations_per_solve.push(stats.iterations);
-        report.total_iterations += stats.iterations;
-        report.tolerances.push(tol);
-        report.final_relative_residual = stats.true_relative_residual;
-        Ok(())
-    };
+    let mut run_solve =
+        |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
+            krylov.rel_tol = tol;
+            let stats: KrylovStats = solve(&be, op, Some(&diag), &rhs.to_vec(), u, &krylov)?;
+            report.iterations_per_solve.push(stats.iterations);
+            report.total_iterations += stats.iterations;
+            report.tolerances.push(tol);
+            report.final_relative_residual = stats.true_relative_residual;
+            Ok(())
+        };
     let mut u = vec![0.0; fixed.len()];
     let mut tau = opts.krylov.rel_tol;
     run_solve(fixed, &mut u, tau, report)?;
@@ -74,7 +75,12 @@ pub fn fixed_point(
         let rhs: Vec<f64> = fixed.iter().zip(&extra).map(|(a, b)| a + b).collect();
         let mut next = u.clone();
         run_solve(&rhs, &mut next, tau, report)?;
-        let diff: f64 = next.iter().zip(&u).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+        let diff: f64 = next
+            .iter()
+            .zip(&u)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
         let norm: f64 = next.iter().map(|a| a * a).sum::<f64>().sqrt();
         let eps = if norm > 0.0 { diff / norm } else { 0.0 };
         report.iterations += 1;

@@ -4,6 +4,7 @@ pub mod dofs;
 pub mod field;
 pub mod fixed_point;
 pub mod operator;
+pub mod output;
 pub mod problem;
 pub mod recovery;
 pub mod rhs;

@@ -99,7 +99,10 @@ impl ElasticOperator {
         let s = self.slot[cell];
         assert!(s != OUTSIDE && s != INSIDE, "cell {cell} has no own matrix");
         let ne2 = self.ne * self.ne;
-        for (k, v) in self.k_own[s as usize * ne2..(s as usize + 1) * ne2].iter_mut().zip(m) {
+        for (k, v) in self.k_own[s as usize * ne2..(s as usize + 1) * ne2]
+            .iter_mut()
+            .zip(m)
+        {
             *k += v;
         }
     }
@@ -112,7 +115,9 @@ impl ElasticOperator {
     /// Bytes of operator data (matrices and maps), for the memory reports.
     pub fn bytes(&self) -> usize {
         8 * (self.k_inside.len() + self.k_own.len())
-            + 4 * (self.slot.len() + self.dofs.node_to_active.len() + self.dofs.active_to_node.len())
+            + 4 * (self.slot.len()
+                + self.dofs.node_to_active.len()
+                + self.dofs.active_to_node.len())
     }
 
     /// Calls `f(cell, local, matrix)` for the cells around an active node.
@@ -178,7 +183,8 @@ impl ElasticOperator {
                 col_ptr.push(row_idx.len());
             }
         }
-        let symbolic = faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        let symbolic =
+            faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         faer::sparse::SparseColMat::new(symbolic, values)
     }
 }
@@ -191,26 +197,29 @@ impl LinearOperator for ElasticOperator {
     /// `y = A x`, node-centred gather (see the module doc).
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         let npc = self.dofs.order.nodes_per_cell();
-        y.par_chunks_mut(3).enumerate().with_min_len(64).for_each_init(
-            || (vec![0usize; npc], vec![0.0; 3 * npc]),
-            |(nodes, xe), (a, yn)| {
-                yn.fill(0.0);
-                self.for_node_cells(a, |cell, l, k| {
-                    self.dofs.cell_active_nodes(&self.grid, cell, nodes);
-                    for (m, &an) in nodes.iter().enumerate() {
-                        xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
-                    }
-                    for i in 0..3 {
-                        let row = &k[(3 * l + i) * self.ne..(3 * l + i + 1) * self.ne];
-                        let mut s = 0.0;
-                        for j in 0..self.ne {
-                            s += row[j] * xe[j];
+        y.par_chunks_mut(3)
+            .enumerate()
+            .with_min_len(64)
+            .for_each_init(
+                || (vec![0usize; npc], vec![0.0; 3 * npc]),
+                |(nodes, xe), (a, yn)| {
+                    yn.fill(0.0);
+                    self.for_node_cells(a, |cell, l, k| {
+                        self.dofs.cell_active_nodes(&self.grid, cell, nodes);
+                        for (m, &an) in nodes.iter().enumerate() {
+                            xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
                         }
-                        yn[i] += s;
-                    }
-                });
-            },
-        );
+                        for i in 0..3 {
+                            let row = &k[(3 * l + i) * self.ne..(3 * l + i + 1) * self.ne];
+                            let mut s = 0.0;
+                            for j in 0..self.ne {
+                                s += row[j] * xe[j];
+                            }
+                            yn[i] += s;
+                        }
+                    });
+                },
+            );
     }
 
     fn diagonal(&self) -> Vec<f64> {
@@ -255,7 +264,11 @@ impl LinearOperator for AssembledOperator {
             .map(|j| {
                 let rows = a.row_idx_of_col_raw(j);
                 let vals = a.val_of_col(j);
-                rows.iter().zip(vals).filter(|(r, _)| **r == j).map(|(_, v)| *v).sum()
+                rows.iter()
+                    .zip(vals)
+                    .filter(|(r, _)| **r == j)
+                    .map(|(_, v)| *v)
+                    .sum()
             })
             .collect()
     }

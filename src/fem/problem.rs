@@ -69,12 +69,17 @@ impl Problem {
     }
 
     fn exact(&self) -> &VectorExpr {
-        self.exact.as_ref().expect("\"exact\" is checked against [exact] when the case is read")
+        self.exact
+            .as_ref()
+            .expect("\"exact\" is checked against [exact] when the case is read")
     }
 
     /// Per tag: is it a Dirichlet part?
     pub fn dirichlet_tags(&self) -> Vec<bool> {
-        self.boundary.iter().map(|b| matches!(b, Boundary::Dirichlet(_))).collect()
+        self.boundary
+            .iter()
+            .map(|b| matches!(b, Boundary::Dirichlet(_)))
+            .collect()
     }
 
     /// True when some body load is applied.
@@ -87,7 +92,9 @@ impl Problem {
         match &self.body {
             None => [0.0; 3],
             Some(FieldValue::Given(v)) => v.eval(x),
-            Some(FieldValue::Exact) => body_load_from_displacement(self.exact(), self.lambda, self.mu, x),
+            Some(FieldValue::Exact) => {
+                body_load_from_displacement(self.exact(), self.lambda, self.mu, x)
+            }
         }
     }
 
@@ -98,6 +105,11 @@ impl Problem {
             Boundary::Dirichlet(FieldValue::Exact) => self.exact().eval(x),
             _ => [0.0; 3],
         }
+    }
+
+    pub fn traction_exact_debug(&self, x: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+        let s = stress_from_displacement(self.exact(), self.lambda, self.mu, x);
+        [0, 1, 2].map(|i| s[i][0] * n[0] + s[i][1] * n[1] + s[i][2] * n[2])
     }
 
     /// The prescribed traction at `x` (outward normal `n`) on a Neumann part.

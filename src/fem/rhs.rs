@@ -12,6 +12,7 @@ use crate::grid::Grid;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DirichletPoint {
     pub cell: usize,
+    pub tag: u16,
     pub x: [f64; 3],
     pub w: f64,
     pub n: [f64; 3],
@@ -26,6 +27,7 @@ pub fn dirichlet_points(cells: &Cells, problem: &Problem) -> Vec<DirichletPoint>
             if let Boundary::Dirichlet(_) = problem.boundary[q.tag as usize] {
                 out.push(DirichletPoint {
                     cell,
+                    tag: q.tag,
                     x: q.x,
                     w: q.w,
                     n: q.n,
@@ -38,7 +40,14 @@ pub fn dirichlet_points(cells: &Cells, problem: &Problem) -> Vec<DirichletPoint>
 }
 
 /// Adds `w N(x)ᵀ f` to `rhs` for a point `x` of `cell`.
-fn add_point_load(grid: &Grid, dofs: &DofMap, cell: usize, x: [f64; 3], f: [f64; 3], rhs: &mut [f64]) {
+fn add_point_load(
+    grid: &Grid,
+    dofs: &DofMap,
+    cell: usize,
+    x: [f64; 3],
+    f: [f64; 3],
+    rhs: &mut [f64],
+) {
     let npc = dofs.order.nodes_per_cell();
     let mut nodes = [0usize; 27];
     let mut n = [0.0; 27];
@@ -101,7 +110,12 @@ pub fn fixed_rhs(
 }
 
 /// `F_T = Σ_q w_q N_qᵀ t̂_q` for recovered tractions `t̂` at the Dirichlet points.
-pub fn traction_rhs(grid: &Grid, dofs: &DofMap, dirichlet: &[DirichletPoint], t_hat: &[[f64; 3]]) -> Vec<f64> {
+pub fn traction_rhs(
+    grid: &Grid,
+    dofs: &DofMap,
+    dirichlet: &[DirichletPoint],
+    t_hat: &[[f64; 3]],
+) -> Vec<f64> {
     let mut rhs = vec![0.0; dofs.ndofs()];
     for (p, t) in dirichlet.iter().zip(t_hat) {
         add_point_load(grid, dofs, p.cell, p.x, t.map(|v| v * p.w), &mut rhs);

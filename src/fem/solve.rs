@@ -41,27 +41,53 @@ pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) ->
     let mut traction_load = |u: &[f64]| -> Result<Vec<f64>> {
         let sigma = recover_stress(setup, u, &nodes)?;
         let t = recovered_tractions(&setup.dirichlet, &sigma)?;
-        Ok(traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t))
+        Ok(traction_rhs(
+            &setup.grid,
+            &setup.op.dofs,
+            &setup.dirichlet,
+            &t,
+        ))
     };
     let opts = fixed_point_options(spec);
     let u = if setup.dirichlet.is_empty() {
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(setup, &opts, report)?
     } else {
-        fixed_point(&setup.op, &setup.fixed_rhs, &mut traction_load, &opts, report)?
+        fixed_point(
+            &setup.op,
+            &setup.fixed_rhs,
+            &mut traction_load,
+            &opts,
+            report,
+        )?
     };
     let sigma = recover_stress(setup, &u, &nodes)?;
     let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
     let reactions = reactions(setup, &u, &t_hat);
-    Ok(Solution { u, t_hat, reactions })
+    Ok(Solution {
+        u,
+        t_hat,
+        reactions,
+    })
 }
 
 /// A single Krylov solve of `A U = F` (no Dirichlet points).
-fn solve_once(setup: &Setup, opts: &FixedPointOptions, report: &mut FixedPointReport) -> Result<Vec<f64>> {
+fn solve_once(
+    setup: &Setup,
+    opts: &FixedPointOptions,
+    report: &mut FixedPointReport,
+) -> Result<Vec<f64>> {
     let be = crate::backend::CpuBackend::new();
     let diag = crate::backend::LinearOperator::diagonal(&setup.op);
     let mut u = vec![0.0; setup.fixed_rhs.len()];
-    let stats = crate::solver::solve(&be, &setup.op, Some(&diag), &setup.fixed_rhs, &mut u, &opts.krylov)?;
+    let stats = crate::solver::solve(
+        &be,
+        &setup.op,
+        Some(&diag),
+        &setup.fixed_rhs,
+        &mut u,
+        &opts.krylov,
+    )?;
     report.iterations_per_solve.push(stats.iterations);
     report.total_iterations = stats.iterations;
     report.tolerances.push(opts.krylov.rel_tol);

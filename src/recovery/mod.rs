@@ -18,9 +18,10 @@
 //! coordinates `ξ = (x − x_i)/h`, by least squares:
 //! `min Σ_s (σ*_{i,c}(x_s) − σ_{h,c}(x_s))²`, optionally subject to linear
 //! equality constraints `C a = d` on the stacked coefficients of all components
-//! (Lagrange multipliers, [`fit_polynomial`]). A patch with too few points or an
-//! ill-conditioned normal matrix is enlarged by one ring, up to
-//! [`SprOptions::max_rings`].
+//! (Lagrange multipliers, [`fit_polynomial`]). A patch with too few points, or
+//! whose points do not control the polynomial on the node's cells (an
+//! ill-conditioned whitened normal matrix, see [`FitOptions`]), is enlarged by
+//! one ring, up to [`SprOptions::max_rings`].
 //!
 //! The recovered field is the CPE blend of the patch polynomials of the cell's 8
 //! vertices with the trilinear hat functions `N_i^lin`:
@@ -39,6 +40,10 @@ use nalgebra::DMatrix;
 
 pub use fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
 pub use spr::{recover, Patch, PatchInfo, PatchSamples, Recovered, RecoveryStats, SprOptions};
+
+/// A sample: a point (physical, or scaled for [`fit_polynomial`]) and the `NC`
+/// field components there.
+pub type Sample<const NC: usize> = ([f64; 3], [f64; NC]);
 
 /// Highest polynomial degree of a [`Monomials`] basis (165 terms).
 pub const MAX_DEGREE: usize = 8;

@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 
 use super::fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
-use super::Monomials;
+use super::{Monomials, Sample};
 use crate::cells::CellKind;
 use crate::element::{shape_values, ElementOrder};
 use crate::error::{Error, Result};
@@ -22,7 +22,7 @@ use crate::grid::Grid;
 /// points of cut cells). Closures `Fn(cell, &mut out)` implement it.
 pub trait PatchSamples<const NC: usize>: Sync {
     /// Appends the samples of `cell` to `out` (without clearing it).
-    fn samples(&self, cell: usize, out: &mut Vec<([f64; 3], [f64; NC])>);
+    fn samples(&self, cell: usize, out: &mut Vec<Sample<NC>>);
 
     /// Linear constraints `C a = d` on the stacked coefficients of the fit on
     /// `patch` in the scaled basis `basis` (see [`LinearConstraints`],
@@ -34,9 +34,9 @@ pub trait PatchSamples<const NC: usize>: Sync {
 
 impl<F, const NC: usize> PatchSamples<NC> for F
 where
-    F: Fn(usize, &mut Vec<([f64; 3], [f64; NC])>) + Sync,
+    F: Fn(usize, &mut Vec<Sample<NC>>) + Sync,
 {
-    fn samples(&self, cell: usize, out: &mut Vec<([f64; 3], [f64; NC])>) {
+    fn samples(&self, cell: usize, out: &mut Vec<Sample<NC>>) {
         self(cell, out)
     }
 }
@@ -127,7 +127,8 @@ pub struct Recovered<const NC: usize> {
 /// [`SprOptions::max_rings`].
 ///
 /// # Panics
-/// When `kinds` does not have one entry per cell of `grid`.
+/// When `kinds` does not have one entry per cell of `grid`, or when
+/// `degree` exceeds [`super::MAX_DEGREE`] (see [`Monomials::new`]).
 pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     grid: &Grid,
     kinds: &[CellKind],
@@ -189,7 +190,7 @@ impl<S> Context<'_, S> {
     fn fit_node<const NC: usize>(
         &self,
         node: usize,
-        buf: &mut Vec<([f64; 3], [f64; NC])>,
+        buf: &mut Vec<Sample<NC>>,
     ) -> Result<(Vec<f64>, PatchInfo)>
     where
         S: PatchSamples<NC>,

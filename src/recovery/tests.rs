@@ -185,34 +185,3 @@ fn bad_constraints_are_reported() {
         Err(FitFailure::Singular)
     );
 }
-
-#[test]
-fn tmp_lambda() {
-    for p in 1..=3 {
-        let basis = Monomials::new(p);
-        let rule = crate::element::tensor_gauss_rule(p + 1);
-        let mut samples: Vec<([f64; 3], [f64; 1])> = vec![];
-        for i in -1..1 {
-            for j in -1..1 {
-                for k in -1..1 {
-                    for (xi, _) in &rule {
-                        samples.push((
-                            [i as f64 + xi[0], j as f64 + xi[1], k as f64 + xi[2]],
-                            [0.0],
-                        ));
-                    }
-                }
-            }
-        }
-        for st in [0.99f64, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2] {
-            let o = FitOptions {
-                min_sample_ratio: 1.5,
-                stability: st.powf(1.0 / p as f64),
-            };
-            if fit_polynomial(&basis, &samples, None, &o).is_ok() {
-                println!("p {p}: lambda >= {st}");
-                break;
-            }
-        }
-    }
-}
