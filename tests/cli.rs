@@ -47,20 +47,90 @@ fn assert_no_output(out: &Path) {
 
 const SPHERE: &str = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n";
 
+/// The physics of the paper's sphere, appended after the geometry and grid.
+const PHYSICS: &str = r#"
+[material]
+young = 1000.0
+poisson = 0.3
+[exact]
+displacement = ["x + x^2 - 2*x*y + x^3 - 3*x*y^2 + x^2*y", "-y - 2*x*y - 3*x^2*y + y^3 - x*y^2", "0"]
+[dirichlet.surface]
+value = "exact"
+[solver]
+method = "cg"
+preconditioner = "jacobi"
+"#;
+
+fn with_physics(text: &str) -> String {
+    format!("{text}{PHYSICS}")
+}
+
 #[test]
 fn a_good_case_writes_its_report() {
-    let (code, err, out) = run_case("good", SPHERE, &["--level", "4"]);
+    let (code, err, out) = run_case("good", &with_physics(SPHERE), &["--level", "3"]);
     assert_eq!(code, 0, "{err}");
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(report["level"], 4);
+    assert_eq!(report["level"], 3);
     assert_eq!(report["element"], "q1");
+    assert_eq!(report["status"], "ok");
+    assert_eq!(report["krylov"]["method"], "cg");
+    assert!(report["fixed_point"]["converged"].as_bool().unwrap());
+    let e = report["error"]["energy_relative"].as_f64().unwrap();
+    assert!(e > 0.05 && e < 0.3, "energy error {e}");
+    // The reaction balances the body load: ∫∂Ω λ = −∫Ω b = (10000, −25000, 0) V / 13.
+    let v = 4.0 / 3.0 * std::f64::consts::PI;
+    let rx = report["reactions"]["surface"][0].as_f64().unwrap();
+    assert!(
+        (rx - 10000.0 * v / 13.0).abs() < 0.02 * 10000.0 * v / 13.0,
+        "reaction {rx}"
+    );
+    let vtu = std::fs::read_to_string(out.join("solution.vtu")).unwrap();
+    assert!(vtu.contains("Name=\"displacement\"") && vtu.contains("Name=\"von_mises\""));
+    assert!(vtu.trim_end().ends_with("</VTKFile>"));
     let v = report["domain"]["volume"].as_f64().unwrap();
-    assert!((v - 4.0 / 3.0 * std::f64::consts::PI).abs() < 1e-5);
+    assert!((v - 4.0 / 3.0 * std::f64::consts::PI).abs() < 1e-4);
     let c = &report["cells"];
     let total =
         c["inside"].as_u64().unwrap() + c["cut"].as_u64().unwrap() + c["outside"].as_u64().unwrap();
-    assert_eq!(total, 16 * 16 * 16);
+    assert_eq!(total, 8 * 8 * 8);
+}
+
+#[test]
+fn set_overrides_any_key() {
+    let (code, err, out) = run_case(
+        "set",
+        &with_physics(SPHERE),
+        &[
+            "--level",
+            "2",
+            "--set",
+            "solver.method=cgs",
+            "--set",
+            "stabilisation.k1=50",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["krylov"]["method"], "cgs");
+    assert_eq!(report["stabilisation"]["k1"], 50.0);
+}
+
+#[test]
+fn solver_failure_exits_3_with_a_failed_report() {
+    let (code, err, out) = run_case(
+        "stuck",
+        &with_physics(SPHERE),
+        &["--level", "3", "--set", "solver.max_iterations=3"],
+    );
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("did not converge"), "{err}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["status"], "failed");
+    assert!(report["failure"].as_str().unwrap().contains("3 iterations"));
+    assert!(!out.join("solution.vtu").exists());
 }
 
 #[test]
@@ -89,6 +159,42 @@ fn bad_inputs_exit_2_and_name_the_key() {
         ("level_over_budget", SPHERE.to_string(), &["--level", "12"], &["largest level that fits"]),
         ("level_too_high", SPHERE.to_string(), &["--level", "40"], &["grid.level"]),
         (
+            "poisson_half",
+            with_physics(SPHERE).replace("poisson = 0.3", "poisson = 0.5"),
+            &[],
+            &["material.poisson"],
+        ),
+        (
+            "young_negative",
+            with_physics(SPHERE).replace("young = 1000.0", "young = 0"),
+            &[],
+            &["material.young"],
+        ),
+        (
+            "bad_expression",
+            with_physics(SPHERE).replace("\"0\"]", "\"0 +* 1\"]"),
+            &[],
+            &["exact.displacement[2]", "cannot parse"],
+        ),
+        (
+            "unknown_variable",
+            with_physics(SPHERE).replace("\"0\"]", "\"w\"]"),
+            &[],
+            &["exact.displacement[2]", "unknown variable 'w'"],
+        ),
+        (
+            "unknown_tag",
+            with_physics(SPHERE).replace("[dirichlet.surface]", "[dirichlet.outer]"),
+            &[],
+            &["dirichlet.outer", "surface"],
+        ),
+        (
+            "misspelled_physics",
+            with_physics(SPHERE).replace("[material]", "[materail]"),
+            &[],
+            &["materail"],
+        ),
+        (
             "bad_offset",
             format!("{SPHERE}[grid]\noffset = [1.5, 0, 0]\n"),
             &[],
@@ -96,7 +202,12 @@ fn bad_inputs_exit_2_and_name_the_key() {
         ),
     ];
     for (name, text, extra, needles) in cases {
-        let (code, err, out) = run_case(name, text, extra);
+        let text = if text.contains("young") {
+            text.clone()
+        } else {
+            with_physics(text)
+        };
+        let (code, err, out) = run_case(name, &text, extra);
         assert_eq!(code, 2, "{name}: exit {code}, stderr {err}");
         assert!(
             err.contains(&format!("{name}.toml")),

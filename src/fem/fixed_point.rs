@@ -43,6 +43,10 @@ pub struct FixedPointReport {
     pub final_relative_residual: f64,
     /// Did `ε` fall below the tolerance?
     pub converged: bool,
+    /// Seconds spent in the Krylov solves.
+    pub krylov_seconds: f64,
+    /// Seconds spent computing the recovered right-hand side.
+    pub recovery_seconds: f64,
 }
 
 /// Runs the loop. `recovered(U)` returns `F_rec(U)`; `fixed` is the rest of the
@@ -71,7 +75,9 @@ pub fn fixed_point(
     let mut tau = opts.krylov.rel_tol;
     run_solve(fixed, &mut u, tau, report)?;
     for _ in 0..opts.max_iterations {
+        let t = std::time::Instant::now();
         let extra = recovered(&u)?;
+        report.recovery_seconds += t.elapsed().as_secs_f64();
         let rhs: Vec<f64> = fixed.iter().zip(&extra).map(|(a, b)| a + b).collect();
         let mut next = u.clone();
         run_solve(&rhs, &mut next, tau, report)?;

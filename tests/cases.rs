@@ -1,0 +1,42 @@
+//! Every case in `cases/` runs as is (at level 2, to keep CI short) and
+//! writes its report and solution.
+
+use std::process::Command;
+
+#[test]
+fn every_case_runs() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("toml") {
+            continue;
+        }
+        let out = std::env::temp_dir().join(format!(
+            "cgfem-cases-{}-{}",
+            std::process::id(),
+            path.file_stem().unwrap().to_string_lossy()
+        ));
+        let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+            .args([
+                "run",
+                path.to_str().unwrap(),
+                "--level",
+                "2",
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            path.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(out.join("report.json").exists() && out.join("solution.vtu").exists());
+        std::fs::remove_dir_all(&out).unwrap();
+        count += 1;
+    }
+    assert!(count >= 2, "only {count} cases found");
+}
