@@ -119,6 +119,10 @@ fn run_case(
     report
         .timings
         .insert("solve".into(), t.elapsed().as_secs_f64());
+    report.timings.insert("krylov".into(), fp.krylov_seconds);
+    report
+        .timings
+        .insert("recovery".into(), fp.recovery_seconds);
     let so = &case.spec.solver;
     report.krylov = Some(Krylov {
         method: so.method.name().into(),

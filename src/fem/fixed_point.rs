@@ -64,7 +64,10 @@ pub fn fixed_point(
     let mut run_solve =
         |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
             krylov.rel_tol = tol;
-            let stats: KrylovStats = solve(&be, op, Some(&diag), &rhs.to_vec(), u, &krylov)?;
+            let t = std::time::Instant::now();
+            let result = solve(&be, op, Some(&diag), &rhs.to_vec(), u, &krylov);
+            report.krylov_seconds += t.elapsed().as_secs_f64();
+            let stats: KrylovStats = result?;
             report.iterations_per_solve.push(stats.iterations);
             report.total_iterations += stats.iterations;
             report.tolerances.push(tol);

@@ -107,11 +107,6 @@ impl Problem {
         }
     }
 
-    pub fn traction_exact_debug(&self, x: [f64; 3], n: [f64; 3]) -> [f64; 3] {
-        let s = stress_from_displacement(self.exact(), self.lambda, self.mu, x);
-        [0, 1, 2].map(|i| s[i][0] * n[0] + s[i][1] * n[1] + s[i][2] * n[2])
-    }
-
     /// The prescribed traction at `x` (outward normal `n`) on a Neumann part.
     pub fn traction(&self, tag: u16, x: [f64; 3], n: [f64; 3]) -> [f64; 3] {
         match &self.boundary[tag as usize] {

@@ -80,6 +80,7 @@ fn solve_once(
     let be = crate::backend::CpuBackend::new();
     let diag = crate::backend::LinearOperator::diagonal(&setup.op);
     let mut u = vec![0.0; setup.fixed_rhs.len()];
+    let t = std::time::Instant::now();
     let stats = crate::solver::solve(
         &be,
         &setup.op,
@@ -88,6 +89,7 @@ fn solve_once(
         &mut u,
         &opts.krylov,
     )?;
+    report.krylov_seconds = t.elapsed().as_secs_f64();
     report.iterations_per_solve.push(stats.iterations);
     report.total_iterations = stats.iterations;
     report.tolerances.push(opts.krylov.rel_tol);
