@@ -102,6 +102,7 @@ fn run_case(
         &setup.cells,
     );
     report.timings.extend(setup.timings.iter().cloned());
+    report.cells.pathological = Some(setup.omega_star.len());
     let st = &case.spec.stabilisation;
     report.stabilisation = Some(Stabilisation {
         k1: st.k1,

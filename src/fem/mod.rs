@@ -10,3 +10,4 @@ pub mod recovery;
 pub mod rhs;
 pub mod setup;
 pub mod solve;
+pub mod stabilisation;

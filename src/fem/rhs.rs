@@ -39,8 +39,8 @@ pub fn dirichlet_points(cells: &Cells, problem: &Problem) -> Vec<DirichletPoint>
     out
 }
 
-/// Adds `w N(x)ᵀ f` to `rhs` for a point `x` of `cell`.
-fn add_point_load(
+/// Adds `N(x)ᵀ f` to `rhs` for a point `x` of `cell` (`f` carries the weight).
+pub fn add_point_load(
     grid: &Grid,
     dofs: &DofMap,
     cell: usize,

@@ -7,6 +7,7 @@ use std::time::Instant;
 use super::operator::{ElasticOperator, OperatorParams};
 use super::problem::Problem;
 use super::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
+use super::stabilisation::{cell_s_matrix, pathological_cells};
 use crate::case::Case;
 use crate::cells::Cells;
 use crate::error::Result;
@@ -21,6 +22,10 @@ pub struct Setup {
     pub beta: f64,
     pub dirichlet: Vec<DirichletPoint>,
     pub fixed_rhs: Vec<f64>,
+    /// Pathological cells (Ω*), ascending.
+    pub omega_star: Vec<usize>,
+    /// `k2 E / h²`: the weight of the S-term (0 when it is off).
+    pub s_factor: f64,
     /// Seconds per phase.
     pub timings: Vec<(String, f64)>,
 }
@@ -44,7 +49,16 @@ impl Setup {
             beta,
             dirichlet_tags: &dirichlet_tags,
         };
-        let op = ElasticOperator::new(&grid, &cells, case.spec.element, &params);
+        let mut op = ElasticOperator::new(&grid, &cells, case.spec.element, &params);
+        let st = &case.spec.stabilisation;
+        let omega_star = pathological_cells(&cells, st.a);
+        let s_factor = st.k2 * problem.young / (grid.h * grid.h);
+        if s_factor > 0.0 {
+            let ks = cell_s_matrix(case.spec.element, s_factor, grid.h);
+            for &c in &omega_star {
+                op.add_to_cut_cell(c, &ks);
+            }
+        }
         let dirichlet = dirichlet_points(&cells, &problem);
         let fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
         timings.push(("operator_and_rhs".to_string(), t.elapsed().as_secs_f64()));
@@ -56,6 +70,8 @@ impl Setup {
             beta,
             dirichlet,
             fixed_rhs,
+            omega_star,
+            s_factor,
             timings,
         })
     }

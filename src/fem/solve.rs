@@ -1,11 +1,13 @@
 //! The linear-elastic solve of a set-up case: the fixed-point loop with the
-//! SPR-recovered Dirichlet traction, then the recovered tractions at the
+//! SPR-recovered Dirichlet traction and, when the S-term is on, the recovered
+//! displacement on the pathological cells; then the recovered tractions at the
 //! converged solution and the reactions.
 
 use super::fixed_point::{fixed_point, FixedPointOptions, FixedPointReport};
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::rhs::traction_rhs;
 use super::setup::Setup;
+use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::SolverSpec;
 use crate::error::Result;
 use crate::solver::KrylovOptions;
@@ -38,18 +40,22 @@ pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
 /// Solves; the loop's report is filled in even when the solve fails.
 pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) -> Result<Solution> {
     let nodes = traction_patch_nodes(setup);
+    let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
     let mut traction_load = |u: &[f64]| -> Result<Vec<f64>> {
         let sigma = recover_stress(setup, u, &nodes)?;
         let t = recovered_tractions(&setup.dirichlet, &sigma)?;
-        Ok(traction_rhs(
-            &setup.grid,
-            &setup.op.dofs,
-            &setup.dirichlet,
-            &t,
-        ))
+        let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
+        if stabilised {
+            let s = recover_displacement(setup, u, &setup.omega_star)?;
+            let fs = s_rhs(setup, &setup.omega_star, &s, setup.s_factor)?;
+            for (a, b) in f.iter_mut().zip(&fs) {
+                *a += b;
+            }
+        }
+        Ok(f)
     };
     let opts = fixed_point_options(spec);
-    let u = if setup.dirichlet.is_empty() {
+    let u = if setup.dirichlet.is_empty() && !stabilised {
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(setup, &opts, report)?
     } else {
