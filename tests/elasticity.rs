@@ -235,3 +235,45 @@ fn results_are_insensitive_to_k1_over_a_decade() {
         100.0 * (hi / lo - 1.0)
     );
 }
+
+#[test]
+fn patch_test_with_the_s_term() {
+    // A = 0.2 makes a good share of the cut cells pathological; the recovered
+    // displacement of a linear field is the field itself, so F_S = K_S U_I.
+    let text = format!(
+        "[geometry]\ntype = \"sphere\"\ncenter = [0.1, -0.05, 0.02]\nradius = 0.9\n[grid]\nlevel = 3\noffset = [0.4, 0.15, 0.8]\n[quadrature]\npoints = 8\n[stabilisation]\nk2 = 0.01\nA = 0.2\n[dirichlet.surface]\nvalue = \"exact\"\n{LINEAR_FIELD}"
+    );
+    let case = Case::from_str("patch_s.toml", &text).unwrap();
+    let setup = Setup::new(&case, Some(3)).unwrap();
+    assert!(
+        setup.omega_star.len() > 10,
+        "only {} pathological cells",
+        setup.omega_star.len()
+    );
+    let (e, _, report) = solve_errors(&case, 3);
+    println!(
+        "S-term patch test: energy error {:.2e}, {} pathological cells",
+        e.energy_relative,
+        setup.omega_star.len()
+    );
+    assert!(report.converged);
+    assert!(e.energy_relative < 1e-9, "{:.3e}", e.energy_relative);
+}
+
+#[test]
+fn the_s_term_does_not_spoil_accuracy() {
+    let errors: Vec<f64> = ["0", "0.01", "0.001"]
+        .iter()
+        .map(|k2| {
+            let case = sphere_case(&format!(
+                "[grid]\noffset = [0.3, 0.1, 0.6]\n[stabilisation]\nk2 = {k2}\nA = 0.05\n[solver]\nmethod = \"cgs\"\npreconditioner = \"jacobi\"\n"
+            ));
+            let (e, _, report) = solve_errors(&case, 4);
+            println!("k2 = {k2}: energy error {:.5e}, fixed point {} iterations", e.energy_relative, report.iterations);
+            e.energy_relative
+        })
+        .collect();
+    for e in &errors[1..] {
+        assert!((e / errors[0] - 1.0).abs() < 0.05, "{errors:?}");
+    }
+}
