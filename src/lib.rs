@@ -10,6 +10,7 @@
 pub mod backend;
 pub mod case;
 pub mod cells;
+pub mod condition;
 pub mod element;
 pub mod error;
 pub mod expr;

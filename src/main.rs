@@ -11,13 +11,14 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 use cgfem_gpu::case::Case;
+use cgfem_gpu::condition::{condition_number, ConditionOptions};
 use cgfem_gpu::fem::field::{error_norms, interpolate};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;
 use cgfem_gpu::output::write_atomic;
-use cgfem_gpu::report::{FixedPoint, Krylov, Report, Stabilisation};
+use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
 
 #[derive(Parser)]
 #[command(
@@ -45,6 +46,10 @@ enum Command {
         /// Output folder (default: out/<case name>).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also estimate the condition numbers of the operator (plain and
+        /// Jacobi-scaled; assembles the matrix and factorises it).
+        #[arg(long)]
+        condition: bool,
     },
 }
 
@@ -71,7 +76,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             level,
             set,
             out,
-        } => run_case(&case, level, &set, out),
+            condition,
+        } => run_case(&case, level, &set, out, condition),
     }
 }
 
@@ -82,11 +88,27 @@ fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// κ and Jacobi-scaled κ of the assembled operator.
+fn condition_numbers(setup: &Setup) -> anyhow::Result<Condition> {
+    let a = setup.op.assemble();
+    let opts = ConditionOptions::default();
+    let plain = condition_number(&a, false, &opts)?;
+    let scaled = condition_number(&a, true, &opts)?;
+    Ok(Condition {
+        kappa: plain.kappa,
+        kappa_jacobi: scaled.kappa,
+        kappa_is_lower_bound: plain.kappa_is_lower_bound,
+        kappa_jacobi_is_lower_bound: scaled.kappa_is_lower_bound,
+        method: format!("plain: {}; jacobi: {}", plain.method, scaled.method),
+    })
+}
+
 fn run_case(
     path: &Path,
     level: Option<u32>,
     set: &[String],
     out: Option<PathBuf>,
+    condition: bool,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
@@ -113,6 +135,24 @@ fn run_case(
         "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
         case.file, setup.grid.level, report.dofs, report.cells.inside, report.cells.cut
     );
+
+    if condition {
+        let t = Instant::now();
+        report.condition = Some(condition_numbers(&setup)?);
+        report
+            .timings
+            .insert("condition".into(), t.elapsed().as_secs_f64());
+        if let Some(c) = &report.condition {
+            let bound = |b: bool| if b { "≥ " } else { "" };
+            println!(
+                "  κ = {}{:.3e}, Jacobi-scaled κ = {}{:.3e}",
+                bound(c.kappa_is_lower_bound),
+                c.kappa,
+                bound(c.kappa_jacobi_is_lower_bound),
+                c.kappa_jacobi
+            );
+        }
+    }
 
     let t = Instant::now();
     let mut fp = FixedPointReport::default();

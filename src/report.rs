@@ -57,6 +57,17 @@ pub struct FixedPoint {
     pub converged: bool,
 }
 
+/// `condition`: κ of the operator on the active dofs (DESIGN §3.5).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Condition {
+    pub kappa: f64,
+    pub kappa_jacobi: f64,
+    /// True where only a lower bound could be given (then `method` says why).
+    pub kappa_is_lower_bound: bool,
+    pub kappa_jacobi_is_lower_bound: bool,
+    pub method: String,
+}
+
 /// The report of a run.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Report {
@@ -89,6 +100,9 @@ pub struct Report {
     /// best-approximation reference).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interpolant_error: Option<crate::fem::field::ErrorNorms>,
+    /// Condition numbers of the operator (`run --condition`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition: Option<Condition>,
     /// Total reaction force `Σ w_q λ_q` per Dirichlet boundary tag.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub reactions: BTreeMap<String, [f64; 3]>,
@@ -149,6 +163,7 @@ impl Report {
             krylov: None,
             error: None,
             interpolant_error: None,
+            condition: None,
             reactions: BTreeMap::new(),
             timings: BTreeMap::new(),
         }

@@ -1,0 +1,140 @@
+//! The sparse-matrix side of the condition estimate: `A x`, the Jacobi scaling
+//! `D^-1/2 A D^-1/2`, the sparse Cholesky factor `A = L Lᵀ` (faer, AMD
+//! ordering, sequential so that results are reproducible) and the Rayleigh
+//! quotient `zᵀ A z` with its rounding level.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltError;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
+};
+use faer::sparse::linalg::matmul::sparse_dense_matmul;
+use faer::sparse::SparseColMat;
+use faer::{Accum, Conj, MatMut, MatRef, Par, Side};
+
+use crate::{Error, Result};
+
+/// `y = A x` (column by column; `A` is square).
+pub(super) fn matvec(a: &SparseColMat<usize, f64>, x: &[f64], y: &mut [f64]) {
+    let n = a.nrows();
+    sparse_dense_matmul(
+        MatMut::from_column_major_slice_mut(y, n, 1),
+        Accum::Replace,
+        a.as_ref(),
+        MatRef::from_column_major_slice(x, n, 1),
+        1.0,
+        Par::Seq,
+    );
+}
+
+/// The diagonal of `A` (zero where no entry is stored).
+fn diagonal(a: &SparseColMat<usize, f64>) -> Vec<f64> {
+    (0..a.ncols())
+        .map(|j| {
+            a.row_idx_of_col_raw(j)
+                .iter()
+                .zip(a.val_of_col(j))
+                .filter(|(&i, _)| i == j)
+                .map(|(_, &v)| v)
+                .sum()
+        })
+        .collect()
+}
+
+/// `S = D^-1/2 A D^-1/2`, `S_ij = A_ij / √(d_i d_j)`, on the sparsity of `A`
+/// (so `S_ii = 1` exactly: `√(d²) = d` in IEEE arithmetic).
+///
+/// # Errors
+/// [`Error::Breakdown`] when a diagonal entry is not positive.
+pub(super) fn jacobi_scaled(a: &SparseColMat<usize, f64>) -> Result<SparseColMat<usize, f64>> {
+    let d = diagonal(a);
+    if let Some((i, v)) = d.iter().enumerate().find(|(_, v)| **v <= 0.0 || v.is_nan()) {
+        return Err(Error::Breakdown {
+            method: "jacobi scaling".into(),
+            iterations: 0,
+            what: format!("diagonal entry {i} is {v:e}, not positive"),
+        });
+    }
+    let mut s = a.clone();
+    for j in 0..a.ncols() {
+        let rows = a.row_idx_of_col_raw(j);
+        for (v, &i) in s.val_of_col_mut(j).iter_mut().zip(rows) {
+            *v /= (d[i] * d[j]).sqrt();
+        }
+    }
+    Ok(s)
+}
+
+/// The sparse Cholesky factor of a symmetric matrix (its lower triangle read).
+pub(super) struct Cholesky {
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+}
+
+impl Cholesky {
+    /// Factors `A`; `Err` says why it failed (a non-positive pivot: `A` is not
+    /// numerically positive definite; or out of memory).
+    pub fn new(a: &SparseColMat<usize, f64>) -> std::result::Result<Self, String> {
+        let symbolic = factorize_symbolic_cholesky(
+            a.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| format!("{e:?}"))?;
+        let mut values = vec![0.0; symbolic.len_val()];
+        let req = symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+        let mut mem = MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?;
+        symbolic
+            .factorize_numeric_llt(
+                &mut values,
+                a.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|LltError::NonPositivePivot { index }| {
+                format!("non-positive pivot {index} of {}", a.nrows())
+            })?;
+        Ok(Cholesky { symbolic, values })
+    }
+
+    /// `x ← A⁻¹ x`.
+    pub fn solve_in_place(&self, x: &mut [f64]) {
+        let n = x.len();
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(x, n, 1),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+    }
+}
+
+/// A computed Rayleigh quotient and the size of its rounding error.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Rayleigh {
+    pub value: f64,
+    pub noise: f64,
+}
+
+/// `zᵀ A z` for a unit `z`, with the rounding level `(k + √n) ε |z|ᵀ|A||z|`
+/// (`k` the most entries in a column: `k ε` bounds each computed entry of
+/// `A z`, and `√n ε` is the realistic error of the `n`-term sum).
+pub(super) fn rayleigh(a: &SparseColMat<usize, f64>, z: &[f64]) -> Rayleigh {
+    let (mut value, mut magnitude, mut k) = (0.0, 0.0, 0usize);
+    for j in 0..a.ncols() {
+        let rows = a.row_idx_of_col_raw(j);
+        let vals = a.val_of_col(j);
+        let az: f64 = rows.iter().zip(vals).map(|(&i, v)| v * z[i]).sum();
+        let abs: f64 = rows.iter().zip(vals).map(|(&i, v)| (v * z[i]).abs()).sum();
+        value += z[j] * az;
+        magnitude += z[j].abs() * abs;
+        k = k.max(rows.len());
+    }
+    let noise = (k as f64 + (z.len() as f64).sqrt()) * f64::EPSILON * magnitude;
+    Rayleigh { value, noise }
+}
