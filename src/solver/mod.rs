@@ -199,10 +199,22 @@ pub fn solve<B: Backend>(
         }
         stats.restarts = cycle;
         stats.residual_history.push(rel);
-        match opts.method {
-            KrylovMethod::Cg => krylov::cg(&problem, x, &mut r, &mut stats)?,
-            KrylovMethod::Cgs => krylov::cgs(&problem, x, &mut r, &mut stats)?,
-            KrylovMethod::BiCgStab => krylov::bicgstab(&problem, x, &mut r, &mut stats)?,
+        let started = stats.iterations;
+        let result = match opts.method {
+            KrylovMethod::Cg => krylov::cg(&problem, x, &mut r, &mut stats),
+            KrylovMethod::Cgs => krylov::cgs(&problem, x, &mut r, &mut stats),
+            KrylovMethod::BiCgStab => krylov::bicgstab(&problem, x, &mut r, &mut stats),
+        };
+        match result {
+            Ok(()) => {}
+            // A vanishing r̃·r or r̃·v in CGS/BiCGStab (a "lucky" or serious
+            // breakdown of the bi-orthogonalisation) after some progress:
+            // restart from the true residual with a fresh shadow residual.
+            Err(Error::Breakdown { what, .. })
+                if opts.method != KrylovMethod::Cg
+                    && what.ends_with("= 0")
+                    && stats.iterations > started => {}
+            Err(e) => return Err(e),
         }
     }
     Err(Error::MaxIterations {
