@@ -1,4 +1,5 @@
 //! Quadrature: Gauss rules and cut-cell rules for implicitly defined domains.
 pub mod gauss;
+mod lines;
 mod roots;
 pub mod saye;
