@@ -21,6 +21,7 @@ pub mod output;
 pub mod quadrature;
 pub mod recovery;
 pub mod report;
+pub mod reproduce;
 pub mod solver;
 pub mod vtu;
 

@@ -51,6 +51,18 @@ enum Command {
         #[arg(long)]
         condition: bool,
     },
+    /// Regenerate a result of the paper beside the paper's figures:
+    /// DIR/<what>.json, .md and .svg. Only `table1` so far.
+    Reproduce {
+        /// What to reproduce: table1.
+        what: String,
+        /// Levels to run (default 4 and 5).
+        #[arg(long = "level")]
+        levels: Vec<u32>,
+        /// Output folder (default: out/reproduce).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -78,6 +90,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             condition,
         } => run_case(&case, level, &set, out, condition),
+        Command::Reproduce { what, levels, out } => reproduce(&what, &levels, out),
     }
 }
 
@@ -86,6 +99,36 @@ fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
     let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
     write_atomic(&dir.join("report.json"), &json)?;
     Ok(())
+}
+
+/// The paper's Problem 1 as shipped in `cases/sphere.toml`.
+const SPHERE_CASE: &str = include_str!("../cases/sphere.toml");
+
+fn reproduce(what: &str, levels: &[u32], out: Option<PathBuf>) -> anyhow::Result<()> {
+    let dir = out.unwrap_or_else(|| PathBuf::from("out").join("reproduce"));
+    let levels = if levels.is_empty() {
+        vec![4, 5]
+    } else {
+        levels.to_vec()
+    };
+    match what {
+        "table1" => {
+            let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
+            let rows = cgfem_gpu::reproduce::table1(&case, &levels, &dir)?;
+            println!(
+                "table1: {} rows; wrote {}/table1.{{json,md,svg}}",
+                rows.len(),
+                dir.display()
+            );
+            Ok(())
+        }
+        other => Err(cgfem_gpu::Error::CaseFile {
+            file: "(command line)".into(),
+            key: "reproduce".into(),
+            reason: format!("unknown result '{other}'; available: table1"),
+        }
+        .into()),
+    }
 }
 
 /// κ and Jacobi-scaled κ of the assembled operator.
