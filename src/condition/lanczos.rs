@@ -20,13 +20,12 @@
 //! eigenvectors by a twisted factorisation of `T_m − θ`, both `O(m)`, so the
 //! convergence test after every step costs nothing next to the step itself.
 
+use crate::solver::tridiagonal_eigenvalue;
 use crate::{Error, Result};
 
 /// `β_j ≤ BREAKDOWN · ‖T‖` means the Krylov space is invariant: the Ritz values
 /// are eigenvalues to that accuracy and no further step can add anything.
 const BREAKDOWN: f64 = 1e-12;
-/// Bisection steps at most (about 55 reach `ε ‖T‖` from the Gershgorin bracket).
-const MAX_BISECTIONS: usize = 200;
 
 /// Which end of the spectrum a run converges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,7 +96,7 @@ impl Lanczos {
     /// The unit Ritz vector `Q_m s` of the Ritz value at `end`.
     pub fn ritz_vector(&self, end: End) -> Vec<f64> {
         let m = self.steps();
-        let theta = eigenvalue(&self.alphas, &self.off2(), end_index(end, m));
+        let theta = tridiagonal_eigenvalue(&self.alphas, &self.off2(), end_index(end, m));
         let s = eigenvector(&self.alphas, &self.betas[..m - 1], theta);
         let mut y = vec![0.0; self.basis[0].len()];
         for (q, &c) in self.basis.iter().zip(&s) {
@@ -145,13 +144,13 @@ impl Lanczos {
     fn ritz_value(&self, end: End) -> (f64, f64) {
         let m = self.steps();
         let off2 = self.off2();
-        let theta = eigenvalue(&self.alphas, &off2, end_index(end, m));
+        let theta = tridiagonal_eigenvalue(&self.alphas, &off2, end_index(end, m));
         let s = eigenvector(&self.alphas, &self.betas[..m - 1], theta);
         let r = self.betas[m - 1] * s[m - 1].abs();
         let gap = match (m, end) {
             (1, _) => 0.0,
-            (_, End::Largest) => theta - eigenvalue(&self.alphas, &off2, m - 2),
-            (_, End::Smallest) => eigenvalue(&self.alphas, &off2, 1) - theta,
+            (_, End::Largest) => theta - tridiagonal_eigenvalue(&self.alphas, &off2, m - 2),
+            (_, End::Smallest) => tridiagonal_eigenvalue(&self.alphas, &off2, 1) - theta,
         };
         let error = if gap > 0.0 { r.min(r * r / gap) } else { r };
         (theta, error)
@@ -198,54 +197,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// `y += c x`.
 fn axpy(c: f64, x: &[f64], y: &mut [f64]) {
     y.iter_mut().zip(x).for_each(|(yi, xi)| *yi += c * xi);
-}
-
-/// Number of eigenvalues below `x` of the symmetric tridiagonal with diagonal
-/// `diag` and squared off-diagonal `off2`: the negative pivots of the `LDLᵀ` of
-/// `T − x`, `q_0 = d_0 − x`, `q_k = d_k − x − e²_{k−1} / q_{k−1}`.
-fn sturm_count(diag: &[f64], off2: &[f64], x: f64, pivmin: f64) -> usize {
-    let mut count = 0;
-    let mut q = 1.0;
-    for (k, &d) in diag.iter().enumerate() {
-        let coupling = if k == 0 { 0.0 } else { off2[k - 1] / q };
-        q = d - x - coupling;
-        if q.abs() < pivmin {
-            q = -pivmin;
-        }
-        if q < 0.0 {
-            count += 1;
-        }
-    }
-    count
-}
-
-/// The `k`-th smallest eigenvalue (from 0) by bisection inside the Gershgorin
-/// interval, to an absolute accuracy of about `ε ‖T‖`.
-fn eigenvalue(diag: &[f64], off2: &[f64], k: usize) -> f64 {
-    let m = diag.len();
-    let off = |i: usize| off2.get(i).map_or(0.0, |e2| e2.sqrt());
-    let radius = |i: usize| off(i) + if i == 0 { 0.0 } else { off(i - 1) };
-    let lo = (0..m)
-        .map(|i| diag[i] - radius(i))
-        .fold(f64::INFINITY, f64::min);
-    let hi = (0..m)
-        .map(|i| diag[i] + radius(i))
-        .fold(f64::NEG_INFINITY, f64::max);
-    let scale = lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE);
-    let pivmin = f64::MIN_POSITIVE * off2.iter().fold(1.0f64, |a, &e2| a.max(e2));
-    let (mut lo, mut hi) = (lo - f64::EPSILON * scale, hi + f64::EPSILON * scale);
-    for _ in 0..MAX_BISECTIONS {
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi || hi - lo <= 2.0 * f64::EPSILON * scale {
-            break;
-        }
-        if sturm_count(diag, off2, mid, pivmin) > k {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    0.5 * (lo + hi)
 }
 
 /// The unit eigenvector of the tridiagonal (diagonal `d`, off-diagonal `e`,
@@ -313,7 +264,7 @@ mod tests {
             let off2: Vec<f64> = off.iter().map(|e| e * e).collect();
             let norm = diag.iter().fold(0.0f64, |a, d| a.max(d.abs())) + 2.0;
             for k in [0, m - 1] {
-                let theta = eigenvalue(&diag, &off2, k);
+                let theta = tridiagonal_eigenvalue(&diag, &off2, k);
                 let s = eigenvector(&diag, &off, theta);
                 assert!((dot(&s, &s) - 1.0).abs() < 1e-12);
                 for i in 0..m {

@@ -27,8 +27,8 @@ pub fn lanczos_extreme_eigenvalues(alphas: &[f64], betas: &[f64]) -> (f64, f64) 
     let (diag, off2) = lanczos_tridiagonal(alphas, betas);
     let m = diag.len();
     (
-        kth_eigenvalue(&diag, &off2, 0),
-        kth_eigenvalue(&diag, &off2, m - 1),
+        tridiagonal_eigenvalue(&diag, &off2, 0),
+        tridiagonal_eigenvalue(&diag, &off2, m - 1),
     )
 }
 
@@ -77,10 +77,11 @@ fn sturm_count(diag: &[f64], off2: &[f64], x: f64, pivmin: f64) -> usize {
     count
 }
 
-/// The `k`-th smallest eigenvalue (from 0) by bisection inside the Gershgorin
+/// The `k`-th smallest eigenvalue (from 0) of the symmetric tridiagonal with
+/// diagonal `diag` and squared off-diagonal `off2`, by bisection inside the Gershgorin
 /// interval, to an absolute accuracy of about `ε ‖T‖` (so `λ_min` to a relative
 /// accuracy of about `ε κ`).
-fn kth_eigenvalue(diag: &[f64], off2: &[f64], k: usize) -> f64 {
+pub fn tridiagonal_eigenvalue(diag: &[f64], off2: &[f64], k: usize) -> f64 {
     let m = diag.len();
     let off = |i: usize| off2.get(i).map_or(0.0, |e2| e2.sqrt());
     let radius = |i: usize| off(i) + if i == 0 { 0.0 } else { off(i - 1) };
@@ -149,7 +150,7 @@ mod tests {
                 dense[m - 1]
             );
             for (k, &want) in dense.iter().enumerate() {
-                let got = kth_eigenvalue(&diag, &off2, k);
+                let got = tridiagonal_eigenvalue(&diag, &off2, k);
                 assert!((got - want).abs() <= tol, "m {m}: λ_{k} {got} vs {want}");
             }
         }

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 
-pub use lanczos::lanczos_extreme_eigenvalues;
+pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 
 use krylov::Problem;
 use precond::Precond;
