@@ -121,6 +121,12 @@ impl Cells {
         Ok(cells)
     }
 
+    /// Position of `cell` in [`Cells::cut`], if it is cut (binary search: the
+    /// list is ascending).
+    pub fn cut_position(&self, cell: usize) -> Option<usize> {
+        self.cut.binary_search(&cell).ok()
+    }
+
     /// Volume points of the `i`-th cut cell.
     pub fn volume_points(&self, i: usize) -> &[VolumePoint] {
         &self.volume[self.volume_start[i]..self.volume_start[i + 1]]

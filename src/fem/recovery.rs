@@ -1,7 +1,6 @@
 //! Stress recovery (DESIGN §5.1) for the fixed-point loop and the output: SPR
 //! of degree p of the FE stress on the patches of Q1 vertex nodes, sampled at
-//! the Gauss points of inside cells and at up to twice as many of the cut-cell
-//! volume points in cut cells, blended by CPE; the recovered traction `t̂ = σ̂ n` at the Dirichlet points, and the
+//! [`sample_positions`], blended by CPE; the recovered traction `t̂ = σ̂ n` at the Dirichlet points, and the
 //! reactions `λ_q = t̂_q − (β/h)(u_h(x_q) − g_q)`.
 
 use super::field::{stress_voigt, value_and_gradient};
@@ -34,45 +33,56 @@ pub fn vertex_nodes_of(setup: &Setup, cells: &[usize]) -> Vec<usize> {
     nodes
 }
 
+/// The SPR sample points of a cell (stress and displacement recovery alike):
+/// the Gauss points `rule` of an inside cell; in a cut cell at most twice as
+/// many of its volume points, evenly strided through the sweep order of the
+/// rule, which is enough for a least-squares fit and keeps the cost
+/// independent of the accuracy of the cut-cell rule.
+pub fn sample_positions(
+    setup: &Setup,
+    cell: usize,
+    rule: &[([f64; 3], f64)],
+    out: &mut Vec<[f64; 3]>,
+) {
+    let grid = &setup.grid;
+    match setup.cells.kinds[cell] {
+        CellKind::Inside => {
+            let lo = grid.cell_box(cell).lo;
+            out.extend(
+                rule.iter()
+                    .map(|(xi, _)| [0, 1, 2].map(|a| lo[a] + grid.h * xi[a])),
+            );
+        }
+        CellKind::Cut => {
+            let i = setup
+                .cells
+                .cut_position(cell)
+                .expect("a cut cell is in the cut list");
+            let pts = setup.cells.volume_points(i);
+            let stride = pts.len().div_ceil(2 * rule.len()).max(1);
+            out.extend(pts.iter().step_by(stride).map(|q| q.x));
+        }
+        CellKind::Outside => {}
+    }
+}
+
 /// SPR of the stress of `u` on the patches of `nodes`.
 pub fn recover_stress(setup: &Setup, u: &[f64], nodes: &[usize]) -> Result<Recovered<6>> {
     let grid = &setup.grid;
-    let cells = &setup.cells;
     let dofs = &setup.op.dofs;
     let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis());
-    let max_cut_samples = 2 * rule.len();
-    let mut cut_index = std::collections::HashMap::with_capacity(cells.cut.len());
-    for (i, &c) in cells.cut.iter().enumerate() {
-        cut_index.insert(c, i);
-    }
-    let stress = |cell: usize, x: [f64; 3]| {
-        let (_, g) = value_and_gradient(grid, dofs, u, cell, x);
-        stress_voigt(&g, lambda, mu)
-    };
-    let samples = |cell: usize, out: &mut Vec<([f64; 3], [f64; 6])>| match cells.kinds[cell] {
-        CellKind::Inside => {
-            let lo = grid.cell_box(cell).lo;
-            for (xi, _) in &rule {
-                let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-                out.push((x, stress(cell, x)));
-            }
-        }
-        CellKind::Cut => {
-            // At most `max_cut_samples` points, evenly strided through the
-            // sweep order of the rule: enough for a least-squares fit, and the
-            // cost no longer grows with the accuracy of the cut-cell rule.
-            let pts = cells.volume_points(cut_index[&cell]);
-            let stride = pts.len().div_ceil(max_cut_samples).max(1);
-            for q in pts.iter().step_by(stride) {
-                out.push((q.x, stress(cell, q.x)));
-            }
-        }
-        CellKind::Outside => {}
+    let samples = |cell: usize, out: &mut Vec<([f64; 3], [f64; 6])>| {
+        let mut xs = Vec::new();
+        sample_positions(setup, cell, &rule, &mut xs);
+        out.extend(xs.into_iter().map(|x| {
+            let (_, g) = value_and_gradient(grid, dofs, u, cell, x);
+            (x, stress_voigt(&g, lambda, mu))
+        }));
     };
     recover(
         grid,
-        &cells.kinds,
+        &setup.cells.kinds,
         nodes,
         dofs.order.degree(),
         &samples,

@@ -18,10 +18,10 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::field::value_and_gradient;
-use super::recovery::vertex_nodes_of;
+use super::recovery::{sample_positions, vertex_nodes_of};
 use super::rhs::add_point_load;
 use super::setup::Setup;
-use crate::cells::{CellKind, Cells};
+use crate::cells::Cells;
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
@@ -56,32 +56,20 @@ pub fn cell_s_matrix(order: ElementOrder, factor: f64, h: f64) -> Vec<f64> {
 struct DisplacementSamples<'a> {
     setup: &'a Setup,
     u: &'a [f64],
-    cut_index: std::collections::HashMap<usize, usize>,
     rule: Vec<([f64; 3], f64)>,
 }
 
 impl PatchSamples<3> for DisplacementSamples<'_> {
     fn samples(&self, cell: usize, out: &mut Vec<Sample<3>>) {
         let s = self.setup;
-        let grid = &s.grid;
-        let value = |x: [f64; 3]| value_and_gradient(grid, &s.op.dofs, self.u, cell, x).0;
-        match s.cells.kinds[cell] {
-            CellKind::Inside => {
-                let lo = grid.cell_box(cell).lo;
-                for (xi, _) in &self.rule {
-                    let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-                    out.push((x, value(x)));
-                }
-            }
-            CellKind::Cut => {
-                let pts = s.cells.volume_points(self.cut_index[&cell]);
-                let stride = pts.len().div_ceil(2 * self.rule.len()).max(1);
-                for q in pts.iter().step_by(stride) {
-                    out.push((q.x, value(q.x)));
-                }
-            }
-            CellKind::Outside => {}
-        }
+        let mut xs = Vec::new();
+        sample_positions(s, cell, &self.rule, &mut xs);
+        out.extend(xs.into_iter().map(|x| {
+            (
+                x,
+                value_and_gradient(&s.grid, &s.op.dofs, self.u, cell, x).0,
+            )
+        }));
     }
 
     /// `h² (∇·σ(û))(x_node) = −h² b(x_node)`: three rows on the stacked
@@ -129,14 +117,9 @@ pub fn recover_displacement(
     omega_star: &[usize],
 ) -> Result<Recovered<3>> {
     let nodes = vertex_nodes_of(setup, omega_star);
-    let mut cut_index = std::collections::HashMap::with_capacity(setup.cells.cut.len());
-    for (i, &c) in setup.cells.cut.iter().enumerate() {
-        cut_index.insert(c, i);
-    }
     let samples = DisplacementSamples {
         setup,
         u,
-        cut_index,
         rule: tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis()),
     };
     let degree = setup.op.dofs.order.degree() + 1;
