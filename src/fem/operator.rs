@@ -22,9 +22,9 @@ use crate::element::{shape_values, ElementOrder};
 use crate::grid::Grid;
 
 /// Slot of an outside cell.
-const OUTSIDE: u32 = u32::MAX;
+pub const OUTSIDE: u32 = u32::MAX;
 /// Slot of an inside cell (the shared reference matrix).
-const INSIDE: u32 = u32::MAX - 1;
+pub const INSIDE: u32 = u32::MAX - 1;
 
 /// The assembled-on-demand, applied-matrix-free elasticity operator.
 #[derive(Clone, Debug)]
@@ -105,6 +105,28 @@ impl ElasticOperator {
         {
             *k += v;
         }
+    }
+
+    /// Dofs per cell, `3 · nodes_per_cell` (the side of every cell matrix).
+    pub fn dofs_per_cell(&self) -> usize {
+        self.ne
+    }
+
+    /// Per grid cell: [`OUTSIDE`], [`INSIDE`] or the index of its own matrix in
+    /// [`Self::own_matrices`] (what a device backend uploads).
+    pub fn cell_slots(&self) -> &[u32] {
+        &self.slot
+    }
+
+    /// The shared inside-cell matrix `h K_ref`, row-major `ne × ne`.
+    pub fn inside_matrix(&self) -> &[f64] {
+        &self.k_inside
+    }
+
+    /// The own matrices of the cut cells, row-major `ne × ne` each, back to back
+    /// in slot order (stabilisation terms included once added).
+    pub fn own_matrices(&self) -> &[f64] {
+        &self.k_own
     }
 
     /// Cells with their own matrix.
