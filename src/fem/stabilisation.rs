@@ -52,24 +52,22 @@ pub fn cell_s_matrix(order: ElementOrder, factor: f64, h: f64) -> Vec<f64> {
     out
 }
 
-/// Samples of `u_h` for the displacement fit, with the equilibrium constraint.
-struct DisplacementSamples<'a> {
+/// Samples of a displacement field (`value(cell, x)`, normally `u_h`) for the
+/// displacement fit, with the equilibrium constraint.
+struct DisplacementSamples<'a, F> {
     setup: &'a Setup,
-    u: &'a [f64],
+    value: F,
     rule: Vec<([f64; 3], f64)>,
 }
 
-impl PatchSamples<3> for DisplacementSamples<'_> {
+impl<F> PatchSamples<3> for DisplacementSamples<'_, F>
+where
+    F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+{
     fn samples(&self, cell: usize, out: &mut Vec<Sample<3>>) {
-        let s = self.setup;
         let mut xs = Vec::new();
-        sample_positions(s, cell, &self.rule, &mut xs);
-        out.extend(xs.into_iter().map(|x| {
-            (
-                x,
-                value_and_gradient(&s.grid, &s.op.dofs, self.u, cell, x).0,
-            )
-        }));
+        sample_positions(self.setup, cell, &self.rule, &mut xs);
+        out.extend(xs.into_iter().map(|x| (x, (self.value)(cell, x))));
     }
 
     /// `h² (∇·σ(û))(x_node) = −h² b(x_node)`: three rows on the stacked
@@ -110,16 +108,34 @@ fn second_derivative_at_origin(e: [usize; 3], k: usize, l: usize) -> f64 {
     }
 }
 
-/// The displacement recovery `S` on the patches of the vertex nodes of Ω*.
+/// The displacement recovery `S` of `u_h` on the patches of the vertex nodes
+/// of Ω*.
 pub fn recover_displacement(
     setup: &Setup,
     u: &[f64],
     omega_star: &[usize],
 ) -> Result<Recovered<3>> {
+    let (grid, dofs) = (&setup.grid, &setup.op.dofs);
+    recover_displacement_of(setup, omega_star, |cell, x| {
+        value_and_gradient(grid, dofs, u, cell, x).0
+    })
+}
+
+/// The displacement recovery `S` of any field sampled as `value(cell, x)` at
+/// the SPR sample points of the patches of the vertex nodes of Ω* (the
+/// solver passes `u_h`; tests pass an exact field to check reproduction).
+pub fn recover_displacement_of<F>(
+    setup: &Setup,
+    omega_star: &[usize],
+    value: F,
+) -> Result<Recovered<3>>
+where
+    F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+{
     let nodes = vertex_nodes_of(setup, omega_star);
     let samples = DisplacementSamples {
         setup,
-        u,
+        value,
         rule: tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis()),
     };
     let degree = setup.op.dofs.order.degree() + 1;
