@@ -18,6 +18,7 @@ pub mod fem;
 pub mod geometry;
 pub mod grid;
 pub mod output;
+pub mod plot;
 pub mod quadrature;
 pub mod recovery;
 pub mod report;

@@ -19,6 +19,7 @@ use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
+use cgfem_gpu::reproduce::{self, CutSweepOptions};
 
 #[derive(Parser)]
 #[command(
@@ -52,16 +53,28 @@ enum Command {
         condition: bool,
     },
     /// Regenerate a result of the paper beside the paper's figures:
-    /// DIR/<what>.json, .md and .svg. Only `table1` so far.
+    /// DIR/<what>.json, .md and .svg.
     Reproduce {
-        /// What to reproduce: table1.
+        /// What to reproduce: table1, fig3, cut-sweep or all.
         what: String,
-        /// Levels to run (default 4 and 5).
+        /// Levels to run (default: table1 4 5; fig3 2 3 4 5; cut-sweep 4 5 6).
         #[arg(long = "level")]
         levels: Vec<u32>,
         /// Output folder (default: out/reproduce).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// cut-sweep: random grid offsets per level.
+        #[arg(long, default_value_t = 50)]
+        offsets: usize,
+        /// cut-sweep: seed of the offsets.
+        #[arg(long, default_value_t = 2024)]
+        seed: u64,
+        /// cut-sweep: Krylov budget per solve.
+        #[arg(long, default_value_t = 5000)]
+        max_iterations: usize,
+        /// cut-sweep: skip the condition numbers (iterations only).
+        #[arg(long)]
+        no_condition: bool,
     },
 }
 
@@ -90,7 +103,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             condition,
         } => run_case(&case, level, &set, out, condition),
-        Command::Reproduce { what, levels, out } => reproduce(&what, &levels, out),
+        Command::Reproduce {
+            what,
+            levels,
+            out,
+            offsets,
+            seed,
+            max_iterations,
+            no_condition,
+        } => {
+            let sweep = CutSweepOptions {
+                levels: if levels.is_empty() {
+                    vec![4, 5, 6]
+                } else {
+                    levels.clone()
+                },
+                offsets,
+                seed,
+                max_iterations,
+                condition: !no_condition,
+                ..CutSweepOptions::default()
+            };
+            reproduce(&what, &levels, &sweep, out)
+        }
     }
 }
 
@@ -104,31 +139,55 @@ fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
 /// The paper's Problem 1 as shipped in `cases/sphere.toml`.
 const SPHERE_CASE: &str = include_str!("../cases/sphere.toml");
 
-fn reproduce(what: &str, levels: &[u32], out: Option<PathBuf>) -> anyhow::Result<()> {
+fn reproduce(
+    what: &str,
+    levels: &[u32],
+    sweep: &CutSweepOptions,
+    out: Option<PathBuf>,
+) -> anyhow::Result<()> {
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("reproduce"));
-    let levels = if levels.is_empty() {
-        vec![4, 5]
-    } else {
-        levels.to_vec()
-    };
-    match what {
-        "table1" => {
-            let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
-            let rows = cgfem_gpu::reproduce::table1(&case, &levels, &dir)?;
-            println!(
-                "table1: {} rows; wrote {}/table1.{{json,md,svg}}",
-                rows.len(),
-                dir.display()
-            );
-            Ok(())
+    let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
+    let or = |default: &[u32]| {
+        if levels.is_empty() {
+            default.to_vec()
+        } else {
+            levels.to_vec()
         }
-        other => Err(cgfem_gpu::Error::CaseFile {
+    };
+    let known = ["table1", "fig3", "cut-sweep", "all"];
+    if !known.contains(&what) {
+        return Err(cgfem_gpu::Error::CaseFile {
             file: "(command line)".into(),
             key: "reproduce".into(),
-            reason: format!("unknown result '{other}'; available: table1"),
+            reason: format!("unknown result '{what}'; available: {}", known.join(", ")),
         }
-        .into()),
+        .into());
     }
+    if what == "table1" || what == "all" {
+        let rows = reproduce::table1(&case, &or(&[4, 5]), &dir)?;
+        println!(
+            "table1: {} rows; wrote {}/table1.{{json,md,svg}}",
+            rows.len(),
+            dir.display()
+        );
+    }
+    if what == "fig3" || what == "all" {
+        let rows = reproduce::fig3(&case, &or(&[2, 3, 4, 5]), &dir)?;
+        println!(
+            "fig3: {} rows; wrote {}/fig3.{{json,md,svg}}",
+            rows.len(),
+            dir.display()
+        );
+    }
+    if what == "cut-sweep" || what == "all" {
+        let rows = reproduce::cut_sweep(&case, sweep, &dir)?;
+        println!(
+            "cut-sweep: {} rows; wrote {}/cut-sweep.{{json,md,svg}}",
+            rows.len(),
+            dir.display()
+        );
+    }
+    Ok(())
 }
 
 /// κ and Jacobi-scaled κ of the assembled operator.

@@ -67,7 +67,19 @@ pub fn fixed_point(
             let t = std::time::Instant::now();
             let result = solve(&be, op, Some(&diag), &rhs.to_vec(), u, &krylov);
             report.krylov_seconds += t.elapsed().as_secs_f64();
-            let stats: KrylovStats = result?;
+            let stats: KrylovStats = match result {
+                Ok(stats) => stats,
+                Err(e) => {
+                    // The failed solve's iterations count too (what was spent).
+                    if let Error::MaxIterations { iterations, .. }
+                    | Error::Breakdown { iterations, .. } = &e
+                    {
+                        report.iterations_per_solve.push(*iterations);
+                        report.total_iterations += iterations;
+                    }
+                    return Err(e);
+                }
+            };
             report.iterations_per_solve.push(stats.iterations);
             report.total_iterations += stats.iterations;
             report.tolerances.push(tol);
