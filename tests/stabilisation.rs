@@ -73,3 +73,55 @@ fn s_reproduces_a_quadratic_field_inside_and_outside_the_body() {
     assert!(inside > 0 && outside > 0);
     assert!(worst < 1e-10, "max |S − u| = {worst:.3e}");
 }
+
+/// The sphere at levels 3–5 with CGS and CG (Jacobi), without and with the
+/// S-term (k2 = 0.01, A = 1%): the S-term leaves the energy error and its rate
+/// alone, and the iterations with it grow no faster than 1/h (at most ×2 per
+/// level, 10% slack for the integer counts of short solves).
+#[test]
+fn the_s_term_keeps_accuracy_and_iterations_grow_like_one_over_h() {
+    use cgfem_gpu::reproduce::{rate, run_sphere, RunConfig};
+    use cgfem_gpu::solver::KrylovMethod;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sphere.toml");
+    let case = Case::from_file_with(&path, &[]).unwrap();
+    let levels = [3u32, 4, 5];
+    let mut errors = [[0.0; 3]; 2];
+    let mut h = [0.0; 3];
+    for (i, &level) in levels.iter().enumerate() {
+        for (s, k2) in [0.0, 0.01].into_iter().enumerate() {
+            let run = run_sphere(&case, &RunConfig::new(level, k2, 0.01)).unwrap();
+            assert!(run.failure.is_none(), "{:?}", run.failure);
+            errors[s][i] = run.energy_error.unwrap();
+            h[i] = run.h;
+        }
+    }
+    let rates = errors.map(|e| rate((h[1], e[1]), (h[2], e[2])));
+    println!(
+        "energy errors without {:?}, with {:?}; rates 4→5 {rates:?}",
+        errors[0], errors[1]
+    );
+    assert!((rates[0] - rates[1]).abs() < 0.05, "{rates:?}");
+    let change = (errors[1][2] / errors[0][2] - 1.0).abs();
+    assert!(change < 0.05, "level-5 errors differ by {change:.3}");
+    for method in [KrylovMethod::Cgs, KrylovMethod::Cg] {
+        let its: Vec<usize> = levels
+            .iter()
+            .map(|&level| {
+                let cfg = RunConfig {
+                    method: Some(method),
+                    ..RunConfig::new(level, 0.01, 0.01)
+                };
+                let run = run_sphere(&case, &cfg).unwrap();
+                assert!(run.failure.is_none(), "{:?}", run.failure);
+                run.first_solve_iterations
+            })
+            .collect();
+        println!("{method}: first-solve iterations with the S-term at levels 3–5: {its:?}");
+        for w in its.windows(2) {
+            assert!(
+                w[1] as f64 <= 2.2 * w[0] as f64,
+                "{method}: {its:?} grows faster than 1/h"
+            );
+        }
+    }
+}

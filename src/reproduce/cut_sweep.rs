@@ -19,7 +19,7 @@ use super::{median, run_sphere, write_outputs, RunConfig};
 use crate::case::Case;
 use crate::error::Result;
 use crate::plot::{Chart, Series};
-use crate::solver::Preconditioner;
+use crate::solver::{KrylovMethod, Preconditioner};
 
 /// Settings of the sweep.
 #[derive(Clone, Debug)]
@@ -35,6 +35,8 @@ pub struct CutSweepOptions {
     pub max_iterations: usize,
     /// Estimate κ (assembles and factorises: the dominant cost at level 6).
     pub condition: bool,
+    /// The Krylov method (the paper's CGS by default).
+    pub method: KrylovMethod,
 }
 
 impl Default for CutSweepOptions {
@@ -47,6 +49,7 @@ impl Default for CutSweepOptions {
             a: 0.01,
             max_iterations: 5000,
             condition: true,
+            method: KrylovMethod::Cgs,
         }
     }
 }
@@ -62,8 +65,10 @@ pub struct SweepRun {
     pub kappa_is_lower_bound: Option<bool>,
     pub kappa_jacobi: Option<f64>,
     pub iterations_plain: usize,
+    pub first_solve_plain: usize,
     pub converged_plain: bool,
     pub iterations_jacobi: usize,
+    pub first_solve_jacobi: usize,
     pub converged_jacobi: bool,
 }
 
@@ -79,13 +84,19 @@ pub struct SweepRow {
     pub offsets: usize,
     pub kappa_max: Option<f64>,
     pub kappa_median: Option<f64>,
+    /// Runs whose κ is only a lower bound (numerically singular matrix).
+    pub kappa_lower_bounds: usize,
     pub kappa_jacobi_max: Option<f64>,
     pub kappa_jacobi_median: Option<f64>,
     pub iterations_plain_max: usize,
     pub iterations_plain_median: f64,
+    pub first_solve_plain_max: usize,
+    pub first_solve_plain_median: f64,
     pub failures_plain: usize,
     pub iterations_jacobi_max: usize,
     pub iterations_jacobi_median: f64,
+    pub first_solve_jacobi_max: usize,
+    pub first_solve_jacobi_median: f64,
     pub failures_jacobi: usize,
 }
 
@@ -160,6 +171,7 @@ fn sweep_run(
 ) -> Result<SweepRun> {
     let base = RunConfig {
         offset,
+        method: Some(opts.method),
         max_iterations: Some(opts.max_iterations),
         ..RunConfig::new(level, k2, opts.a)
     };
@@ -187,8 +199,10 @@ fn sweep_run(
         kappa_is_lower_bound: plain.kappa.as_ref().map(|k| k.kappa_is_lower_bound),
         kappa_jacobi: plain.kappa_jacobi.as_ref().map(|k| k.kappa),
         iterations_plain: plain.krylov_iterations,
+        first_solve_plain: plain.first_solve_iterations,
         converged_plain: plain.failure.is_none(),
         iterations_jacobi: jacobi.krylov_iterations,
+        first_solve_jacobi: jacobi.first_solve_iterations,
         converged_jacobi: jacobi.failure.is_none(),
     })
 }
@@ -220,6 +234,8 @@ fn summarise(
     };
     let (iterations_plain_max, iterations_plain_median) = its(|r| r.iterations_plain);
     let (iterations_jacobi_max, iterations_jacobi_median) = its(|r| r.iterations_jacobi);
+    let (first_solve_plain_max, first_solve_plain_median) = its(|r| r.first_solve_plain);
+    let (first_solve_jacobi_max, first_solve_jacobi_median) = its(|r| r.first_solve_jacobi);
     SweepRow {
         level,
         element: element.into(),
@@ -229,13 +245,21 @@ fn summarise(
         offsets: runs.len(),
         kappa_max,
         kappa_median,
+        kappa_lower_bounds: runs
+            .iter()
+            .filter(|r| r.kappa_is_lower_bound == Some(true))
+            .count(),
         kappa_jacobi_max,
         kappa_jacobi_median,
         iterations_plain_max,
         iterations_plain_median,
+        first_solve_plain_max,
+        first_solve_plain_median,
         failures_plain: runs.iter().filter(|r| !r.converged_plain).count(),
         iterations_jacobi_max,
         iterations_jacobi_median,
+        first_solve_jacobi_max,
+        first_solve_jacobi_median,
         failures_jacobi: runs.iter().filter(|r| !r.converged_jacobi).count(),
     }
 }
@@ -244,18 +268,20 @@ fn markdown(rows: &[SweepRow], opts: &CutSweepOptions) -> String {
     let e = |v: Option<f64>| v.map_or("–".into(), |v| format!("{v:.3e}"));
     let mut s = format!(
         "# Cut sweep: the sphere under {} random grid offsets (seed {})\n\n\
-         κ of the operator (Lanczos / shift-invert Lanczos; a numerically singular\n\
-         matrix gives a lower bound), the Jacobi-scaled κ, and the Krylov\n\
-         iterations accumulated over the fixed-point loop, with the plain method and\n\
-         with Jacobi. Budget {} iterations per solve; a run over budget counts in\n\
-         `failures` with the iterations it spent. S-term: k2 = {}, A = {}.\n\n\
-         | level | element | S-term | κ max | κ median | κ_J max | κ_J median | plain its max | plain median | plain failures | Jacobi its max | Jacobi median | Jacobi failures |\n\
+         κ of the operator (Lanczos / shift-invert Lanczos; `≥` where some matrix\n\
+         was numerically singular and κ is a lower bound), the Jacobi-scaled κ, and\n\
+         the Krylov iterations ({}) of the first solve (`A U_0 = F`) and accumulated\n\
+         over the fixed-point loop, plain and with Jacobi (max / median over the\n\
+         offsets). Budget {} iterations per solve; a run over budget counts in\n\
+         `failed` with the iterations it spent. S-term: k2 = {}, A = {}.\n\n\
+         | level | element | S-term | κ max | κ median | κ_J max | κ_J median | plain: first solve | plain: accumulated | plain failed | Jacobi: first solve | Jacobi: accumulated | Jacobi failed |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-        opts.offsets, opts.seed, opts.max_iterations, opts.k2, opts.a
+        opts.offsets, opts.seed, opts.method, opts.max_iterations, opts.k2, opts.a
     );
     for r in rows {
+        let bound = if r.kappa_lower_bounds > 0 { "≥ " } else { "" };
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {bound}{} | {} | {} | {} | {} / {} | {} / {} | {} | {} / {} | {} / {} | {} |\n",
             r.level,
             r.element,
             if r.stabilised { "with" } else { "without" },
@@ -263,9 +289,13 @@ fn markdown(rows: &[SweepRow], opts: &CutSweepOptions) -> String {
             e(r.kappa_median),
             e(r.kappa_jacobi_max),
             e(r.kappa_jacobi_median),
+            r.first_solve_plain_max,
+            r.first_solve_plain_median,
             r.iterations_plain_max,
             r.iterations_plain_median,
             r.failures_plain,
+            r.first_solve_jacobi_max,
+            r.first_solve_jacobi_median,
             r.iterations_jacobi_max,
             r.iterations_jacobi_median,
             r.failures_jacobi,

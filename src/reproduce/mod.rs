@@ -22,7 +22,7 @@ use crate::fem::fixed_point::FixedPointReport;
 use crate::fem::setup::Setup;
 use crate::fem::solve::solve;
 use crate::output::write_atomic;
-use crate::solver::Preconditioner;
+use crate::solver::{KrylovMethod, Preconditioner};
 
 pub use cut_sweep::{cut_sweep, CutSweepOptions};
 pub use fig3::fig3;
@@ -37,7 +37,8 @@ pub struct RunConfig {
     pub a: f64,
     /// Grid offset in cells.
     pub offset: [f64; 3],
-    /// Overrides the case's preconditioner.
+    /// Overrides the case's Krylov method and preconditioner.
+    pub method: Option<KrylovMethod>,
     pub preconditioner: Option<Preconditioner>,
     /// Overrides the case's per-solve Krylov budget.
     pub max_iterations: Option<usize>,
@@ -55,6 +56,7 @@ impl RunConfig {
             k2,
             a,
             offset: [0.0; 3],
+            method: None,
             preconditioner: None,
             max_iterations: None,
             condition: false,
@@ -73,6 +75,9 @@ pub struct RunOutcome {
     pub kappa_jacobi: Option<ConditionEstimate>,
     /// Krylov iterations accumulated over the fixed-point loop.
     pub krylov_iterations: usize,
+    /// Iterations of the first solve (`A U_0 = F`, nothing recovered yet):
+    /// the matrix's own difficulty, free of the fixed-point loop.
+    pub first_solve_iterations: usize,
     /// Did every solve and the loop converge?
     pub converged: bool,
     /// The solver's failure, if any.
@@ -88,6 +93,9 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     case.spec.stabilisation.k2 = cfg.k2;
     case.spec.stabilisation.a = cfg.a;
     case.spec.grid.offset = cfg.offset;
+    if let Some(m) = cfg.method {
+        case.spec.solver.method = m;
+    }
     if let Some(p) = cfg.preconditioner {
         case.spec.solver.preconditioner = p;
     }
@@ -102,6 +110,7 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
         kappa: None,
         kappa_jacobi: None,
         krylov_iterations: 0,
+        first_solve_iterations: 0,
         converged: false,
         failure: None,
         energy_error: None,
@@ -118,6 +127,7 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     let mut report = FixedPointReport::default();
     let result = solve(&setup, &case.spec.solver, &mut report);
     out.krylov_iterations = report.total_iterations;
+    out.first_solve_iterations = report.iterations_per_solve.first().copied().unwrap_or(0);
     match result {
         Ok(solution) => {
             out.converged = report.converged || report.iterations == 0;
