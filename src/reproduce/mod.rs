@@ -14,6 +14,7 @@ pub mod table1;
 
 use std::path::Path;
 
+use crate::backend::{CpuBackend, LinearOperator};
 use crate::case::Case;
 use crate::condition::{condition_number, ConditionEstimate, ConditionOptions};
 use crate::error::{Error, Result};
@@ -22,7 +23,7 @@ use crate::fem::fixed_point::FixedPointReport;
 use crate::fem::setup::Setup;
 use crate::fem::solve::solve;
 use crate::output::write_atomic;
-use crate::solver::{KrylovMethod, Preconditioner};
+use crate::solver::{solve as krylov_solve, KrylovMethod, Preconditioner};
 
 pub use cut_sweep::{cut_sweep, CutSweepOptions};
 pub use fig3::fig3;
@@ -46,6 +47,9 @@ pub struct RunConfig {
     pub condition: bool,
     /// Solve (and measure the error) at all.
     pub solve: bool,
+    /// Only the first solve `A U_0 = F` (no fixed-point loop, no error norm):
+    /// the matrix's own difficulty for the Krylov method.
+    pub first_solve_only: bool,
 }
 
 impl RunConfig {
@@ -61,6 +65,7 @@ impl RunConfig {
             max_iterations: None,
             condition: false,
             solve: true,
+            first_solve_only: false,
         }
     }
 }
@@ -122,6 +127,31 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
         out.kappa_jacobi = Some(condition_number(&matrix, true, &opts)?);
     }
     if !cfg.solve {
+        return Ok(out);
+    }
+    if cfg.first_solve_only {
+        let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
+        let diag = setup.op.diagonal();
+        let mut u = vec![0.0; setup.fixed_rhs.len()];
+        let be = CpuBackend::new();
+        match krylov_solve(&be, &setup.op, Some(&diag), &setup.fixed_rhs, &mut u, &opts) {
+            Ok(stats) => {
+                out.first_solve_iterations = stats.iterations;
+                out.krylov_iterations = stats.iterations;
+                out.converged = true;
+            }
+            Err(e) => {
+                if let Error::MaxIterations { iterations, .. }
+                | Error::Breakdown { iterations, .. } = &e
+                {
+                    out.first_solve_iterations = *iterations;
+                    out.krylov_iterations = *iterations;
+                    out.failure = Some(e.to_string());
+                } else {
+                    return Err(e);
+                }
+            }
+        }
         return Ok(out);
     }
     let mut report = FixedPointReport::default();
