@@ -13,11 +13,14 @@
 //! the patch node as Lagrange-multiplier constraints, and the patch
 //! polynomials are blended by CPE, `S(x) = Σ_i N_i^lin(x) û_i(x)`. `S` is a
 //! polynomial in each cell, so it is defined on the part of the cell outside
-//! Ω too. Neumann-point equilibrium (`σ(û) n = t`) is not imposed yet.
+//! Ω too. Where the patch's cut cells carry Neumann points, boundary
+//! equilibrium `σ(û) n = t` is collocated at the one nearest the patch node,
+//! as three more constraint rows.
 
 use nalgebra::{DMatrix, DVector};
 
 use super::field::value_and_gradient;
+use super::problem::Boundary;
 use super::recovery::{sample_positions, vertex_nodes_of};
 use super::rhs::add_point_load;
 use super::setup::Setup;
@@ -25,6 +28,7 @@ use crate::cells::Cells;
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
+use crate::quadrature::saye::SurfacePoint;
 use crate::recovery::{
     recover, LinearConstraints, Monomials, Patch, PatchSamples, Recovered, Sample, SprOptions,
 };
@@ -88,9 +92,84 @@ where
         }
         let b = self.setup.problem.body_load(patch.center);
         let h2 = patch.h * patch.h;
-        let d = DVector::from_iterator(3, b.iter().map(|v| -h2 * v));
+        let mut d = DVector::from_iterator(3, b.iter().map(|v| -h2 * v));
+        if let Some(q) = nearest_neumann_point(self.setup, patch) {
+            let (rows, rhs) = traction_rows(self.setup, patch, basis, &q);
+            c = c.resize_vertically(6, 0.0);
+            d = d.resize_vertically(6, 0.0);
+            for i in 0..3 {
+                for j in 0..3 * nb {
+                    c[(3 + i, j)] = rows[(i, j)];
+                }
+                d[3 + i] = rhs[i];
+            }
+        }
         Some(LinearConstraints { c, d })
     }
+}
+
+/// The Neumann surface point of the patch's cut cells nearest to the patch
+/// node, if any: boundary equilibrium is collocated there (one point keeps
+/// the small KKT system well posed however many points the patch holds).
+fn nearest_neumann_point(setup: &Setup, patch: &Patch<'_>) -> Option<SurfacePoint> {
+    let dist2 = |x: [f64; 3]| {
+        (0..3)
+            .map(|a| (x[a] - patch.center[a]).powi(2))
+            .sum::<f64>()
+    };
+    patch
+        .cells
+        .iter()
+        .filter_map(|&c| setup.cells.cut_position(c))
+        .flat_map(|i| setup.cells.surface_points(i))
+        .filter(|q| matches!(setup.problem.boundary[q.tag as usize], Boundary::Neumann(_)))
+        .min_by(|a, b| dist2(a.x).total_cmp(&dist2(b.x)))
+        .copied()
+}
+
+/// `h σ(û)(x_q) n_q = h t(x_q)`: three rows on the stacked coefficients, from
+/// `(σ n)_i = λ n_i ∂_c û_c + μ (∂_i û_k + ∂_k û_i) n_k` and `∂/∂x = h⁻¹ ∂/∂ξ`.
+fn traction_rows(
+    setup: &Setup,
+    patch: &Patch<'_>,
+    basis: &Monomials,
+    q: &SurfacePoint,
+) -> (DMatrix<f64>, [f64; 3]) {
+    let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
+    let nb = basis.len();
+    let xi = patch.scaled(q.x);
+    let n = q.n;
+    let mut rows = DMatrix::zeros(3, 3 * nb);
+    for (j, e) in basis.exponents().iter().enumerate() {
+        let g = monomial_gradient(*e, xi);
+        let gn: f64 = (0..3).map(|k| g[k] * n[k]).sum();
+        for i in 0..3 {
+            for c in 0..3 {
+                let mut v = lambda * n[i] * g[c] + mu * g[i] * n[c];
+                if i == c {
+                    v += mu * gn;
+                }
+                rows[(i, c * nb + j)] += v;
+            }
+        }
+    }
+    let t = setup.problem.traction(q.tag, q.x, n);
+    (rows, t.map(|v| patch.h * v))
+}
+
+/// `∇_ξ ξ^e` at `xi`.
+fn monomial_gradient(e: [usize; 3], xi: [f64; 3]) -> [f64; 3] {
+    let pow = |a: usize, p: usize| xi[a].powi(p as i32);
+    [0, 1, 2].map(|k| {
+        if e[k] == 0 {
+            return 0.0;
+        }
+        let mut v = e[k] as f64 * pow(k, e[k] - 1);
+        for a in (0..3).filter(|&a| a != k) {
+            v *= pow(a, e[a]);
+        }
+        v
+    })
 }
 
 /// `∂²(ξ^e)/∂ξ_k∂ξ_l` at ξ = 0 (nonzero only for the quadratic monomials).
