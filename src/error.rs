@@ -75,6 +75,13 @@ pub enum Error {
     /// evaluated where no patch was recovered.
     #[error("patch recovery at node {node}: {reason}")]
     Recovery { node: usize, reason: String },
+    /// No GPU adapter matches what was asked for (`--backend gpu`, an adapter
+    /// name, f64).
+    #[error("no GPU adapter: wanted {wanted}; adapters found: {found}")]
+    NoAdapter { wanted: String, found: String },
+    /// The GPU device failed (opening it, a buffer map, a lost device).
+    #[error("GPU: {what}")]
+    Gpu { what: String },
 }
 
 impl Error {
@@ -82,7 +89,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
-            Error::Recovery { .. } => 1,
+            Error::Recovery { .. } | Error::Gpu { .. } => 1,
             _ => 2,
         }
     }
