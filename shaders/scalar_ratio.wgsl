@@ -1,6 +1,7 @@
 // scalar_ratio: one invocation. Unless the solve is done (scal[done] ≠ 0):
-// q = scal[num] / scal[den]; a non-finite q (a zero divisor) marks the solve
-// done with a breakdown (done = 2) and becomes 0. Then scal[out] = q,
+// q = scal[num] / scal[den]; a zero divisor marks the solve done with a
+// breakdown (done = 2) and q = 0. (Non-finite values are caught by the host:
+// drivers may compile NaN/∞ tests away.) Then scal[out] = q,
 // scal[out + 1] = −q: after done, α = 0 and x, r stay put. With roll = 1 then
 // scal[den] = scal[num] (ρ ← ρ' after β = ρ'/ρ).
 // CPU mirror: `cgfem_gpu::gpu::mirror::scalar_ratio` (same name, same binding order).
@@ -17,10 +18,10 @@ struct ScalParams { num: u32, den: u32, out: u32, roll: u32, done: u32, iters: u
 fn main() {
     var q: real = 0.0;
     if (scal[prm.done] == 0.0) {
-        q = scal[prm.num] / scal[prm.den];
-        if (!(q == q) || q - q != 0.0) {
+        if (scal[prm.den] == 0.0) {
             scal[prm.done] = 2.0;
-            q = 0.0;
+        } else {
+            q = scal[prm.num] / scal[prm.den];
         }
     }
     scal[prm.out] = q;

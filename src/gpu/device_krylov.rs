@@ -216,7 +216,8 @@ impl Cycle<'_, '_> {
     }
 
     /// Runs one cycle from the true residual `r`; returns the done flag
-    /// (1 converged, 2 breakdown, 0 out of iterations).
+    /// (1 converged, 2 breakdown: a zero divisor on the device or a
+    /// non-finite ‖r‖² seen here, 0 out of iterations).
     fn run(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> Result<f64> {
         let (be, n) = (self.be, self.n);
         let tol2 = (self.opts.rel_tol * self.b_norm).powi(2);
@@ -254,6 +255,9 @@ impl Cycle<'_, '_> {
             stats.iterations = start + s[1] as usize;
             stats.relative_residual = rr.sqrt() / self.b_norm;
             stats.residual_history.push(stats.relative_residual);
+            if !rr.is_finite() {
+                return Ok(2.0);
+            }
             if s[0] != 0.0 || stats.iterations >= self.opts.max_iterations {
                 return Ok(s[0]);
             }

@@ -245,16 +245,16 @@ pub fn apply(
     }
 }
 
-/// Unless done: `q = scal[num] / scal[den]` (non-finite: done = 2, q = 0);
+/// Unless done: `q = scal[num] / scal[den]` (zero divisor: done = 2, q = 0);
 /// `scal[out] = q`, `scal[out + 1] = −q` (0 once done); with `roll`, then
 /// `scal[den] = scal[num]`.
 pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
     let mut q = 0.0;
     if scal[prm.done as usize] == 0.0 {
-        q = scal[prm.num as usize] / scal[prm.den as usize];
-        if !q.is_finite() {
+        if scal[prm.den as usize] == 0.0 {
             scal[prm.done as usize] = 2.0;
-            q = 0.0;
+        } else {
+            q = scal[prm.num as usize] / scal[prm.den as usize];
         }
     }
     scal[prm.out as usize] = q;
@@ -264,17 +264,13 @@ pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
     }
 }
 
-/// Unless done: count the iteration; done = 1 when `scal[num] ≤ scal[tol2]`,
-/// 2 when it is not finite.
+/// Unless done: count the iteration; done = 1 when `scal[num] ≤ scal[tol2]`.
 pub fn krylov_check(prm: &ScalParams, scal: &mut [f64]) {
     if scal[prm.done as usize] != 0.0 {
         return;
     }
     scal[prm.iters as usize] += 1.0;
-    let rr = scal[prm.num as usize];
-    if !rr.is_finite() {
-        scal[prm.done as usize] = 2.0;
-    } else if rr <= scal[prm.tol2 as usize] {
+    if scal[prm.num as usize] <= scal[prm.tol2 as usize] {
         scal[prm.done as usize] = 1.0;
     }
 }
