@@ -29,12 +29,6 @@ const INSIDE: u32 = 0xfffffffeu;
 @group(0) @binding(6) var<storage, read> x: array<real>;
 @group(0) @binding(7) var<storage, read_write> y: array<real>;
 
-/// Entry `idx` of the inside matrix (`inside`) or of the own-matrix chunk.
-fn kval(inside: bool, idx: u32) -> real {
-    if (inside) { return k_inside[idx]; }
-    return k_own[idx];
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) g: vec3<u32>) {
     let a = g.x + g.y * prm.stride;
@@ -95,9 +89,15 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
                             let act = node_to_active[nn];
                             for (var j = 0u; j < 3u; j++) {
                                 let xj = x[3u * act + j];
-                                for (var i = 0u; i < 3u; i++) {
-                                    let idx = base + (3u * l + i) * ne + 3u * m + j;
-                                    acc[i] += kval(inside, idx) * xj;
+                                let col = base + 3u * l * ne + 3u * m + j;
+                                if (inside) {
+                                    acc[0] += k_inside[col] * xj;
+                                    acc[1] += k_inside[col + ne] * xj;
+                                    acc[2] += k_inside[col + 2u * ne] * xj;
+                                } else {
+                                    acc[0] += k_own[col] * xj;
+                                    acc[1] += k_own[col + ne] * xj;
+                                    acc[2] += k_own[col + 2u * ne] * xj;
                                 }
                             }
                             m++;

@@ -15,9 +15,9 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
 use cgfem_gpu::fem::field::{error_norms, interpolate};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
+use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::solve::solve_with;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, GpuContext, PrecisionChoice};
@@ -295,7 +295,9 @@ fn run_case(
             &mut cpu_solver
         }
     };
-    report.timings.insert("upload".into(), t.elapsed().as_secs_f64());
+    report
+        .timings
+        .insert("upload".into(), t.elapsed().as_secs_f64());
     println!(
         "  backend {}{} ({})",
         report.backend,

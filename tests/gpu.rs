@@ -13,8 +13,8 @@ use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with;
-use cgfem_gpu::gpu::kernels::{reduction_groups, ApplyParams, Kernel, RedParams, ScalParams};
 use cgfem_gpu::gpu::kernels::VecParams;
+use cgfem_gpu::gpu::kernels::{reduction_groups, ApplyParams, Kernel, RedParams, ScalParams};
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{context_or_skip, mirror, GpuBackend, GpuContext, GpuOperator};
 use cgfem_gpu::gpu::{Precision, PrecisionChoice};
@@ -31,8 +31,14 @@ fn random(rng: &mut ChaCha8Rng, n: usize) -> Vec<f64> {
 fn assert_close(what: &str, a: &[f64], b: &[f64], tol: f64) {
     assert_eq!(a.len(), b.len(), "{what}: lengths");
     let scale = b.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
-    let diff = a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-    assert!(diff <= tol * scale, "{what}: max difference {diff:e}, scale {scale:e}");
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(
+        diff <= tol * scale,
+        "{what}: max difference {diff:e}, scale {scale:e}"
+    );
 }
 
 fn tolerance(ctx: &GpuContext) -> f64 {
@@ -139,9 +145,17 @@ fn vector_kernels_match_their_mirrors(ctx: Arc<GpuContext>) {
         let (g1, g2) = be.dot2(&gx, &gy, &gz);
         // Relative to Σ|x y|, the scale of the rounding of a sum.
         let mag: f64 = x.iter().zip(&y).map(|(a, b)| (a * b).abs()).sum::<f64>() + 1e-300;
-        assert!((g1 - s[0]).abs() <= tol * mag, "dot2 n={n}: {g1} vs {}", s[0]);
+        assert!(
+            (g1 - s[0]).abs() <= tol * mag,
+            "dot2 n={n}: {g1} vs {}",
+            s[0]
+        );
         let mag2: f64 = x.iter().zip(&z).map(|(a, b)| (a * b).abs()).sum::<f64>() + 1e-300;
-        assert!((g2 - s[1]).abs() <= tol * mag2, "dot2 n={n}: {g2} vs {}", s[1]);
+        assert!(
+            (g2 - s[1]).abs() <= tol * mag2,
+            "dot2 n={n}: {g2} vs {}",
+            s[1]
+        );
         mirror::dot(&RedParams { comps: 1, ..first }, &x, &y, &mut partials);
         mirror::reduce(&RedParams { comps: 1, ..second }, &partials, &mut s);
         let g = be.dot(&gx, &gy);
@@ -179,7 +193,11 @@ fn scalar_kernels_match_their_mirrors() {
         tol2: 14,
         pad: 0,
     };
-    for (num, den, rr, done) in [(3.0, 4.0, 0.5, 0.0), (1.0, 0.0, 2.0, 0.0), (2.0, 5.0, 1.0, 1.0)] {
+    for (num, den, rr, done) in [
+        (3.0, 4.0, 0.5, 0.0),
+        (1.0, 0.0, 2.0, 0.0),
+        (2.0, 5.0, 1.0, 1.0),
+    ] {
         let init = [num, den, 7.0, 7.0, done, 3.0, 1.0];
         let mut want = init.to_vec();
         be.write_slots(8, &init);
@@ -255,8 +273,22 @@ fn apply_matches_its_mirror_and_the_host_operator() {
         let own = as_device(&ctx, op.own_matrices().to_vec());
         let inside = as_device(&ctx, op.inside_matrix().to_vec());
         let (a2n, n2a) = (&op.dofs.active_to_node, &op.dofs.node_to_active);
-        mirror::apply(&prm, a2n, n2a, op.cell_slots(), &inside, &own, &x, &mut want);
-        assert_close(&format!("apply, {} chunks", gop.chunks()), &y, &want, 10.0 * tol);
+        mirror::apply(
+            &prm,
+            a2n,
+            n2a,
+            op.cell_slots(),
+            &inside,
+            &own,
+            &x,
+            &mut want,
+        );
+        assert_close(
+            &format!("apply, {} chunks", gop.chunks()),
+            &y,
+            &want,
+            10.0 * tol,
+        );
         if chunk != u64::MAX {
             assert!(gop.chunks() > 2);
         }
@@ -277,8 +309,21 @@ fn solve_sphere(
     let sol = solve_with(setup, &case.spec.solver, solver, &mut report).unwrap();
     let exact = setup.problem.exact.as_ref().unwrap();
     let (l, m) = (setup.problem.lambda, setup.problem.mu);
-    let e = error_norms(&setup.grid, &setup.cells, &setup.op.dofs, &sol.u, exact, l, m);
-    (sol.u, report.iterations_per_solve, report.final_relative_residual, e.energy)
+    let e = error_norms(
+        &setup.grid,
+        &setup.cells,
+        &setup.op.dofs,
+        &sol.u,
+        exact,
+        l,
+        m,
+    );
+    (
+        sol.u,
+        report.iterations_per_solve,
+        report.final_relative_residual,
+        e.energy,
+    )
 }
 
 fn assert_iterations_close(what: &str, a: &[usize], b: &[usize]) {
@@ -322,5 +367,72 @@ fn sphere_solves_in_f32_with_defect_correction() {
         (res.log10() - res_cpu.log10()).abs() <= 1.5,
         "residual order: f32 {res:e} vs f64 {res_cpu:e}"
     );
-    assert!((e - e_cpu).abs() <= 1e-6 * e_cpu, "energy error {e:e} vs {e_cpu:e}");
+    assert!(
+        (e - e_cpu).abs() <= 1e-6 * e_cpu,
+        "energy error {e:e} vs {e_cpu:e}"
+    );
+}
+
+/// The binary with no Vulkan driver visible (the loader finds no ICD).
+fn cli_without_adapters(args: &[&str]) -> std::process::Output {
+    let out = std::env::temp_dir().join(format!("cgfem-gpu-noadapter-{}", std::process::id()));
+    let case = concat!(env!("CARGO_MANIFEST_DIR"), "/cases/sphere.toml");
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"));
+    if args[0] == "run" {
+        cmd.args(["run", case, "--level", "2", "--out", out.to_str().unwrap()]);
+        cmd.args(&args[1..]);
+    } else {
+        cmd.args(args);
+    }
+    let o = cmd
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env_remove("CGFEM_BACKEND")
+        .env_remove("CGFEM_ADAPTER")
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&out);
+    o
+}
+
+#[test]
+fn without_an_adapter_gpu_exits_2_and_auto_falls_back_to_the_cpu() {
+    let o = cli_without_adapters(&["run", "--backend", "gpu"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("no GPU adapter"), "{err}");
+
+    let o = cli_without_adapters(&["run", "--backend", "auto"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text.contains("no GPU adapter") && text.contains("solving on the CPU"));
+    assert!(text.contains("backend cpu (f64)"), "{text}");
+
+    let o = cli_without_adapters(&["run", "--backend", "cpu", "--precision", "f32"]);
+    assert_eq!(o.status.code(), Some(2));
+
+    let o = cli_without_adapters(&["info"]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("no GPU adapter found"));
+}
+
+#[test]
+fn info_lists_the_adapter_with_f64_and_limits() {
+    if context_or_skip(PrecisionChoice::Auto).is_none() {
+        return;
+    }
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .arg("info")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    for key in [
+        "[0]",
+        "f64:",
+        "max storage binding",
+        "workgroups per dimension",
+    ] {
+        assert!(text.contains(key), "{key} missing in: {text}");
+    }
 }

@@ -70,13 +70,7 @@ pub fn solve_with(
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(setup, solver, &opts, report)?
     } else {
-        fixed_point(
-            solver,
-            &setup.fixed_rhs,
-            &mut traction_load,
-            &opts,
-            report,
-        )?
+        fixed_point(solver, &setup.fixed_rhs, &mut traction_load, &opts, report)?
     };
     let sigma = recover_stress(setup, &u, &nodes)?;
     let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;

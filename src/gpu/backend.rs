@@ -154,7 +154,13 @@ impl GpuBackend {
     /// device scalars, submitted.
     pub fn scalar_kernel(&self, kernel: Kernel, p: &ScalParams) {
         let mut enc = self.encoder();
-        self.record(&mut enc, kernel, bytemuck::bytes_of(p), &[&self.scal], (1, 1));
+        self.record(
+            &mut enc,
+            kernel,
+            bytemuck::bytes_of(p),
+            &[&self.scal],
+            (1, 1),
+        );
         self.submit(enc);
     }
 
@@ -261,7 +267,11 @@ impl GpuBackend {
         };
         let mut bufs = vecs.to_vec();
         bufs.push(&partials);
-        let kernel = if comps == 1 { Kernel::Dot } else { Kernel::Dot2 };
+        let kernel = if comps == 1 {
+            Kernel::Dot
+        } else {
+            Kernel::Dot2
+        };
         self.record(enc, kernel, bytemuck::bytes_of(&first), &bufs, (x, y));
         let second = RedParams {
             n: groups,
@@ -270,7 +280,13 @@ impl GpuBackend {
             comps,
         };
         let bufs = [&partials, &self.scal];
-        self.record(enc, Kernel::Reduce, bytemuck::bytes_of(&second), &bufs, (1, 1));
+        self.record(
+            enc,
+            Kernel::Reduce,
+            bytemuck::bytes_of(&second),
+            &bufs,
+            (1, 1),
+        );
     }
 
     /// The partial-sums buffer, grown to at least `entries`.

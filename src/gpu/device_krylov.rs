@@ -116,7 +116,7 @@ pub fn solve_device(
         stats.restarts = cycle;
         stats.residual_history.push(rel);
         let started = stats.iterations;
-        let done = cx.run(x, &mut r, &mut stats)?;
+        let done = cx.run(x, &mut r, &mut stats);
         if done == 2.0 {
             // A zero divisor or a non-finite value: restart from the true
             // residual if the cycle got anywhere, like the host path.
@@ -131,6 +131,43 @@ pub fn solve_device(
         iterations: stats.iterations,
         residual: stats.true_relative_residual,
     })
+}
+
+/// Runs exactly `iterations` iterations of CG or CGS (no preconditioner, no
+/// convergence test) from `x`, for timing one iteration of the solver (the
+/// benches); returns the last relative residual `‖r‖ / ‖b‖` it computed.
+pub fn run_iterations(
+    be: &GpuBackend,
+    op: &GpuOperator<'_>,
+    method: KrylovMethod,
+    b: &GpuVector,
+    x: &mut GpuVector,
+    iterations: usize,
+) -> f64 {
+    let n = be.nrows(op);
+    let opts = KrylovOptions {
+        method,
+        preconditioner: Preconditioner::None,
+        rel_tol: f64::MIN_POSITIVE,
+        max_iterations: iterations,
+    };
+    let b_norm = be.dot(b, b).sqrt();
+    let cx = Cycle {
+        be,
+        op,
+        inv_diag: None,
+        n,
+        b_norm,
+        opts: &opts,
+        every: iterations.max(1),
+    };
+    let mut r = be.zeros(n);
+    be.apply(op, x, &mut r);
+    be.xpay(b, -1.0, &mut r);
+    let mut stats = KrylovStats::default();
+    // A breakdown shows as a non-finite or stalled residual in the result.
+    cx.run(x, &mut r, &mut stats);
+    stats.relative_residual
 }
 
 fn breakdown(opts: &KrylovOptions, iterations: usize, what: String) -> Error {
@@ -194,7 +231,8 @@ fn scal_params(num: u32, den: u32, out: u32, roll: bool) -> ScalParams {
 impl Cycle<'_, '_> {
     fn scalar(&self, enc: &mut wgpu::CommandEncoder, kernel: Kernel, p: ScalParams) {
         let bufs = [&self.be.scal];
-        self.be.record(enc, kernel, bytemuck::bytes_of(&p), &bufs, (1, 1));
+        self.be
+            .record(enc, kernel, bytemuck::bytes_of(&p), &bufs, (1, 1));
     }
 
     /// Records `z = M⁻¹ v` and returns the buffer holding `M⁻¹ v`.
@@ -218,7 +256,7 @@ impl Cycle<'_, '_> {
     /// Runs one cycle from the true residual `r`; returns the done flag
     /// (1 converged, 2 breakdown: a zero divisor on the device or a
     /// non-finite ‖r‖² seen here, 0 out of iterations).
-    fn run(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> Result<f64> {
+    fn run(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> f64 {
         let (be, n) = (self.be, self.n);
         let tol2 = (self.opts.rel_tol * self.b_norm).powi(2);
         be.write_slots(TOL2, &[tol2, 0.0, 0.0]);
@@ -256,10 +294,10 @@ impl Cycle<'_, '_> {
             stats.relative_residual = rr.sqrt() / self.b_norm;
             stats.residual_history.push(stats.relative_residual);
             if !rr.is_finite() {
-                return Ok(2.0);
+                return 2.0;
             }
             if s[0] != 0.0 || stats.iterations >= self.opts.max_iterations {
-                return Ok(s[0]);
+                return s[0];
             }
         }
     }
@@ -275,13 +313,33 @@ impl Cycle<'_, '_> {
         let (be, n) = (self.be, self.n);
         self.op.record_apply(be, enc, &p.buf, &q.buf);
         be.record_dot(enc, n, &[&p.buf, &q.buf], SIGMA);
-        self.scalar(enc, Kernel::ScalarRatio, scal_params(RHO, SIGMA, ALPHA, false));
-        be.record_vec(enc, Kernel::Axpy, n, (ALPHA, 0), &[&be.scal, &p.buf, &x.buf]);
-        be.record_vec(enc, Kernel::Axpy, n, (NALPHA, 0), &[&be.scal, &q.buf, &r.buf]);
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO, SIGMA, ALPHA, false),
+        );
+        be.record_vec(
+            enc,
+            Kernel::Axpy,
+            n,
+            (ALPHA, 0),
+            &[&be.scal, &p.buf, &x.buf],
+        );
+        be.record_vec(
+            enc,
+            Kernel::Axpy,
+            n,
+            (NALPHA, 0),
+            &[&be.scal, &q.buf, &r.buf],
+        );
         let zr = self.precond(enc, &r.buf, &z.buf);
         be.record_dot(enc, n, &[&r.buf, &r.buf, zr], RR);
         self.scalar(enc, Kernel::KrylovCheck, scal_params(RR, 0, 0, false));
-        self.scalar(enc, Kernel::ScalarRatio, scal_params(RHO_NEXT, RHO, BETA, true));
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO_NEXT, RHO, BETA, true),
+        );
         be.record_vec(enc, Kernel::Xpay, n, (BETA, 0), &[&be.scal, zr, &p.buf]);
     }
 
@@ -299,7 +357,11 @@ impl Cycle<'_, '_> {
         let ph = self.precond(enc, &p.buf, &z.buf);
         self.op.record_apply(be, enc, ph, &v.buf);
         be.record_dot(enc, n, &[&rt.buf, &v.buf], SIGMA);
-        self.scalar(enc, Kernel::ScalarRatio, scal_params(RHO, SIGMA, ALPHA, false));
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO, SIGMA, ALPHA, false),
+        );
         let bufs = [s, &v.buf, &q.buf, &u.buf];
         be.record_vec(enc, Kernel::CgsUpdateQu, n, (ALPHA, 0), &bufs);
         let uh = self.precond(enc, &u.buf, &z.buf);
@@ -308,6 +370,10 @@ impl Cycle<'_, '_> {
         be.record_vec(enc, Kernel::Axpy, n, (NALPHA, 0), &[s, &v.buf, &r.buf]);
         be.record_dot(enc, n, &[&r.buf, &r.buf, &rt.buf], RR);
         self.scalar(enc, Kernel::KrylovCheck, scal_params(RR, 0, 0, false));
-        self.scalar(enc, Kernel::ScalarRatio, scal_params(RHO_NEXT, RHO, BETA, true));
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO_NEXT, RHO, BETA, true),
+        );
     }
 }

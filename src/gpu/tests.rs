@@ -123,7 +123,9 @@ fn dispatch_goes_2d_past_the_per_dimension_limit() {
 fn reduction_mirrors_sum_like_the_cpu_backend() {
     use crate::backend::{Backend, CpuBackend};
     for n in [0usize, 1, 255, 2049, 20_000] {
-        let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 113) as f64 / 17.0 - 3.0).collect();
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 113) as f64 / 17.0 - 3.0)
+            .collect();
         let y: Vec<f64> = (0..n).map(|i| ((i * 104_729) % 97) as f64 / 13.0).collect();
         let groups = reduction_groups(n as u32);
         let prm = RedParams {
