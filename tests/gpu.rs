@@ -234,8 +234,14 @@ fn dispatch_in_2d_past_65535_workgroups() {
 }
 
 fn sphere(level: u32) -> (Case, Setup) {
+    sphere_with(level, &[])
+}
+
+/// `cases/sphere.toml` with `--set` overrides.
+fn sphere_with(level: u32, set: &[&str]) -> (Case, Setup) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/cases/sphere.toml");
-    let case = Case::from_file_with(std::path::Path::new(path), &[]).unwrap();
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    let case = Case::from_file_with(std::path::Path::new(path), &set).unwrap();
     let setup = Setup::new(&case, Some(level)).unwrap();
     (case, setup)
 }
@@ -247,13 +253,19 @@ fn apply_matches_its_mirror_and_the_host_operator() {
     };
     let tol = tolerance(&ctx);
     let be = GpuBackend::new(ctx.clone());
-    let (_, setup) = sphere(3);
+    for (element, level) in [("q1", 3), ("q2", 2)] {
+        let (_, setup) = sphere_with(level, &[&format!("element={element}")]);
+        apply_matches(&ctx, &be, &setup, tol);
+    }
+}
+
+fn apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, tol: f64) {
     let op = &setup.op;
     let n = op.nrows();
-    let x = as_device(&ctx, random(&mut ChaCha8Rng::seed_from_u64(9), n));
+    let x = as_device(ctx, random(&mut ChaCha8Rng::seed_from_u64(9), n));
     let ne2 = op.dofs_per_cell().pow(2) as u64;
     for chunk in [u64::MAX, 7 * ne2] {
-        let gop = GpuOperator::with_chunk_entries(&be, op, chunk);
+        let gop = GpuOperator::with_chunk_entries(be, op, chunk);
         let mut y = be.zeros(n);
         be.apply(&gop, &be.upload(&x), &mut y);
         let y = be.download(&y);
@@ -263,15 +275,15 @@ fn apply_matches_its_mirror_and_the_host_operator() {
             ncx: op.grid.n[0] as u32,
             ncy: op.grid.n[1] as u32,
             ncz: op.grid.n[2] as u32,
-            degree: 1,
+            degree: op.dofs.order.degree() as u32,
             ne: op.dofs_per_cell() as u32,
             own_lo: 0,
             own_hi: op.own_cells().len() as u32,
             first: 1,
             ..Default::default()
         };
-        let own = as_device(&ctx, op.own_matrices().to_vec());
-        let inside = as_device(&ctx, op.inside_matrix().to_vec());
+        let own = as_device(ctx, op.own_matrices().to_vec());
+        let inside = as_device(ctx, op.inside_matrix().to_vec());
         let (a2n, n2a) = (&op.dofs.active_to_node, &op.dofs.node_to_active);
         mirror::apply(
             &prm,
@@ -338,13 +350,13 @@ fn sphere_solves_on_the_gpu_in_f64_like_on_the_cpu() {
     let Some(ctx) = context_or_skip(PrecisionChoice::F64) else {
         return;
     };
-    for level in [3, 4] {
-        let (case, setup) = sphere(level);
+    for (level, method) in [(3, "cgs"), (4, "cgs"), (3, "cg")] {
+        let (case, setup) = sphere_with(level, &[&format!("solver.method={method}")]);
         let (u_cpu, it_cpu, _, _) = solve_sphere(&case, &setup, &mut CpuSolver::new(&setup.op));
         for scalars in [Scalars::Host, Scalars::Device] {
             let mut gpu = GpuSolver::new(ctx.clone(), &setup.op, scalars);
             let (u, it, res, _) = solve_sphere(&case, &setup, &mut gpu);
-            let what = format!("level {level}, {scalars:?} scalars");
+            let what = format!("level {level}, {method}, {scalars:?} scalars");
             assert_close(&what, &u, &u_cpu, 1e-10);
             assert_iterations_close(&what, &it, &it_cpu);
             assert!(res <= case.spec.solver.rel_tol, "{what}: residual {res:e}");

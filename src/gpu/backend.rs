@@ -190,7 +190,7 @@ impl GpuBackend {
             contents: params,
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let pipeline = self.ctx.pipelines.get(kernel);
+        let (pipeline, layout) = self.ctx.pipelines.get(kernel);
         let mut entries = vec![wgpu::BindGroupEntry {
             binding: 0,
             resource: uniform.as_entire_binding(),
@@ -203,7 +203,7 @@ impl GpuBackend {
         }
         let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(kernel.name()),
-            layout: &pipeline.get_bind_group_layout(0),
+            layout,
             entries: &entries,
         });
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {

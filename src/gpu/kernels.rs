@@ -189,9 +189,10 @@ pub fn reduction_groups(n: u32) -> u32 {
     n.div_ceil(WG * PER)
 }
 
-/// The compiled pipelines of one device and precision.
+/// The compiled pipelines of one device and precision, with their bind
+/// group layouts (fetched once: `get_bind_group_layout` makes a new handle).
 pub struct Pipelines {
-    pipelines: Vec<wgpu::ComputePipeline>,
+    pipelines: Vec<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
 }
 
 impl Pipelines {
@@ -204,22 +205,25 @@ impl Pipelines {
                     label: Some(k.name()),
                     source: wgpu::ShaderSource::Wgsl(k.source(precision).into()),
                 });
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                let p = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(k.name()),
                     layout: None,
                     module: &module,
                     entry_point: Some("main"),
                     compilation_options: Default::default(),
                     cache: None,
-                })
+                });
+                let layout = p.get_bind_group_layout(0);
+                (p, layout)
             })
             .collect();
         Pipelines { pipelines }
     }
 
-    /// The pipeline of `kernel`.
-    pub fn get(&self, kernel: Kernel) -> &wgpu::ComputePipeline {
+    /// The pipeline of `kernel` and its bind group layout.
+    pub fn get(&self, kernel: Kernel) -> (&wgpu::ComputePipeline, &wgpu::BindGroupLayout) {
         let i = Kernel::ALL.iter().position(|k| *k == kernel).unwrap();
-        &self.pipelines[i]
+        let (p, l) = &self.pipelines[i];
+        (p, l)
     }
 }
