@@ -5,7 +5,8 @@
 //! repeat
 //!     r = b − A x                 f64, on the host, with the CPU operator
 //!     stop when ‖r‖ ≤ τ ‖b‖
-//!     A d = r                     f32 on the device, to τ_in = max(τ ‖b‖ / ‖r‖, τ_f32)
+//!     A d = r                     f32 on the device (for r / ‖r‖, so that f32
+//!                                 keeps its range), to τ_in = max(τ ‖b‖ / ‖r‖, τ_f32)
 //!     x = x + d                   f64
 //! ```
 //!
@@ -49,6 +50,11 @@ pub fn solve_defect_correction(
     assert!(b.len() == n && x.len() == n, "defect correction: sizes");
     let b_norm = norm(b);
     let mut stats = KrylovStats::default();
+    if b_norm == 0.0 {
+        x.fill(0.0);
+        stats.residual_history.push(0.0);
+        return Ok(stats);
+    }
     let mut r = vec![0.0; n];
     let mut last = f64::INFINITY;
     for step in 0.. {
@@ -57,7 +63,7 @@ pub fn solve_defect_correction(
             *ri = bi - *ri;
         }
         let r_norm = norm(&r);
-        let rel = if b_norm > 0.0 { r_norm / b_norm } else { 0.0 };
+        let rel = r_norm / b_norm;
         stats.true_relative_residual = rel;
         stats.relative_residual = rel;
         stats.residual_history.push(rel);
@@ -77,7 +83,9 @@ pub fn solve_defect_correction(
             max_iterations: opts.max_iterations - stats.iterations,
             ..opts.clone()
         };
-        let rd = be.upload(&r);
+        // Unit right-hand side: f32 keeps its range whatever the scale of r.
+        let unit: Vec<f64> = r.iter().map(|v| v / r_norm).collect();
+        let rd = be.upload(&unit);
         let mut d = be.zeros(n);
         let result = match opts.method {
             crate::solver::KrylovMethod::BiCgStab => {
@@ -93,7 +101,7 @@ pub fn solve_defect_correction(
             Err(e) => return Err(e),
         }
         for (xi, di) in x.iter_mut().zip(be.download(&d)) {
-            *xi += di;
+            *xi += r_norm * di;
         }
     }
     Err(Error::MaxIterations {
