@@ -78,6 +78,13 @@ pub enum Error {
     /// An SVG plot could not be drawn (a bug, not bad input).
     #[error("drawing the plot '{title}': {reason}")]
     Plot { title: String, reason: String },
+    /// No GPU adapter matches what was asked for (`--backend gpu`, an adapter
+    /// name, f64).
+    #[error("no GPU adapter: wanted {wanted}; adapters found: {found}")]
+    NoAdapter { wanted: String, found: String },
+    /// The GPU device failed (opening it, a buffer map, a lost device).
+    #[error("GPU: {what}")]
+    Gpu { what: String },
 }
 
 impl Error {
@@ -85,7 +92,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
-            Error::Recovery { .. } | Error::Plot { .. } => 1,
+            Error::Recovery { .. } | Error::Plot { .. } | Error::Gpu { .. } => 1,
             _ => 2,
         }
     }

@@ -16,6 +16,7 @@ pub mod error;
 pub mod expr;
 pub mod fem;
 pub mod geometry;
+pub mod gpu;
 pub mod grid;
 pub mod output;
 pub mod plot;

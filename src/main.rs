@@ -5,6 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -14,9 +15,12 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
 use cgfem_gpu::fem::field::{error_norms, interpolate};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
+use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::fem::solve::solve_with;
+use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
+use cgfem_gpu::gpu::{list_adapters, BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
@@ -51,7 +55,22 @@ enum Command {
         /// Jacobi-scaled; assembles the matrix and factorises it).
         #[arg(long)]
         condition: bool,
+        /// Where the linear solves run: auto (the GPU when an adapter is
+        /// found, else the CPU), cpu or gpu (default: $CGFEM_BACKEND, else auto).
+        #[arg(long)]
+        backend: Option<BackendChoice>,
+        /// Use the first GPU adapter whose name contains this (default:
+        /// $CGFEM_ADAPTER).
+        #[arg(long)]
+        adapter: Option<String>,
+        /// GPU precision: auto (f64 where the adapter has it), f32 (inner solves
+        /// in f64 defect correction) or f64.
+        #[arg(long, default_value = "auto")]
+        precision: PrecisionChoice,
     },
+    /// List the GPU adapters: backend, device type, driver, f64 and subgroup
+    /// support, storage and dispatch limits.
+    Info,
     /// Regenerate a result of the paper beside the paper's figures:
     /// DIR/<what>.json, .md and .svg.
     Reproduce {
@@ -102,7 +121,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             set,
             out,
             condition,
-        } => run_case(&case, level, &set, out, condition),
+            backend,
+            adapter,
+            precision,
+        } => {
+            let device = Device {
+                backend,
+                adapter,
+                precision,
+            };
+            run_case(&case, level, &set, out, condition, &device)
+        }
+        Command::Info => {
+            info();
+            Ok(())
+        }
         Command::Reproduce {
             what,
             levels,
@@ -205,14 +238,64 @@ fn condition_numbers(setup: &Setup) -> anyhow::Result<Condition> {
     })
 }
 
+/// `cgfem-gpu info`.
+fn info() {
+    let adapters = list_adapters();
+    if adapters.is_empty() {
+        println!("no GPU adapter found (Vulkan); runs use the CPU backend");
+    }
+    for (i, a) in adapters.iter().enumerate() {
+        println!("[{i}] {a}");
+    }
+}
+
+/// What `run` asked of the device.
+struct Device {
+    backend: Option<BackendChoice>,
+    adapter: Option<String>,
+    precision: PrecisionChoice,
+}
+
+/// The GPU context to solve on, or `None` for the CPU.
+fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
+    let filter = cgfem_gpu::gpu::context::adapter_filter(d.adapter.as_deref());
+    match BackendChoice::resolve(d.backend)? {
+        BackendChoice::Cpu => {
+            if d.precision == PrecisionChoice::F32 {
+                return Err(cgfem_gpu::Error::CaseFile {
+                    file: "(command line)".into(),
+                    key: "--precision".into(),
+                    reason: "f32 needs the GPU backend".into(),
+                }
+                .into());
+            }
+            Ok(None)
+        }
+        BackendChoice::Gpu => Ok(Some(Arc::new(GpuContext::new(
+            filter.as_deref(),
+            d.precision,
+        )?))),
+        BackendChoice::Auto => match GpuContext::new(filter.as_deref(), d.precision) {
+            Ok(ctx) => Ok(Some(Arc::new(ctx))),
+            Err(e @ cgfem_gpu::Error::NoAdapter { .. }) => {
+                println!("note: {e}; solving on the CPU");
+                Ok(None)
+            }
+            Err(e) => Err(e.into()),
+        },
+    }
+}
+
 fn run_case(
     path: &Path,
     level: Option<u32>,
     set: &[String],
     out: Option<PathBuf>,
     condition: bool,
+    device: &Device,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
+    let gpu = open_device(device)?;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
     let setup = Setup::new(&case, level)?;
@@ -257,8 +340,35 @@ fn run_case(
     }
 
     let t = Instant::now();
+    let (mut cpu_solver, mut gpu_solver);
+    let solver: &mut dyn LinearSolver = match &gpu {
+        Some(ctx) => {
+            gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device);
+            report.backend = "gpu".into();
+            report.adapter = Some(ctx.adapter.name.clone());
+            report.precision = ctx.precision.name().into();
+            &mut gpu_solver
+        }
+        None => {
+            cpu_solver = CpuSolver::new(&setup.op);
+            &mut cpu_solver
+        }
+    };
+    report
+        .timings
+        .insert("upload".into(), t.elapsed().as_secs_f64());
+    println!(
+        "  backend {}{} ({})",
+        report.backend,
+        report
+            .adapter
+            .as_ref()
+            .map_or(String::new(), |a| format!(": {a}")),
+        report.precision
+    );
+    let t = Instant::now();
     let mut fp = FixedPointReport::default();
-    let result = solve(&setup, &case.spec.solver, &mut fp);
+    let result = solve_with(&setup, &case.spec.solver, solver, &mut fp);
     report
         .timings
         .insert("solve".into(), t.elapsed().as_secs_f64());

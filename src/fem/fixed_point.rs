@@ -9,9 +9,9 @@
 
 use serde::Serialize;
 
-use crate::backend::{CpuBackend, LinearOperator};
+use super::linear::LinearSolver;
 use crate::error::{Error, Result};
-use crate::solver::{solve, KrylovOptions, KrylovStats};
+use crate::solver::{KrylovOptions, KrylovStats};
 
 /// Settings of the loop.
 #[derive(Clone, Debug)]
@@ -49,23 +49,22 @@ pub struct FixedPointReport {
     pub recovery_seconds: f64,
 }
 
-/// Runs the loop. `recovered(U)` returns `F_rec(U)`; `fixed` is the rest of the
-/// right-hand side. On failure the report so far comes back with the error.
+/// Runs the loop, solving with `solver` (any backend). `recovered(U)` returns
+/// `F_rec(U)`; `fixed` is the rest of the right-hand side. On failure the
+/// report so far comes back with the error.
 pub fn fixed_point(
-    op: &dyn LinearOperator,
+    solver: &mut dyn LinearSolver,
     fixed: &[f64],
     recovered: &mut dyn FnMut(&[f64]) -> Result<Vec<f64>>,
     opts: &FixedPointOptions,
     report: &mut FixedPointReport,
 ) -> Result<Vec<f64>> {
-    let be = CpuBackend::new();
-    let diag = op.diagonal();
     let mut krylov = opts.krylov.clone();
     let mut run_solve =
         |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
             krylov.rel_tol = tol;
             let t = std::time::Instant::now();
-            let result = solve(&be, op, Some(&diag), &rhs.to_vec(), u, &krylov);
+            let result = solver.solve(rhs, u, &krylov);
             report.krylov_seconds += t.elapsed().as_secs_f64();
             let stats: KrylovStats = match result {
                 Ok(stats) => stats,

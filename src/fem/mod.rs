@@ -3,6 +3,7 @@
 pub mod dofs;
 pub mod field;
 pub mod fixed_point;
+pub mod linear;
 pub mod operator;
 pub mod output;
 pub mod problem;

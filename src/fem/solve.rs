@@ -4,6 +4,7 @@
 //! converged solution and the reactions.
 
 use super::fixed_point::{fixed_point, FixedPointOptions, FixedPointReport};
+use super::linear::{CpuSolver, LinearSolver};
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::rhs::traction_rhs;
 use super::setup::Setup;
@@ -37,8 +38,18 @@ pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
     }
 }
 
-/// Solves; the loop's report is filled in even when the solve fails.
+/// Solves on the CPU; the loop's report is filled in even when the solve fails.
 pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) -> Result<Solution> {
+    solve_with(setup, spec, &mut CpuSolver::new(&setup.op), report)
+}
+
+/// Solves with `solver` for the linear systems (any backend).
+pub fn solve_with(
+    setup: &Setup,
+    spec: &SolverSpec,
+    solver: &mut dyn LinearSolver,
+    report: &mut FixedPointReport,
+) -> Result<Solution> {
     let nodes = traction_patch_nodes(setup);
     let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
     let mut traction_load = |u: &[f64]| -> Result<Vec<f64>> {
@@ -57,15 +68,9 @@ pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) ->
     let opts = fixed_point_options(spec);
     let u = if setup.dirichlet.is_empty() && !stabilised {
         // Nothing is recovered into the right-hand side: one solve is the answer.
-        solve_once(setup, &opts, report)?
+        solve_once(setup, solver, &opts, report)?
     } else {
-        fixed_point(
-            &setup.op,
-            &setup.fixed_rhs,
-            &mut traction_load,
-            &opts,
-            report,
-        )?
+        fixed_point(solver, &setup.fixed_rhs, &mut traction_load, &opts, report)?
     };
     let sigma = recover_stress(setup, &u, &nodes)?;
     let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
@@ -80,21 +85,13 @@ pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) ->
 /// A single Krylov solve of `A U = F` (no Dirichlet points).
 fn solve_once(
     setup: &Setup,
+    solver: &mut dyn LinearSolver,
     opts: &FixedPointOptions,
     report: &mut FixedPointReport,
 ) -> Result<Vec<f64>> {
-    let be = crate::backend::CpuBackend::new();
-    let diag = crate::backend::LinearOperator::diagonal(&setup.op);
     let mut u = vec![0.0; setup.fixed_rhs.len()];
     let t = std::time::Instant::now();
-    let stats = crate::solver::solve(
-        &be,
-        &setup.op,
-        Some(&diag),
-        &setup.fixed_rhs,
-        &mut u,
-        &opts.krylov,
-    )?;
+    let stats = solver.solve(&setup.fixed_rhs, &mut u, &opts.krylov)?;
     report.krylov_seconds = t.elapsed().as_secs_f64();
     report.iterations_per_solve.push(stats.iterations);
     report.total_iterations = stats.iterations;

@@ -1,0 +1,459 @@
+//! [`GpuBackend`]: the [`Backend`] trait on a wgpu device. Vectors are device
+//! buffers for the whole solve; each trait call records its kernel(s) and
+//! submits; only `dot`, `dot2` and `download` wait for the device.
+//!
+//! # Scalars
+//! Kernels read their scalars from the device buffer `scal` ([`SLOTS`]
+//! entries) at slots named in their params. A trait call writes its `f64`
+//! arguments to the host slots [`SLOT_A`], [`SLOT_B`] (`write_buffer`, ordered
+//! before the submit that follows); reductions land in [`SLOT_DOT`]`..+2` and
+//! are read back. The device-scalar solvers ([`super::device_krylov`]) use the
+//! same kernels with slots that other kernels wrote.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+
+use wgpu::util::DeviceExt;
+
+use crate::backend::Backend;
+
+use super::context::{GpuContext, Precision};
+use super::kernels::{grid_2d, reduction_groups, Kernel, RedParams, ScalParams, VecParams, WG};
+use super::operator::GpuOperator;
+
+/// Entries of the device-scalar buffer.
+pub const SLOTS: u32 = 32;
+/// Host-written scalar arguments of the trait calls.
+pub const SLOT_A: u32 = 0;
+pub const SLOT_B: u32 = 1;
+/// Where `dot`/`dot2` reduce to (two slots).
+pub const SLOT_DOT: u32 = 2;
+
+/// A vector on the device: `len` entries (the buffer holds at least one).
+pub struct GpuVector {
+    pub(super) buf: wgpu::Buffer,
+    pub(super) len: usize,
+}
+
+/// The GPU backend over one [`GpuContext`].
+pub struct GpuBackend {
+    pub(super) ctx: Arc<GpuContext>,
+    pub(super) scal: wgpu::Buffer,
+    partials: RefCell<Option<wgpu::Buffer>>,
+}
+
+fn check_len(kernel: &str, n: usize, others: &[usize]) {
+    for &m in others {
+        assert_eq!(n, m, "gpu backend: {kernel}: vector lengths differ");
+    }
+}
+
+impl GpuBackend {
+    /// The backend on `ctx`.
+    pub fn new(ctx: Arc<GpuContext>) -> Self {
+        let scal = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("scal"),
+            size: SLOTS as u64 * ctx.precision.bytes(),
+            usage: storage_usage(),
+            mapped_at_creation: false,
+        });
+        GpuBackend {
+            ctx,
+            scal,
+            partials: RefCell::new(None),
+        }
+    }
+
+    /// The context (device, adapter, precision).
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// The device precision.
+    pub fn precision(&self) -> Precision {
+        self.ctx.precision
+    }
+
+    /// `data` converted to the device precision, as bytes.
+    pub(super) fn to_bytes(&self, data: &[f64]) -> Vec<u8> {
+        match self.ctx.precision {
+            Precision::F64 => bytemuck::cast_slice(data).to_vec(),
+            Precision::F32 => {
+                let v: Vec<f32> = data.iter().map(|&x| x as f32).collect();
+                bytemuck::cast_slice(&v).to_vec()
+            }
+        }
+    }
+
+    /// A storage buffer holding `bytes` (at least 4 bytes).
+    pub(super) fn buffer_init(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+        let pad = [0u8; 8];
+        let contents = if bytes.is_empty() { &pad[..] } else { bytes };
+        self.ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: storage_usage(),
+            })
+    }
+
+    /// Writes host scalars into consecutive slots from `slot`.
+    pub fn write_slots(&self, slot: u32, values: &[f64]) {
+        let offset = slot as u64 * self.ctx.precision.bytes();
+        self.ctx
+            .queue
+            .write_buffer(&self.scal, offset, &self.to_bytes(values));
+    }
+
+    /// Reads `count` slots from `slot` (waits for the device).
+    pub fn read_slots(&self, slot: u32, count: u32) -> Vec<f64> {
+        let b = self.ctx.precision.bytes();
+        self.read_buffer(&self.scal, slot as u64 * b, count as usize)
+    }
+
+    /// `count` entries of `buf` from byte `offset`, as f64 (waits).
+    fn read_buffer(&self, buf: &wgpu::Buffer, offset: u64, count: usize) -> Vec<f64> {
+        if count == 0 {
+            return Vec::new();
+        }
+        let size = count as u64 * self.ctx.precision.bytes();
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("staging"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.encoder();
+        enc.copy_buffer_to_buffer(buf, offset, &staging, 0, size);
+        self.ctx.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |r| {
+            r.expect("gpu backend: mapping a staging buffer failed")
+        });
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("gpu backend: device lost while waiting");
+        let data = slice
+            .get_mapped_range()
+            .expect("gpu backend: reading a mapped staging buffer failed");
+        let out = match self.ctx.precision {
+            Precision::F64 => bytemuck::pod_collect_to_vec::<u8, f64>(&data),
+            Precision::F32 => bytemuck::pod_collect_to_vec::<u8, f32>(&data)
+                .into_iter()
+                .map(|x| x as f64)
+                .collect(),
+        };
+        drop(data);
+        staging.unmap();
+        out
+    }
+
+    /// Runs a one-invocation kernel (`scalar_ratio`, `krylov_check`) on the
+    /// device scalars, submitted.
+    pub fn scalar_kernel(&self, kernel: Kernel, p: &ScalParams) {
+        let mut enc = self.encoder();
+        self.record(
+            &mut enc,
+            kernel,
+            bytemuck::bytes_of(p),
+            &[&self.scal],
+            (1, 1),
+        );
+        self.submit(enc);
+    }
+
+    pub(super) fn encoder(&self) -> wgpu::CommandEncoder {
+        self.ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+    }
+
+    pub(super) fn submit(&self, enc: wgpu::CommandEncoder) {
+        self.ctx.queue.submit([enc.finish()]);
+    }
+
+    /// Records `kernel` with `params` at binding 0 and `bufs` at 1, 2, … over
+    /// `groups` workgroups.
+    pub(super) fn record(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        params: &[u8],
+        bufs: &[&wgpu::Buffer],
+        groups: (u32, u32),
+    ) {
+        let dev = &self.ctx.device;
+        let uniform = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: params,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let (pipeline, layout) = self.ctx.pipelines.get(kernel);
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniform.as_entire_binding(),
+        }];
+        for (i, b) in bufs.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: i as u32 + 1,
+                resource: b.as_entire_binding(),
+            });
+        }
+        let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(kernel.name()),
+            layout,
+            entries: &entries,
+        });
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(kernel.name()),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(groups.0, groups.1, 1);
+    }
+
+    fn max_dim(&self) -> u32 {
+        self.ctx.limits.max_compute_workgroups_per_dimension
+    }
+
+    /// Records an element-wise kernel over `n` entries with scalar slots
+    /// `ia`, `ib` (nothing for `n = 0`).
+    pub(super) fn record_vec(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        n: usize,
+        (ia, ib): (u32, u32),
+        bufs: &[&wgpu::Buffer],
+    ) {
+        if n == 0 {
+            return;
+        }
+        let (x, y, stride) = grid_2d(n as u32, WG, self.max_dim());
+        let p = VecParams {
+            n: n as u32,
+            ia,
+            ib,
+            stride,
+        };
+        self.record(enc, kernel, bytemuck::bytes_of(&p), bufs, (x, y));
+    }
+
+    /// Records `dot` (`vecs = [x, y]`) or `dot2` (`[x, y, z]`) over `n`
+    /// entries and the second pass into slots `out..out + comps`.
+    pub(super) fn record_dot(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        n: usize,
+        vecs: &[&wgpu::Buffer],
+        out: u32,
+    ) {
+        let comps = vecs.len() as u32 - 1;
+        let groups = reduction_groups(n as u32);
+        if groups == 0 {
+            self.write_slots(out, &vec![0.0; comps as usize]);
+            return;
+        }
+        let partials = self.partials(groups * comps);
+        let (x, y, _) = grid_2d(groups, 1, self.max_dim());
+        let first = RedParams {
+            n: n as u32,
+            out,
+            groups,
+            comps,
+        };
+        let mut bufs = vecs.to_vec();
+        bufs.push(&partials);
+        let kernel = if comps == 1 {
+            Kernel::Dot
+        } else {
+            Kernel::Dot2
+        };
+        self.record(enc, kernel, bytemuck::bytes_of(&first), &bufs, (x, y));
+        let second = RedParams {
+            n: groups,
+            out,
+            groups: 1,
+            comps,
+        };
+        let bufs = [&partials, &self.scal];
+        self.record(
+            enc,
+            Kernel::Reduce,
+            bytemuck::bytes_of(&second),
+            &bufs,
+            (1, 1),
+        );
+    }
+
+    /// The partial-sums buffer, grown to at least `entries`.
+    fn partials(&self, entries: u32) -> wgpu::Buffer {
+        let bytes = entries as u64 * self.ctx.precision.bytes();
+        let mut cache = self.partials.borrow_mut();
+        match &*cache {
+            Some(b) if b.size() >= bytes => b.clone(),
+            _ => {
+                let b = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("partials"),
+                    size: bytes.next_power_of_two(),
+                    usage: storage_usage(),
+                    mapped_at_creation: false,
+                });
+                *cache = Some(b.clone());
+                b
+            }
+        }
+    }
+
+    /// One element-wise kernel with host scalars `a`, `b`, submitted.
+    fn vec_call(&self, kernel: Kernel, n: usize, scalars: &[f64], bufs: &[&wgpu::Buffer]) {
+        if n == 0 {
+            return;
+        }
+        if !scalars.is_empty() {
+            self.write_slots(SLOT_A, scalars);
+        }
+        let mut enc = self.encoder();
+        self.record_vec(&mut enc, kernel, n, (SLOT_A, SLOT_B), bufs);
+        self.submit(enc);
+    }
+}
+
+/// Usage of every storage buffer of the backend.
+pub(super) fn storage_usage() -> wgpu::BufferUsages {
+    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST
+}
+
+impl Backend for GpuBackend {
+    type Vector = GpuVector;
+    type Operator<'o> = GpuOperator<'o>;
+
+    fn name(&self) -> String {
+        format!("gpu:{}", self.ctx.adapter.name)
+    }
+
+    fn len(&self, v: &GpuVector) -> usize {
+        v.len
+    }
+
+    fn nrows(&self, op: &GpuOperator<'_>) -> usize {
+        op.nrows()
+    }
+
+    fn zeros(&self, n: usize) -> GpuVector {
+        let size = n.max(1) as u64 * self.ctx.precision.bytes();
+        // Buffers are zero-initialised by wgpu.
+        let buf = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("vector"),
+            size,
+            usage: storage_usage(),
+            mapped_at_creation: false,
+        });
+        GpuVector { buf, len: n }
+    }
+
+    fn upload(&self, data: &[f64]) -> GpuVector {
+        GpuVector {
+            buf: self.buffer_init("vector", &self.to_bytes(data)),
+            len: data.len(),
+        }
+    }
+
+    fn download(&self, v: &GpuVector) -> Vec<f64> {
+        self.read_buffer(&v.buf, 0, v.len)
+    }
+
+    fn apply(&self, op: &GpuOperator<'_>, x: &GpuVector, y: &mut GpuVector) {
+        check_len("apply", op.nrows(), &[x.len, y.len]);
+        let mut enc = self.encoder();
+        op.record_apply(self, &mut enc, &x.buf, &y.buf);
+        self.submit(enc);
+    }
+
+    fn diagonal(&self, op: &GpuOperator<'_>) -> GpuVector {
+        self.upload(&op.host_diagonal())
+    }
+
+    fn copy(&self, src: &GpuVector, dst: &mut GpuVector) {
+        check_len("copy", src.len, &[dst.len]);
+        self.vec_call(Kernel::Copy, src.len, &[], &[&src.buf, &dst.buf]);
+    }
+
+    fn scale(&self, a: f64, x: &mut GpuVector) {
+        self.vec_call(Kernel::Scale, x.len, &[a], &[&self.scal, &x.buf]);
+    }
+
+    fn axpy(&self, a: f64, x: &GpuVector, y: &mut GpuVector) {
+        check_len("axpy", x.len, &[y.len]);
+        self.vec_call(Kernel::Axpy, x.len, &[a], &[&self.scal, &x.buf, &y.buf]);
+    }
+
+    fn xpay(&self, x: &GpuVector, a: f64, y: &mut GpuVector) {
+        check_len("xpay", x.len, &[y.len]);
+        self.vec_call(Kernel::Xpay, x.len, &[a], &[&self.scal, &x.buf, &y.buf]);
+    }
+
+    fn axpy2(&self, a: f64, u: &GpuVector, b: f64, w: &GpuVector, y: &mut GpuVector) {
+        check_len("axpy2", y.len, &[u.len, w.len]);
+        let bufs = [&self.scal, &u.buf, &w.buf, &y.buf];
+        self.vec_call(Kernel::Axpy2, y.len, &[a, b], &bufs);
+    }
+
+    fn pointwise_mul(&self, x: &GpuVector, y: &GpuVector, z: &mut GpuVector) {
+        check_len("pointwise_mul", z.len, &[x.len, y.len]);
+        let bufs = [&x.buf, &y.buf, &z.buf];
+        self.vec_call(Kernel::PointwiseMul, z.len, &[], &bufs);
+    }
+
+    fn dot(&self, x: &GpuVector, y: &GpuVector) -> f64 {
+        check_len("dot", x.len, &[y.len]);
+        let mut enc = self.encoder();
+        self.record_dot(&mut enc, x.len, &[&x.buf, &y.buf], SLOT_DOT);
+        self.submit(enc);
+        self.read_slots(SLOT_DOT, 1)[0]
+    }
+
+    fn dot2(&self, x: &GpuVector, y: &GpuVector, z: &GpuVector) -> (f64, f64) {
+        check_len("dot2", x.len, &[y.len, z.len]);
+        let mut enc = self.encoder();
+        self.record_dot(&mut enc, x.len, &[&x.buf, &y.buf, &z.buf], SLOT_DOT);
+        self.submit(enc);
+        let s = self.read_slots(SLOT_DOT, 2);
+        (s[0], s[1])
+    }
+
+    fn cgs_update_up(
+        &self,
+        beta: f64,
+        r: &GpuVector,
+        q: &GpuVector,
+        u: &mut GpuVector,
+        p: &mut GpuVector,
+    ) {
+        check_len("cgs_update_up", r.len, &[q.len, u.len, p.len]);
+        let bufs = [&self.scal, &r.buf, &q.buf, &u.buf, &p.buf];
+        self.vec_call(Kernel::CgsUpdateUp, r.len, &[beta], &bufs);
+    }
+
+    fn cgs_update_qu(&self, alpha: f64, v: &GpuVector, q: &mut GpuVector, u: &mut GpuVector) {
+        check_len("cgs_update_qu", v.len, &[q.len, u.len]);
+        let bufs = [&self.scal, &v.buf, &q.buf, &u.buf];
+        self.vec_call(Kernel::CgsUpdateQu, v.len, &[alpha], &bufs);
+    }
+
+    fn bicgstab_update_p(
+        &self,
+        beta: f64,
+        omega: f64,
+        r: &GpuVector,
+        v: &GpuVector,
+        p: &mut GpuVector,
+    ) {
+        check_len("bicgstab_update_p", p.len, &[r.len, v.len]);
+        let bufs = [&self.scal, &r.buf, &v.buf, &p.buf];
+        self.vec_call(Kernel::BicgstabUpdateP, p.len, &[beta, omega], &bufs);
+    }
+}

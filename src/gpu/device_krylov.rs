@@ -1,0 +1,379 @@
+//! CG and CGS with their scalars on the device (DESIGN §7): ρ, σ, α, β live in
+//! slots of the backend's scalar buffer, computed by the one-invocation kernel
+//! `scalar_ratio` from the reductions of the same iteration; `krylov_check`
+//! counts iterations and marks the solve done when `‖r‖² ≤ (τ ‖b‖)²`. The
+//! host submits [`DeviceOptions::check_every`] iterations at a time and reads
+//! back only a few slots between batches. Once done, α = 0, so the iterations
+//! left in a batch leave `x` and `r` unchanged and the iteration count is
+//! exactly the host-scalar path's.
+//!
+//! The algorithms are those of `crate::solver` (same formulas, same order of
+//! operations, Jacobi right preconditioning for CGS, the `r`/`z` split for CG),
+//! and [`solve_device`] checks the true residual around the cycles and
+//! restarts like [`crate::solver::solve`]. Not kept: the per-iteration residual
+//! history (one entry per batch) and the Lanczos coefficients of CG. A
+//! non-positive `p·Ap` is not detected by the device (CG then fails to
+//! converge instead of reporting a breakdown).
+
+use crate::backend::Backend;
+use crate::error::{Error, Result};
+use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
+
+use super::backend::{GpuBackend, GpuVector};
+use super::kernels::{Kernel, ScalParams};
+use super::operator::GpuOperator;
+
+/// Slots of the device scalars (next to the backend's host slots 0..4).
+const TOL2: u32 = 8;
+const DONE: u32 = 9;
+const ITERS: u32 = 10;
+const RHO: u32 = 11;
+const SIGMA: u32 = 12;
+/// α and −α.
+const ALPHA: u32 = 13;
+const NALPHA: u32 = 14;
+/// β (and −β, unused).
+const BETA: u32 = 15;
+/// `dot2` lands (‖r‖², ρ') here.
+const RR: u32 = 17;
+const RHO_NEXT: u32 = 18;
+
+/// How often the host looks.
+#[derive(Clone, Copy, Debug)]
+pub struct DeviceOptions {
+    /// Iterations per submit between read-backs of the residual.
+    pub check_every: usize,
+}
+
+impl Default for DeviceOptions {
+    fn default() -> Self {
+        DeviceOptions { check_every: 8 }
+    }
+}
+
+/// Solves `A x = b` with CG or CGS, scalars on the device, from the `x` given.
+/// BiCGStab is not offered here ([`Error::InvalidSolverOptions`]); use
+/// [`crate::solver::solve`] with the backend for it.
+pub fn solve_device(
+    be: &GpuBackend,
+    op: &GpuOperator<'_>,
+    diag: Option<&GpuVector>,
+    b: &GpuVector,
+    x: &mut GpuVector,
+    opts: &KrylovOptions,
+    dev: &DeviceOptions,
+) -> Result<KrylovStats> {
+    opts.validate()?;
+    if opts.method == KrylovMethod::BiCgStab {
+        return Err(Error::InvalidSolverOptions {
+            what: "method".into(),
+            reason: "device-scalar solves are CG or CGS".into(),
+        });
+    }
+    let n = be.nrows(op);
+    assert!(be.len(b) == n && be.len(x) == n, "solve_device: sizes");
+    let b_norm = be.dot(b, b).sqrt();
+    let mut stats = KrylovStats::default();
+    if !b_norm.is_finite() {
+        return Err(breakdown(opts, 0, format!("‖b‖ = {b_norm} is not finite")));
+    }
+    if b_norm == 0.0 {
+        be.copy(b, x);
+        stats.residual_history.push(0.0);
+        return Ok(stats);
+    }
+    let inv_diag = match opts.preconditioner {
+        Preconditioner::None => None,
+        Preconditioner::Jacobi => Some(inverse_diagonal(be, op, diag, opts)?),
+    };
+    let cx = Cycle {
+        be,
+        op,
+        inv_diag: inv_diag.as_ref(),
+        n,
+        b_norm,
+        opts,
+        every: dev.check_every.max(1),
+    };
+    let mut r = be.zeros(n);
+    for cycle in 0.. {
+        be.apply(op, x, &mut r);
+        be.xpay(b, -1.0, &mut r);
+        let rel = be.dot(&r, &r).sqrt() / b_norm;
+        if !rel.is_finite() {
+            return Err(breakdown(opts, stats.iterations, "true residual".into()));
+        }
+        stats.true_relative_residual = rel;
+        if cycle == 0 {
+            stats.relative_residual = rel;
+        }
+        if rel <= opts.rel_tol {
+            return Ok(stats);
+        }
+        if stats.iterations >= opts.max_iterations {
+            break;
+        }
+        stats.restarts = cycle;
+        stats.residual_history.push(rel);
+        let started = stats.iterations;
+        let done = cx.run(x, &mut r, &mut stats);
+        if done == 2.0 {
+            // A zero divisor or a non-finite value: restart from the true
+            // residual if the cycle got anywhere, like the host path.
+            if opts.method == KrylovMethod::Cg || stats.iterations == started {
+                let what = "a zero divisor or a non-finite scalar".into();
+                return Err(breakdown(opts, stats.iterations, what));
+            }
+        }
+    }
+    Err(Error::MaxIterations {
+        method: opts.method.name().into(),
+        iterations: stats.iterations,
+        residual: stats.true_relative_residual,
+    })
+}
+
+/// Runs exactly `iterations` iterations of CG or CGS (no preconditioner, no
+/// convergence test) from `x`, for timing one iteration of the solver (the
+/// benches); returns the last relative residual `‖r‖ / ‖b‖` it computed.
+pub fn run_iterations(
+    be: &GpuBackend,
+    op: &GpuOperator<'_>,
+    method: KrylovMethod,
+    b: &GpuVector,
+    x: &mut GpuVector,
+    iterations: usize,
+) -> f64 {
+    let n = be.nrows(op);
+    let opts = KrylovOptions {
+        method,
+        preconditioner: Preconditioner::None,
+        rel_tol: f64::MIN_POSITIVE,
+        max_iterations: iterations,
+    };
+    let b_norm = be.dot(b, b).sqrt();
+    let cx = Cycle {
+        be,
+        op,
+        inv_diag: None,
+        n,
+        b_norm,
+        opts: &opts,
+        every: iterations.max(1),
+    };
+    let mut r = be.zeros(n);
+    be.apply(op, x, &mut r);
+    be.xpay(b, -1.0, &mut r);
+    let mut stats = KrylovStats::default();
+    // A breakdown shows as a non-finite or stalled residual in the result.
+    cx.run(x, &mut r, &mut stats);
+    stats.relative_residual
+}
+
+fn breakdown(opts: &KrylovOptions, iterations: usize, what: String) -> Error {
+    Error::Breakdown {
+        method: opts.method.name().into(),
+        iterations,
+        what,
+    }
+}
+
+/// `D⁻¹` on the device, from `diag` or the operator's diagonal (checked like
+/// the host path's Jacobi preconditioner).
+fn inverse_diagonal(
+    be: &GpuBackend,
+    op: &GpuOperator<'_>,
+    diag: Option<&GpuVector>,
+    opts: &KrylovOptions,
+) -> Result<GpuVector> {
+    let d = match diag {
+        Some(d) => be.download(d),
+        None => op.host_diagonal(),
+    };
+    let spd = opts.method == KrylovMethod::Cg;
+    if let Some((i, v)) = d
+        .iter()
+        .enumerate()
+        .find(|&(_, &v)| !v.is_finite() || v == 0.0 || (spd && v < 0.0))
+    {
+        let what = format!("Jacobi preconditioner: diagonal entry {i} of A is {v:e}");
+        return Err(breakdown(opts, 0, what));
+    }
+    let inv: Vec<f64> = d.iter().map(|v| 1.0 / v).collect();
+    Ok(be.upload(&inv))
+}
+
+/// What one cycle needs.
+struct Cycle<'a, 'o> {
+    be: &'a GpuBackend,
+    op: &'a GpuOperator<'o>,
+    inv_diag: Option<&'a GpuVector>,
+    n: usize,
+    b_norm: f64,
+    opts: &'a KrylovOptions,
+    every: usize,
+}
+
+/// The params of `scalar_ratio` / `krylov_check`.
+fn scal_params(num: u32, den: u32, out: u32, roll: bool) -> ScalParams {
+    ScalParams {
+        num,
+        den,
+        out,
+        roll: u32::from(roll),
+        done: DONE,
+        iters: ITERS,
+        tol2: TOL2,
+        pad: 0,
+    }
+}
+
+impl Cycle<'_, '_> {
+    fn scalar(&self, enc: &mut wgpu::CommandEncoder, kernel: Kernel, p: ScalParams) {
+        let bufs = [&self.be.scal];
+        self.be
+            .record(enc, kernel, bytemuck::bytes_of(&p), &bufs, (1, 1));
+    }
+
+    /// Records `z = M⁻¹ v` and returns the buffer holding `M⁻¹ v`.
+    fn precond<'b>(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        v: &'b wgpu::Buffer,
+        z: &'b wgpu::Buffer,
+    ) -> &'b wgpu::Buffer {
+        match self.inv_diag {
+            None => v,
+            Some(inv) => {
+                let bufs = [&inv.buf, v, z];
+                self.be
+                    .record_vec(enc, Kernel::PointwiseMul, self.n, (0, 0), &bufs);
+                z
+            }
+        }
+    }
+
+    /// Runs one cycle from the true residual `r`; returns the done flag
+    /// (1 converged, 2 breakdown: a zero divisor on the device or a
+    /// non-finite ‖r‖² seen here, 0 out of iterations).
+    fn run(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> f64 {
+        let (be, n) = (self.be, self.n);
+        let tol2 = (self.opts.rel_tol * self.b_norm).powi(2);
+        be.write_slots(TOL2, &[tol2, 0.0, 0.0]);
+        be.write_slots(BETA, &[0.0, 0.0]);
+        let z = be.zeros(if self.inv_diag.is_some() { n } else { 0 });
+        let (p, q, v) = (be.zeros(n), be.zeros(n), be.zeros(n));
+        let cgs = self.opts.method == KrylovMethod::Cgs;
+        let rt = be.zeros(if cgs { n } else { 0 });
+        let u = be.zeros(if cgs { n } else { 0 });
+        let mut enc = be.encoder();
+        if cgs {
+            be.record_vec(&mut enc, Kernel::Copy, n, (0, 0), &[&r.buf, &rt.buf]);
+            be.record_dot(&mut enc, n, &[&r.buf, &rt.buf], RHO);
+        } else {
+            let zr = self.precond(&mut enc, &r.buf, &z.buf);
+            be.record_vec(&mut enc, Kernel::Copy, n, (0, 0), &[zr, &p.buf]);
+            be.record_dot(&mut enc, n, &[&r.buf, zr], RHO);
+        }
+        be.submit(enc);
+        let start = stats.iterations;
+        loop {
+            let left = self.opts.max_iterations - stats.iterations;
+            let mut enc = be.encoder();
+            for _ in 0..self.every.min(left) {
+                if cgs {
+                    self.cgs_iteration(&mut enc, x, r, [&rt, &u, &p, &q, &v, &z]);
+                } else {
+                    self.cg_iteration(&mut enc, x, r, [&p, &q, &z]);
+                }
+            }
+            be.submit(enc);
+            let s = be.read_slots(DONE, 2);
+            let rr = be.read_slots(RR, 1)[0];
+            stats.iterations = start + s[1] as usize;
+            stats.relative_residual = rr.sqrt() / self.b_norm;
+            stats.residual_history.push(stats.relative_residual);
+            if !rr.is_finite() {
+                return 2.0;
+            }
+            if s[0] != 0.0 || stats.iterations >= self.opts.max_iterations {
+                return s[0];
+            }
+        }
+    }
+
+    /// One CG iteration (see `crate::solver` for the formulas).
+    fn cg_iteration(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        x: &GpuVector,
+        r: &GpuVector,
+        [p, q, z]: [&GpuVector; 3],
+    ) {
+        let (be, n) = (self.be, self.n);
+        self.op.record_apply(be, enc, &p.buf, &q.buf);
+        be.record_dot(enc, n, &[&p.buf, &q.buf], SIGMA);
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO, SIGMA, ALPHA, false),
+        );
+        be.record_vec(
+            enc,
+            Kernel::Axpy,
+            n,
+            (ALPHA, 0),
+            &[&be.scal, &p.buf, &x.buf],
+        );
+        be.record_vec(
+            enc,
+            Kernel::Axpy,
+            n,
+            (NALPHA, 0),
+            &[&be.scal, &q.buf, &r.buf],
+        );
+        let zr = self.precond(enc, &r.buf, &z.buf);
+        be.record_dot(enc, n, &[&r.buf, &r.buf, zr], RR);
+        self.scalar(enc, Kernel::KrylovCheck, scal_params(RR, 0, 0, false));
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO_NEXT, RHO, BETA, true),
+        );
+        be.record_vec(enc, Kernel::Xpay, n, (BETA, 0), &[&be.scal, zr, &p.buf]);
+    }
+
+    /// One CGS iteration (see `crate::solver` for the formulas).
+    fn cgs_iteration(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        x: &GpuVector,
+        r: &GpuVector,
+        [rt, u, p, q, v, z]: [&GpuVector; 6],
+    ) {
+        let (be, n, s) = (self.be, self.n, &self.be.scal);
+        let bufs = [s, &r.buf, &q.buf, &u.buf, &p.buf];
+        be.record_vec(enc, Kernel::CgsUpdateUp, n, (BETA, 0), &bufs);
+        let ph = self.precond(enc, &p.buf, &z.buf);
+        self.op.record_apply(be, enc, ph, &v.buf);
+        be.record_dot(enc, n, &[&rt.buf, &v.buf], SIGMA);
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO, SIGMA, ALPHA, false),
+        );
+        let bufs = [s, &v.buf, &q.buf, &u.buf];
+        be.record_vec(enc, Kernel::CgsUpdateQu, n, (ALPHA, 0), &bufs);
+        let uh = self.precond(enc, &u.buf, &z.buf);
+        be.record_vec(enc, Kernel::Axpy, n, (ALPHA, 0), &[s, uh, &x.buf]);
+        self.op.record_apply(be, enc, uh, &v.buf);
+        be.record_vec(enc, Kernel::Axpy, n, (NALPHA, 0), &[s, &v.buf, &r.buf]);
+        be.record_dot(enc, n, &[&r.buf, &r.buf, &rt.buf], RR);
+        self.scalar(enc, Kernel::KrylovCheck, scal_params(RR, 0, 0, false));
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            scal_params(RHO_NEXT, RHO, BETA, true),
+        );
+    }
+}

@@ -1,0 +1,229 @@
+//! The WGSL kernels of `shaders/` as the host sees them: their sources (f64 as
+//! written, f32 by swapping the `real` alias), the params structs shared with
+//! WGSL, the compiled pipelines of a device, and the dispatch of one kernel.
+//!
+//! # Dispatch
+//! Element-wise kernels run one invocation per entry in workgroups of
+//! [`WG`]; more than `max_compute_workgroups_per_dimension` (65535) workgroups
+//! go in 2D, `x·stride`-major: entry = `gid.x + gid.y · stride`.
+
+use bytemuck::{Pod, Zeroable};
+
+use super::context::Precision;
+
+/// Workgroup size of the element-wise and reduction kernels.
+/// Keep in sync with `@workgroup_size(256)` and `WG` in the shaders.
+pub const WG: u32 = 256;
+/// Entries per thread of the first reduction pass (one workgroup reduces
+/// `WG · PER` entries). Keep in sync with `PER` in dot.wgsl, dot2.wgsl.
+pub const PER: u32 = 8;
+/// Workgroup size of `apply`. Keep in sync with apply.wgsl.
+pub const APPLY_WG: u32 = 64;
+
+/// Params of the element-wise kernels (`copy` … `bicgstab_update_p`): the
+/// length, two slots of the device scalars, and the 2D row stride.
+/// Keep in sync with `VecParams` in shaders/*.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct VecParams {
+    pub n: u32,
+    pub ia: u32,
+    pub ib: u32,
+    pub stride: u32,
+}
+
+/// Params of `dot`, `dot2` (`n` entries in `groups` workgroups) and `reduce`
+/// (`n` partials per component, `comps` components into slots `out..`).
+/// Keep in sync with `RedParams` in dot.wgsl, dot2.wgsl, reduce.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RedParams {
+    pub n: u32,
+    pub out: u32,
+    pub groups: u32,
+    pub comps: u32,
+}
+
+/// Params of `apply`: grid cells per axis, element degree and dofs per cell,
+/// the own-matrix slots `[own_lo, own_hi)` of this pass, and `first` (1: the
+/// pass that overwrites `y` and adds the inside cells).
+/// Keep in sync with `ApplyParams` in apply.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ApplyParams {
+    pub n_active: u32,
+    pub stride: u32,
+    pub ncx: u32,
+    pub ncy: u32,
+    pub ncz: u32,
+    pub degree: u32,
+    pub ne: u32,
+    pub own_lo: u32,
+    pub own_hi: u32,
+    pub first: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// Params of the one-invocation kernels `scalar_ratio`, `krylov_check`: slots.
+/// Keep in sync with `ScalParams` in scalar_ratio.wgsl, krylov_check.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ScalParams {
+    pub num: u32,
+    pub den: u32,
+    pub out: u32,
+    pub roll: u32,
+    pub done: u32,
+    pub iters: u32,
+    pub tol2: u32,
+    pub pad: u32,
+}
+
+/// The kernels, one per file of `shaders/`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    Copy,
+    Scale,
+    Axpy,
+    Xpay,
+    Axpy2,
+    PointwiseMul,
+    CgsUpdateUp,
+    CgsUpdateQu,
+    BicgstabUpdateP,
+    Dot,
+    Dot2,
+    Reduce,
+    Apply,
+    ScalarRatio,
+    KrylovCheck,
+}
+
+impl Kernel {
+    /// Every kernel, in a fixed order (the pipeline table's).
+    pub const ALL: [Kernel; 15] = [
+        Kernel::Copy,
+        Kernel::Scale,
+        Kernel::Axpy,
+        Kernel::Xpay,
+        Kernel::Axpy2,
+        Kernel::PointwiseMul,
+        Kernel::CgsUpdateUp,
+        Kernel::CgsUpdateQu,
+        Kernel::BicgstabUpdateP,
+        Kernel::Dot,
+        Kernel::Dot2,
+        Kernel::Reduce,
+        Kernel::Apply,
+        Kernel::ScalarRatio,
+        Kernel::KrylovCheck,
+    ];
+
+    /// The file stem in `shaders/` (= the CPU mirror's name).
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Copy => "copy",
+            Kernel::Scale => "scale",
+            Kernel::Axpy => "axpy",
+            Kernel::Xpay => "xpay",
+            Kernel::Axpy2 => "axpy2",
+            Kernel::PointwiseMul => "pointwise_mul",
+            Kernel::CgsUpdateUp => "cgs_update_up",
+            Kernel::CgsUpdateQu => "cgs_update_qu",
+            Kernel::BicgstabUpdateP => "bicgstab_update_p",
+            Kernel::Dot => "dot",
+            Kernel::Dot2 => "dot2",
+            Kernel::Reduce => "reduce",
+            Kernel::Apply => "apply",
+            Kernel::ScalarRatio => "scalar_ratio",
+            Kernel::KrylovCheck => "krylov_check",
+        }
+    }
+
+    /// The WGSL source as written (f64).
+    pub fn source_f64(self) -> &'static str {
+        match self {
+            Kernel::Copy => include_str!("../../shaders/copy.wgsl"),
+            Kernel::Scale => include_str!("../../shaders/scale.wgsl"),
+            Kernel::Axpy => include_str!("../../shaders/axpy.wgsl"),
+            Kernel::Xpay => include_str!("../../shaders/xpay.wgsl"),
+            Kernel::Axpy2 => include_str!("../../shaders/axpy2.wgsl"),
+            Kernel::PointwiseMul => include_str!("../../shaders/pointwise_mul.wgsl"),
+            Kernel::CgsUpdateUp => include_str!("../../shaders/cgs_update_up.wgsl"),
+            Kernel::CgsUpdateQu => include_str!("../../shaders/cgs_update_qu.wgsl"),
+            Kernel::BicgstabUpdateP => include_str!("../../shaders/bicgstab_update_p.wgsl"),
+            Kernel::Dot => include_str!("../../shaders/dot.wgsl"),
+            Kernel::Dot2 => include_str!("../../shaders/dot2.wgsl"),
+            Kernel::Reduce => include_str!("../../shaders/reduce.wgsl"),
+            Kernel::Apply => include_str!("../../shaders/apply.wgsl"),
+            Kernel::ScalarRatio => include_str!("../../shaders/scalar_ratio.wgsl"),
+            Kernel::KrylovCheck => include_str!("../../shaders/krylov_check.wgsl"),
+        }
+    }
+
+    /// The WGSL source for `precision`.
+    pub fn source(self, precision: Precision) -> String {
+        let src = self.source_f64();
+        match precision {
+            Precision::F64 => src.to_string(),
+            Precision::F32 => src.replacen(ALIAS_F64, "alias real = f32;", 1),
+        }
+    }
+}
+
+/// The line every shader declares its float type with.
+pub const ALIAS_F64: &str = "alias real = f64;";
+
+/// Workgroup counts `(x, y)` and the row stride (in invocations) for `n`
+/// invocations in workgroups of `wg`, at most `max_dim` per dimension.
+pub fn grid_2d(n: u32, wg: u32, max_dim: u32) -> (u32, u32, u32) {
+    let groups = n.div_ceil(wg).max(1);
+    let x = groups.min(max_dim);
+    let y = groups.div_ceil(x);
+    (x, y, x * wg)
+}
+
+/// Number of first-pass workgroups (= partial sums) of a reduction over `n`.
+pub fn reduction_groups(n: u32) -> u32 {
+    n.div_ceil(WG * PER)
+}
+
+/// The compiled pipelines of one device and precision, with their bind
+/// group layouts (fetched once: `get_bind_group_layout` makes a new handle).
+pub struct Pipelines {
+    pipelines: Vec<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+}
+
+impl Pipelines {
+    /// Compiles every kernel for `precision`.
+    pub fn new(device: &wgpu::Device, precision: Precision) -> Self {
+        let pipelines = Kernel::ALL
+            .iter()
+            .map(|k| {
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(k.name()),
+                    source: wgpu::ShaderSource::Wgsl(k.source(precision).into()),
+                });
+                let p = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(k.name()),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                let layout = p.get_bind_group_layout(0);
+                (p, layout)
+            })
+            .collect();
+        Pipelines { pipelines }
+    }
+
+    /// The pipeline of `kernel` and its bind group layout.
+    pub fn get(&self, kernel: Kernel) -> (&wgpu::ComputePipeline, &wgpu::BindGroupLayout) {
+        let i = Kernel::ALL.iter().position(|k| *k == kernel).unwrap();
+        let (p, l) = &self.pipelines[i];
+        (p, l)
+    }
+}

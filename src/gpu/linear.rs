@@ -1,0 +1,84 @@
+//! [`GpuSolver`]: the [`LinearSolver`] of the fixed-point loop on the GPU. The
+//! operator and its diagonal are uploaded once; each solve uploads the
+//! right-hand side and the warm start and downloads the solution.
+//!
+//! - f64 device: CG and CGS with device scalars ([`super::device_krylov`]) by
+//!   default, or the generic [`crate::solver::solve`] with host scalars
+//!   ([`Scalars::Host`], and always for BiCGStab);
+//! - f32 device: f32 inner solves in f64 defect correction ([`super::defect`]).
+
+use std::sync::Arc;
+
+use crate::backend::Backend;
+use crate::error::Result;
+use crate::fem::linear::LinearSolver;
+use crate::fem::operator::ElasticOperator;
+use crate::solver::{solve, KrylovMethod, KrylovOptions, KrylovStats};
+
+use super::backend::{GpuBackend, GpuVector};
+use super::context::{GpuContext, Precision};
+use super::defect::solve_defect_correction;
+use super::device_krylov::{solve_device, DeviceOptions};
+use super::operator::GpuOperator;
+
+/// Where the Krylov scalars of an f64 solve live.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Scalars {
+    /// α, β, … on the host: one read-back per dot product.
+    Host,
+    /// On the device, the residual read back every few iterations (CG, CGS).
+    #[default]
+    Device,
+}
+
+/// The GPU linear solver of a run.
+pub struct GpuSolver<'o> {
+    be: GpuBackend,
+    op: GpuOperator<'o>,
+    diag: GpuVector,
+    scalars: Scalars,
+}
+
+impl<'o> GpuSolver<'o> {
+    /// Uploads `op` and its diagonal to the device of `ctx`.
+    pub fn new(ctx: Arc<GpuContext>, op: &'o ElasticOperator, scalars: Scalars) -> Self {
+        let be = GpuBackend::new(ctx);
+        let dop = GpuOperator::new(&be, op);
+        let diag = be.diagonal(&dop);
+        GpuSolver {
+            be,
+            op: dop,
+            diag,
+            scalars,
+        }
+    }
+
+    /// The backend (its name and precision go into the report).
+    pub fn backend(&self) -> &GpuBackend {
+        &self.be
+    }
+}
+
+impl LinearSolver for GpuSolver<'_> {
+    fn solve(
+        &mut self,
+        rhs: &[f64],
+        u: &mut Vec<f64>,
+        opts: &KrylovOptions,
+    ) -> Result<KrylovStats> {
+        let (be, op, diag) = (&self.be, &self.op, Some(&self.diag));
+        if be.precision() == Precision::F32 {
+            return solve_defect_correction(be, op, diag, op.host(), rhs, u, opts);
+        }
+        let b = be.upload(rhs);
+        let mut x = be.upload(u);
+        let device = self.scalars == Scalars::Device && opts.method != KrylovMethod::BiCgStab;
+        let result = if device {
+            solve_device(be, op, diag, &b, &mut x, opts, &DeviceOptions::default())
+        } else {
+            solve(be, op, diag, &b, &mut x, opts)
+        };
+        *u = be.download(&x);
+        result
+    }
+}

@@ -1,0 +1,278 @@
+//! CPU mirrors of the WGSL kernels of `shaders/`: same name, same argument
+//! order as the bindings (params first), explicit index loops, one loop body
+//! per invocation, so each reads side by side with its shader. The tests
+//! compare every kernel with its mirror; the mirrors also document the
+//! reduction tree of `dot`/`dot2`/`reduce` exactly.
+// Index loops, not slice methods, to read like the shaders.
+#![allow(clippy::manual_memcpy)]
+
+use super::kernels::{ApplyParams, RedParams, ScalParams, VecParams, PER, WG};
+use crate::fem::operator::{INSIDE, OUTSIDE};
+
+/// `dst = src`.
+pub fn copy(prm: &VecParams, src: &[f64], dst: &mut [f64]) {
+    for i in 0..prm.n as usize {
+        dst[i] = src[i];
+    }
+}
+
+/// `x = a x`, `a = scal[ia]`.
+pub fn scale(prm: &VecParams, scal: &[f64], x: &mut [f64]) {
+    for i in 0..prm.n as usize {
+        x[i] *= scal[prm.ia as usize];
+    }
+}
+
+/// `y = y + a x`, `a = scal[ia]`.
+pub fn axpy(prm: &VecParams, scal: &[f64], x: &[f64], y: &mut [f64]) {
+    for i in 0..prm.n as usize {
+        y[i] += scal[prm.ia as usize] * x[i];
+    }
+}
+
+/// `y = x + a y`, `a = scal[ia]`.
+pub fn xpay(prm: &VecParams, scal: &[f64], x: &[f64], y: &mut [f64]) {
+    for i in 0..prm.n as usize {
+        y[i] = x[i] + scal[prm.ia as usize] * y[i];
+    }
+}
+
+/// `y = y + a u + b w`, `a = scal[ia]`, `b = scal[ib]`.
+pub fn axpy2(prm: &VecParams, scal: &[f64], u: &[f64], w: &[f64], y: &mut [f64]) {
+    let (a, b) = (scal[prm.ia as usize], scal[prm.ib as usize]);
+    for i in 0..prm.n as usize {
+        y[i] = y[i] + a * u[i] + b * w[i];
+    }
+}
+
+/// `z = x ∘ y`.
+pub fn pointwise_mul(prm: &VecParams, x: &[f64], y: &[f64], z: &mut [f64]) {
+    for i in 0..prm.n as usize {
+        z[i] = x[i] * y[i];
+    }
+}
+
+/// `u = r + β q`, then `p = u + β (q + β p)`; `β = scal[ia]`.
+pub fn cgs_update_up(
+    prm: &VecParams,
+    scal: &[f64],
+    r: &[f64],
+    q: &[f64],
+    u: &mut [f64],
+    p: &mut [f64],
+) {
+    let beta = scal[prm.ia as usize];
+    for i in 0..prm.n as usize {
+        u[i] = r[i] + beta * q[i];
+        p[i] = u[i] + beta * (q[i] + beta * p[i]);
+    }
+}
+
+/// `q = u − α v`, then `u = u + q`; `α = scal[ia]`.
+pub fn cgs_update_qu(prm: &VecParams, scal: &[f64], v: &[f64], q: &mut [f64], u: &mut [f64]) {
+    for i in 0..prm.n as usize {
+        q[i] = u[i] - scal[prm.ia as usize] * v[i];
+        u[i] += q[i];
+    }
+}
+
+/// `p = r + β (p − ω v)`; `β = scal[ia]`, `ω = scal[ib]`.
+pub fn bicgstab_update_p(prm: &VecParams, scal: &[f64], r: &[f64], v: &[f64], p: &mut [f64]) {
+    let (beta, omega) = (scal[prm.ia as usize], scal[prm.ib as usize]);
+    for i in 0..prm.n as usize {
+        p[i] = r[i] + beta * (p[i] - omega * v[i]);
+    }
+}
+
+/// The workgroup's fixed binary tree: `sh[t] += sh[t + k]` for
+/// `k = WG/2, WG/4, …, 1`; the sum lands in `sh[0]`.
+fn tree(sh: &mut [f64]) -> f64 {
+    let mut k = WG as usize / 2;
+    while k > 0 {
+        for t in 0..k {
+            sh[t] += sh[t + k];
+        }
+        k /= 2;
+    }
+    sh[0]
+}
+
+/// First pass of `x · y`: `partials[g]` for each of the `groups` workgroups.
+pub fn dot(prm: &RedParams, x: &[f64], y: &[f64], partials: &mut [f64]) {
+    let (wg, per) = (WG as usize, PER as usize);
+    let mut sh = vec![0.0; wg];
+    for g in 0..prm.groups as usize {
+        for t in 0..wg {
+            let mut s = 0.0;
+            for j in 0..per {
+                let i = g * wg * per + j * wg + t;
+                if i < prm.n as usize {
+                    s += x[i] * y[i];
+                }
+            }
+            sh[t] = s;
+        }
+        partials[g] = tree(&mut sh);
+    }
+}
+
+/// First pass of `(x · y, x · z)`: `partials[g]`, `partials[groups + g]`.
+pub fn dot2(prm: &RedParams, x: &[f64], y: &[f64], z: &[f64], partials: &mut [f64]) {
+    let (wg, per, groups) = (WG as usize, PER as usize, prm.groups as usize);
+    let (mut sy, mut sz) = (vec![0.0; wg], vec![0.0; wg]);
+    for g in 0..groups {
+        for t in 0..wg {
+            let (mut a, mut b) = (0.0, 0.0);
+            for j in 0..per {
+                let i = g * wg * per + j * wg + t;
+                if i < prm.n as usize {
+                    a += x[i] * y[i];
+                    b += x[i] * z[i];
+                }
+            }
+            sy[t] = a;
+            sz[t] = b;
+        }
+        partials[g] = tree(&mut sy);
+        partials[groups + g] = tree(&mut sz);
+    }
+}
+
+/// Second pass: `scal[out + c] = Σ_i partials[c n + i]`, thread `t` summing
+/// `i = t, t + WG, …` in order, then the tree.
+pub fn reduce(prm: &RedParams, partials: &[f64], scal: &mut [f64]) {
+    let wg = WG as usize;
+    let n = prm.n as usize;
+    let mut sh = vec![0.0; wg];
+    for c in 0..prm.comps as usize {
+        for t in 0..wg {
+            let mut s = 0.0;
+            let mut i = t;
+            while i < n {
+                s += partials[c * n + i];
+                i += wg;
+            }
+            sh[t] = s;
+        }
+        scal[prm.out as usize + c] = tree(&mut sh);
+    }
+}
+
+/// `y = A x` (one pass over the own-matrix chunk `[own_lo, own_hi)`, see
+/// apply.wgsl): per active node, its ≤ 8 cells, their matrices' rows.
+#[allow(clippy::too_many_arguments)]
+pub fn apply(
+    prm: &ApplyParams,
+    active_to_node: &[u32],
+    node_to_active: &[u32],
+    slots: &[u32],
+    k_inside: &[f64],
+    k_own: &[f64],
+    x: &[f64],
+    y: &mut [f64],
+) {
+    let p = prm.degree as usize;
+    let np = p + 1;
+    let nc = [prm.ncx as usize, prm.ncy as usize, prm.ncz as usize];
+    let (m0, m1) = (p * nc[0] + 1, p * nc[1] + 1);
+    let ne = prm.ne as usize;
+    for a in 0..prm.n_active as usize {
+        let node = active_to_node[a] as usize;
+        let ijk = [node % m0, (node / m0) % m1, node / (m0 * m1)];
+        let mut cell_of = [[0usize; 2]; 3];
+        let mut local_of = [[0usize; 2]; 3];
+        let mut count = [0usize; 3];
+        for ax in 0..3 {
+            let (q, r) = (ijk[ax] / p, ijk[ax] % p);
+            let mut k = 0;
+            if r == 0 {
+                if q > 0 {
+                    (cell_of[ax][k], local_of[ax][k]) = (q - 1, p);
+                    k += 1;
+                }
+                if q < nc[ax] {
+                    (cell_of[ax][k], local_of[ax][k]) = (q, 0);
+                    k += 1;
+                }
+            } else {
+                (cell_of[ax][0], local_of[ax][0]) = (q, r);
+                k = 1;
+            }
+            count[ax] = k;
+        }
+        let mut acc = [0.0; 3];
+        if prm.first == 0 {
+            acc.copy_from_slice(&y[3 * a..3 * a + 3]);
+        }
+        for cz in 0..count[2] {
+            for cy in 0..count[1] {
+                for cx in 0..count[0] {
+                    let (ci, cj, ck) = (cell_of[0][cx], cell_of[1][cy], cell_of[2][cz]);
+                    let cell = ci + nc[0] * (cj + nc[1] * ck);
+                    let l = local_of[0][cx] + np * (local_of[1][cy] + np * local_of[2][cz]);
+                    let s = slots[cell];
+                    let (k, base): (&[f64], usize) = if s == OUTSIDE {
+                        continue;
+                    } else if s == INSIDE {
+                        if prm.first == 0 {
+                            continue;
+                        }
+                        (k_inside, 0)
+                    } else {
+                        if s < prm.own_lo || s >= prm.own_hi {
+                            continue;
+                        }
+                        (k_own, (s - prm.own_lo) as usize * ne * ne)
+                    };
+                    let mut m = 0;
+                    for c in 0..np {
+                        for b in 0..np {
+                            for aa in 0..np {
+                                let nn = (p * ci + aa) + m0 * ((p * cj + b) + m1 * (p * ck + c));
+                                let act = node_to_active[nn] as usize;
+                                for j in 0..3 {
+                                    let xj = x[3 * act + j];
+                                    for i in 0..3 {
+                                        acc[i] += k[base + (3 * l + i) * ne + 3 * m + j] * xj;
+                                    }
+                                }
+                                m += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        y[3 * a..3 * a + 3].copy_from_slice(&acc);
+    }
+}
+
+/// Unless done: `q = scal[num] / scal[den]` (zero divisor: done = 2, q = 0);
+/// `scal[out] = q`, `scal[out + 1] = −q` (0 once done); with `roll`, then
+/// `scal[den] = scal[num]`.
+pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
+    let mut q = 0.0;
+    if scal[prm.done as usize] == 0.0 {
+        if scal[prm.den as usize] == 0.0 {
+            scal[prm.done as usize] = 2.0;
+        } else {
+            q = scal[prm.num as usize] / scal[prm.den as usize];
+        }
+    }
+    scal[prm.out as usize] = q;
+    scal[prm.out as usize + 1] = -q;
+    if prm.roll != 0 {
+        scal[prm.den as usize] = scal[prm.num as usize];
+    }
+}
+
+/// Unless done: count the iteration; done = 1 when `scal[num] ≤ scal[tol2]`.
+pub fn krylov_check(prm: &ScalParams, scal: &mut [f64]) {
+    if scal[prm.done as usize] != 0.0 {
+        return;
+    }
+    scal[prm.iters as usize] += 1.0;
+    if scal[prm.num as usize] <= scal[prm.tol2 as usize] {
+        scal[prm.done as usize] = 1.0;
+    }
+}

@@ -1,0 +1,38 @@
+//! The GPU backend on wgpu/WGSL (DESIGN §7): adapter selection and the device
+//! ([`context`]), the kernels of `shaders/` ([`kernels`]) and their CPU mirrors
+//! ([`mirror`]), the [`crate::backend::Backend`] implementation with the
+//! operator resident on the device ([`backend`], [`operator`]), the
+//! device-scalar CG/CGS ([`device_krylov`]), f32 inner solves inside f64 defect
+//! correction ([`defect`]), and the linear solver the fixed-point loop calls
+//! ([`linear`]).
+
+pub mod backend;
+pub mod context;
+pub mod defect;
+pub mod device_krylov;
+pub mod kernels;
+pub mod linear;
+pub mod mirror;
+pub mod operator;
+#[cfg(test)]
+mod tests;
+
+pub use backend::{GpuBackend, GpuVector};
+pub use context::{list_adapters, BackendChoice, GpuContext, Precision, PrecisionChoice};
+pub use operator::GpuOperator;
+
+/// For tests that need a device: the context, or `None` after printing
+/// "skipped: no GPU adapter". With `CI=true` a missing adapter panics instead,
+/// so that CI cannot pass without running the GPU tests.
+pub fn context_or_skip(precision: PrecisionChoice) -> Option<std::sync::Arc<GpuContext>> {
+    match GpuContext::new(None, precision) {
+        Ok(ctx) => Some(std::sync::Arc::new(ctx)),
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("CI=true but no GPU adapter: {e}");
+            }
+            eprintln!("skipped: no GPU adapter ({e})");
+            None
+        }
+    }
+}

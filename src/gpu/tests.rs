@@ -1,0 +1,228 @@
+//! Tests that need no GPU: every shader parses and validates with naga (f64
+//! with the FLOAT64 capability, and its f32 twin without), the params structs
+//! have the layout WGSL gives them, and the mirrors agree with the host code
+//! they mirror (the CPU backend, the host operator).
+
+use std::mem::{offset_of, size_of};
+
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+use super::context::Precision;
+use super::kernels::{
+    grid_2d, reduction_groups, ApplyParams, Kernel, RedParams, ScalParams, VecParams, ALIAS_F64,
+};
+use super::mirror;
+
+fn validate(kernel: Kernel, precision: Precision) -> naga::Module {
+    let src = kernel.source(precision);
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("{}: {}", kernel.name(), e.emit_to_string(&src)));
+    let caps = match precision {
+        Precision::F64 => Capabilities::FLOAT64,
+        Precision::F32 => Capabilities::empty(),
+    };
+    Validator::new(ValidationFlags::all(), caps)
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{} ({precision}): {e:?}", kernel.name()));
+    module
+}
+
+#[test]
+fn every_shader_file_is_a_kernel_and_validates_in_both_precisions() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter_map(|f| f.strip_suffix(".wgsl").map(str::to_string))
+        .collect();
+    files.sort();
+    let mut names: Vec<String> = Kernel::ALL.iter().map(|k| k.name().to_string()).collect();
+    names.sort();
+    assert_eq!(files, names, "shaders/*.wgsl and Kernel::ALL differ");
+    for k in Kernel::ALL {
+        assert_eq!(k.source_f64().matches(ALIAS_F64).count(), 1, "{}", k.name());
+        let m = validate(k, Precision::F64);
+        assert_eq!(m.entry_points.len(), 1, "{}: one kernel per file", k.name());
+        assert_eq!(m.entry_points[0].name, "main");
+        validate(k, Precision::F32);
+        // The f32 twin validates without FLOAT64; the f64 source does not.
+        let without = Validator::new(ValidationFlags::all(), Capabilities::empty()).validate(&m);
+        assert!(without.is_err(), "{}: no f64 in the f64 source?", k.name());
+    }
+}
+
+/// The named WGSL struct's (size, member names and offsets).
+fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
+    for (_, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(name) {
+            if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                let m = members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap(), m.offset))
+                    .collect();
+                return (*span, m);
+            }
+        }
+    }
+    panic!("no struct {name}");
+}
+
+macro_rules! rust_layout {
+    ($t:ty, $($f:ident),*) => {
+        (size_of::<$t>() as u32, vec![$((stringify!($f).to_string(), offset_of!($t, $f) as u32)),*])
+    };
+}
+
+#[test]
+fn params_structs_match_their_wgsl_twins() {
+    let vec = rust_layout!(VecParams, n, ia, ib, stride);
+    let red = rust_layout!(RedParams, n, out, groups, comps);
+    let scal = rust_layout!(ScalParams, num, den, out, roll, done, iters, tol2, pad);
+    let apply = rust_layout!(
+        ApplyParams,
+        n_active,
+        stride,
+        ncx,
+        ncy,
+        ncz,
+        degree,
+        ne,
+        own_lo,
+        own_hi,
+        first,
+        pad0,
+        pad1
+    );
+    for k in Kernel::ALL {
+        let m = validate(k, Precision::F64);
+        let (name, rust) = match k {
+            Kernel::Dot | Kernel::Dot2 | Kernel::Reduce => ("RedParams", &red),
+            Kernel::Apply => ("ApplyParams", &apply),
+            Kernel::ScalarRatio | Kernel::KrylovCheck => ("ScalParams", &scal),
+            _ => ("VecParams", &vec),
+        };
+        assert_eq!(&wgsl_struct(&m, name), rust, "{}: {name}", k.name());
+        // Uniform buffers need 16-byte multiples.
+        assert_eq!(rust.0 % 16, 0, "{name}");
+    }
+}
+
+#[test]
+fn dispatch_goes_2d_past_the_per_dimension_limit() {
+    assert_eq!(grid_2d(1, 256, 65535), (1, 1, 256));
+    assert_eq!(grid_2d(0, 256, 65535), (1, 1, 256));
+    let (x, y, stride) = grid_2d(70_000 * 256 + 3, 256, 65535);
+    assert_eq!((x, y, stride), (65535, 2, 65535 * 256));
+    assert!(x as u64 * y as u64 * 256 >= 70_000 * 256 + 3);
+    assert_eq!(reduction_groups(0), 0);
+    assert_eq!(reduction_groups(2048), 1);
+    assert_eq!(reduction_groups(2049), 2);
+}
+
+#[test]
+fn reduction_mirrors_sum_like_the_cpu_backend() {
+    use crate::backend::{Backend, CpuBackend};
+    for n in [0usize, 1, 255, 2049, 20_000] {
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 113) as f64 / 17.0 - 3.0)
+            .collect();
+        let y: Vec<f64> = (0..n).map(|i| ((i * 104_729) % 97) as f64 / 13.0).collect();
+        let groups = reduction_groups(n as u32);
+        let prm = RedParams {
+            n: n as u32,
+            out: 0,
+            groups,
+            comps: 2,
+        };
+        let mut partials = vec![0.0; 2 * groups as usize];
+        mirror::dot2(&prm, &x, &y, &x, &mut partials);
+        let mut scal = vec![0.0; 2];
+        let second = RedParams {
+            n: groups,
+            out: 0,
+            groups: 1,
+            comps: 2,
+        };
+        mirror::reduce(&second, &partials, &mut scal);
+        let be = CpuBackend::new();
+        let (xy, xx) = be.dot2(&x, &y, &x);
+        assert!((scal[0] - xy).abs() <= 1e-12 * xy.abs().max(1.0), "{n}");
+        assert!((scal[1] - xx).abs() <= 1e-12 * xx.abs().max(1.0), "{n}");
+        let mut p1 = vec![0.0; groups as usize];
+        mirror::dot(&RedParams { comps: 1, ..prm }, &x, &y, &mut p1);
+        assert_eq!(&p1[..], &partials[..groups as usize], "dot = dot2's first");
+    }
+}
+
+#[test]
+fn apply_mirror_equals_the_host_operator_in_one_or_several_chunks() {
+    use crate::backend::LinearOperator;
+    use crate::case::Case;
+    use crate::fem::setup::Setup;
+    let text = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
+                [material]\nyoung = 1000.0\npoisson = 0.3\n";
+    let case = Case::from_str("sphere.toml", text).unwrap();
+    let setup = Setup::new(&case, Some(3)).unwrap();
+    let op = &setup.op;
+    let n = op.nrows();
+    let x: Vec<f64> = (0..n).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
+    let mut expected = vec![0.0; n];
+    op.apply(&x, &mut expected);
+    let ne = op.dofs_per_cell();
+    let count = op.own_cells().len();
+    assert!(count > 3);
+    for chunk in [count, count / 3 + 1] {
+        let mut y = vec![f64::NAN; n];
+        let mut lo = 0;
+        while lo < count {
+            let hi = (lo + chunk).min(count);
+            let prm = ApplyParams {
+                n_active: op.dofs.num_active() as u32,
+                ncx: op.grid.n[0] as u32,
+                ncy: op.grid.n[1] as u32,
+                ncz: op.grid.n[2] as u32,
+                degree: op.dofs.order.degree() as u32,
+                ne: ne as u32,
+                own_lo: lo as u32,
+                own_hi: hi as u32,
+                first: u32::from(lo == 0),
+                ..Default::default()
+            };
+            let own = &op.own_matrices()[lo * ne * ne..hi * ne * ne];
+            let (a2n, n2a) = (&op.dofs.active_to_node, &op.dofs.node_to_active);
+            let k_in = op.inside_matrix();
+            mirror::apply(&prm, a2n, n2a, op.cell_slots(), k_in, own, &x, &mut y);
+            lo = hi;
+        }
+        let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (a, b) in y.iter().zip(&expected) {
+            assert!((a - b).abs() <= 1e-12 * scale, "chunk {chunk}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn scalar_kernels_compute_ratios_and_mark_done() {
+    let prm = ScalParams {
+        num: 0,
+        den: 1,
+        out: 2,
+        roll: 1,
+        done: 4,
+        iters: 5,
+        tol2: 6,
+        pad: 0,
+    };
+    let mut s = vec![6.0, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+    mirror::scalar_ratio(&prm, &mut s);
+    assert_eq!(&s[..5], &[6.0, 6.0, 2.0, -2.0, 0.0]);
+    s[1] = 0.0;
+    s[0] = 1.0;
+    mirror::scalar_ratio(&prm, &mut s);
+    assert_eq!((s[2], s[4]), (0.0, 2.0), "zero divisor: breakdown");
+    let mut s = vec![0.5, 0.0, 0.0, 0.0, 0.0, 3.0, 1.0];
+    mirror::krylov_check(&prm, &mut s);
+    assert_eq!((s[4], s[5]), (1.0, 4.0));
+    mirror::krylov_check(&prm, &mut s);
+    assert_eq!(s[5], 4.0, "done: no more counting");
+}
