@@ -57,6 +57,17 @@ impl Grid {
         let longest = side.iter().copied().fold(0.0, f64::max);
         let h = longest / (1u64 << level) as f64;
         let origin = [0, 1, 2].map(|i| bbox.lo[i] - offset[i] * h);
+        let extents_finite = (0..3).all(|i| (bbox.hi[i] - origin[i]).is_finite());
+        if !(h.is_finite() && h > 0.0 && extents_finite) {
+            return Err(bad(
+                "box",
+                format!(
+                    "{:?}..{:?} at level {level} gives cells of size {h:e}, \
+                     beyond floating-point range",
+                    bbox.lo, bbox.hi
+                ),
+            ));
+        }
         let n = [0, 1, 2].map(|i| {
             let cells = (bbox.hi[i] - origin[i]) / h;
             // Round-off must not add a sliver cell to an exact fit.

@@ -136,10 +136,19 @@ impl Case {
         };
         let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
             let at = match e.span() {
-                Some(s) => format!("line {}", text[..s.start].lines().count().max(1)),
+                Some(s) => {
+                    let before = text.get(..s.start).unwrap_or(text);
+                    let line = before.matches('\n').count() + 1;
+                    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                    format!("line {line}, column {column}")
+                }
                 None => "(syntax)".into(),
             };
-            bad(&at, e.message().trim().to_string())
+            let reason = match e.message().trim() {
+                "" => "invalid TOML syntax".to_string(),
+                m => format!("invalid TOML: {m}"),
+            };
+            bad(&at, reason)
         })?;
         for o in overrides {
             apply_override(&mut table, o).map_err(|reason| bad(&format!("--set {o}"), reason))?;
@@ -147,7 +156,7 @@ impl Case {
         let mut spec: CaseSpec = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| {
                 let key = e.path().to_string();
-                let key = if key == "." {
+                let key = if key == "." || key.is_empty() {
                     "(top level)".to_string()
                 } else {
                     key
