@@ -58,7 +58,10 @@ fn rates(name: &str, levels: &[u32]) -> (Vec<f64>, Vec<f64>) {
         let e = num(&r["error"]["energy_relative"]);
         let ei = num(&r["interpolant_error"]["energy_relative"]);
         // The solution is about as good as the nodal interpolant.
-        assert!(e < 1.1 * ei, "{name} level {l}: error {e}, interpolant {ei}");
+        assert!(
+            e < 1.1 * ei,
+            "{name} level {l}: error {e}, interpolant {ei}"
+        );
         errors.push(e);
     }
     let rates: Vec<f64> = errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
