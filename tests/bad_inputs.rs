@@ -275,4 +275,12 @@ fn bad_set_overrides() {
     for (i, (extra, needles)) in cases.iter().enumerate() {
         bad(&format!("set{i}"), Some(GOOD), extra, needles);
     }
+    // A key deep enough to overflow a recursive deserialiser's stack.
+    let deep = format!("--set=geometry{}.type=sphere", ".of".repeat(20_000));
+    bad(
+        "set_deep",
+        Some(GOOD),
+        &[&deep],
+        &["--set geometry.of.of", "parts"],
+    );
 }

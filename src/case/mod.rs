@@ -151,7 +151,13 @@ impl Case {
             bad(&at, reason)
         })?;
         for o in overrides {
-            apply_override(&mut table, o).map_err(|reason| bad(&format!("--set {o}"), reason))?;
+            apply_override(&mut table, o).map_err(|reason| {
+                let shown = match o.char_indices().nth(80) {
+                    Some((i, _)) => format!("{}…", &o[..i]),
+                    None => o.clone(),
+                };
+                bad(&format!("--set {shown}"), reason)
+            })?;
         }
         let mut spec: CaseSpec = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| {
@@ -337,6 +343,9 @@ impl Case {
     }
 }
 
+/// The most dotted parts a `--set` key may have.
+const MAX_OVERRIDE_DEPTH: usize = 32;
+
 /// Sets the dotted `key` of `table` to `value` (`key=value`).
 fn apply_override(table: &mut toml::Table, assignment: &str) -> std::result::Result<(), String> {
     let (key, value) = assignment
@@ -345,6 +354,14 @@ fn apply_override(table: &mut toml::Table, assignment: &str) -> std::result::Res
     let parts: Vec<&str> = key.trim().split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(format!("bad key '{key}'"));
+    }
+    // Deeper tables than any case needs would only overflow the stack of the
+    // recursive deserialiser (case files are bounded by TOML's own limit).
+    if parts.len() > MAX_OVERRIDE_DEPTH {
+        return Err(format!(
+            "the key has {} parts; at most {MAX_OVERRIDE_DEPTH} are accepted",
+            parts.len()
+        ));
     }
     let parsed: toml::Value = format!("v = {}", value.trim())
         .parse::<toml::Table>()
