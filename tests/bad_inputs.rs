@@ -284,3 +284,26 @@ fn bad_set_overrides() {
         &["--set geometry.of.of", "parts"],
     );
 }
+
+#[test]
+fn out_is_a_file() {
+    let dir = scratch("out_file");
+    let case = dir.join("out_file.toml");
+    std::fs::write(&case, GOOD).unwrap();
+    let out = dir.join("out").join("keep.txt");
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .arg("run")
+        .arg(&case)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("keep.txt") && stderr.contains("--out"),
+        "{stderr}"
+    );
+    assert_untouched(&dir.join("out"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
