@@ -209,6 +209,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn refuses_boxes_beyond_floating_point_range() {
+        // The offset pushes the origin past the largest float.
+        let b = Aabb::new([-1.0, -1.7e308, -1.0], [1.0, 1.0, 1.0]);
+        let e = Grid::new(&b, 0, [0.5; 3]).unwrap_err();
+        assert!(
+            matches!(e, Error::InvalidGrid { ref what, .. } if what == "box"),
+            "{e}"
+        );
+        // Cells smaller than the smallest float.
+        let b = Aabb::new([0.0; 3], [5e-324; 3]);
+        assert!(Grid::new(&b, 3, [0.0; 3]).is_err());
+        assert!(Grid::new(&b, 0, [0.0; 3]).is_ok());
+    }
+
+    #[test]
     fn level_splits_the_longest_side() {
         let b = Aabb::new([-1.0, -1.0, -0.5], [1.0, 1.0, 0.5]);
         let g = Grid::new(&b, 4, [0.0; 3]).unwrap();

@@ -128,3 +128,68 @@ pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
             .into(),
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::case::Case;
+    use crate::error::Error;
+    use crate::fem::setup::Setup;
+
+    const STEEL: &str = "young = 1000\npoisson = 0.3";
+    const CLAMP: &str = "[dirichlet.xmin]\nvalue = [\"0\", \"0\", \"0\"]\n";
+
+    /// The key named by the setup of a cube on [-1, 1]³ with `material` and
+    /// `extra` tables.
+    fn setup_key(material: &str, extra: &str) -> String {
+        let text = format!(
+            "[geometry]\ntype = \"cuboid\"\nmin = [-1, -1, -1]\nmax = [1, 1, 1]\n\
+             [grid]\noffset = [0.3, 0.3, 0.3]\n[material]\n{material}\n{extra}"
+        );
+        let case = Case::from_str("cube.toml", &text).unwrap();
+        match Setup::new(&case, Some(2)) {
+            Err(Error::CaseFile { file, key, reason }) => {
+                assert_eq!(file, "cube.toml");
+                assert!(reason.contains("not finite") || reason.contains("overflows"));
+                key
+            }
+            Err(e) => panic!("untyped error {e}"),
+            Ok(_) => panic!("set up: {extra}"),
+        }
+    }
+
+    #[test]
+    fn names_the_key_of_data_that_is_not_finite() {
+        let key = setup_key(
+            STEEL,
+            "[dirichlet.xmin]\nvalue = [\"log(x)\", \"0\", \"0\"]\n",
+        );
+        assert_eq!(key, "dirichlet.xmin.value");
+        let neumann = "[neumann.xmax]\ntraction = [\"0\", \"1/(x-1)\", \"0\"]\n";
+        assert_eq!(
+            setup_key(STEEL, &format!("{CLAMP}{neumann}")),
+            "neumann.xmax.traction"
+        );
+        let body = "[body_load]\nvalue = [\"0\", \"0\", \"sqrt(z)\"]\n";
+        assert_eq!(
+            setup_key(STEEL, &format!("{CLAMP}{body}")),
+            "body_load.value"
+        );
+        // Derived from the exact field: the exact field is named.
+        let exact = "[dirichlet.xmin]\nvalue = \"exact\"\n\
+                     [exact]\ndisplacement = [\"x\", \"0\", \"sqrt(z)\"]\n";
+        let key = setup_key(STEEL, exact);
+        assert!(key.starts_with("exact.displacement"), "{key}");
+    }
+
+    #[test]
+    fn names_the_key_of_an_overflow() {
+        let k1 = format!("{CLAMP}[stabilisation]\nk1 = 1e306\n");
+        assert_eq!(setup_key(STEEL, &k1), "stabilisation.k1");
+        let k2 = format!("{CLAMP}[stabilisation]\nk2 = 1e306\n");
+        assert_eq!(setup_key(STEEL, &k2), "stabilisation.k2");
+        // λ = E ν / ((1 + ν)(1 − 2ν)) overflows.
+        let k1 = format!("{CLAMP}[stabilisation]\nk1 = 1e-300\n");
+        let key = setup_key("young = 1.7e308\npoisson = 0.49", &k1);
+        assert_eq!(key, "material.young");
+    }
+}
