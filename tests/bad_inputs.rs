@@ -172,6 +172,11 @@ fn out_of_range_values() {
             "method = \"cg\"\nrel_tol = 2.0",
             "solver.rel_tol",
         ),
+        (
+            "[geometry]",
+            "name = \"../escape\"\n[geometry]",
+            "name: \"../escape\" is not a plain folder name",
+        ),
     ];
     for (i, (from, to, key)) in cases.iter().enumerate() {
         bad(&format!("range{i}"), Some(&edit(from, to)), &[], &[key]);

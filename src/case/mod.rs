@@ -188,6 +188,21 @@ impl Case {
     /// Ranges of the physics keys, and boundary tags that exist.
     fn check_physics(&self) -> Result<()> {
         let s = &self.spec;
+        if let Some(name) = &s.name {
+            // The name is the default output folder, `out/<name>`.
+            let plain = !name.is_empty()
+                && name != "."
+                && name != ".."
+                && !name
+                    .chars()
+                    .any(|c| c == '/' || c == '\\' || c.is_control());
+            if !plain {
+                return Err(self.bad_key(
+                    "name",
+                    format!("{name:?} is not a plain folder name (no '/', '\\', '..' or control characters)"),
+                ));
+            }
+        }
         let m = &s.material;
         if !(m.young.is_finite() && m.young > 0.0) {
             return Err(self.bad_key(

@@ -106,6 +106,11 @@ pub fn mutate_tree(rng: &mut ChaCha8Rng, root: &mut Value) {
             let t = root.as_table_mut().unwrap();
             t.insert("geometry".into(), geometry(rng, 3));
             t.remove("grid");
+            if rng.gen_bool(0.5) {
+                // The seed's tags are likely gone: set up without conditions.
+                t.remove("dirichlet");
+                t.remove("neumann");
+            }
             if rng.gen_bool(0.3) {
                 let mut g = Table::new();
                 g.insert("box_min".into(), vec3(rng, -2.0, 0.0));
