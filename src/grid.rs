@@ -57,6 +57,17 @@ impl Grid {
         let longest = side.iter().copied().fold(0.0, f64::max);
         let h = longest / (1u64 << level) as f64;
         let origin = [0, 1, 2].map(|i| bbox.lo[i] - offset[i] * h);
+        let extents_finite = (0..3).all(|i| (bbox.hi[i] - origin[i]).is_finite());
+        if !(h.is_finite() && h > 0.0 && extents_finite) {
+            return Err(bad(
+                "box",
+                format!(
+                    "{:?}..{:?} at level {level} gives cells of size {h:e}, \
+                     beyond floating-point range",
+                    bbox.lo, bbox.hi
+                ),
+            ));
+        }
         let n = [0, 1, 2].map(|i| {
             let cells = (bbox.hi[i] - origin[i]) / h;
             // Round-off must not add a sliver cell to an exact fit.
@@ -196,6 +207,21 @@ pub fn machine_memory_bytes() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refuses_boxes_beyond_floating_point_range() {
+        // The offset pushes the origin past the largest float.
+        let b = Aabb::new([-1.0, -1.7e308, -1.0], [1.0, 1.0, 1.0]);
+        let e = Grid::new(&b, 0, [0.5; 3]).unwrap_err();
+        assert!(
+            matches!(e, Error::InvalidGrid { ref what, .. } if what == "box"),
+            "{e}"
+        );
+        // Cells smaller than the smallest float.
+        let b = Aabb::new([0.0; 3], [5e-324; 3]);
+        assert!(Grid::new(&b, 3, [0.0; 3]).is_err());
+        assert!(Grid::new(&b, 0, [0.0; 3]).is_ok());
+    }
 
     #[test]
     fn level_splits_the_longest_side() {

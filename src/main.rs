@@ -298,6 +298,13 @@ fn run_case(
     let gpu = open_device(device)?;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
+    if dir.exists() && !dir.is_dir() {
+        return Err(cgfem_gpu::Error::Io {
+            path: dir.display().to_string(),
+            reason: "--out names a file, not a folder".into(),
+        }
+        .into());
+    }
     let setup = Setup::new(&case, level)?;
     let order = case.spec.element;
     let mut report = Report::geometry(

@@ -1,5 +1,5 @@
 //! Every case in `cases/` runs as is (at level 2, to keep CI short) and
-//! writes its report and solution.
+//! writes its report (status ok) and solution.
 
 use std::process::Command;
 
@@ -35,8 +35,13 @@ fn every_case_runs() {
             String::from_utf8_lossy(&o.stderr)
         );
         assert!(out.join("report.json").exists() && out.join("solution.vtu").exists());
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+        assert_eq!(report["status"], "ok", "{}", path.display());
+        assert_eq!(report["level"], 2, "{}", path.display());
         std::fs::remove_dir_all(&out).unwrap();
         count += 1;
     }
-    assert!(count >= 2, "only {count} cases found");
+    // The paper's sphere, the plate with a hole and the worked examples.
+    assert!(count >= 5, "only {count} cases found");
 }

@@ -136,18 +136,33 @@ impl Case {
         };
         let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
             let at = match e.span() {
-                Some(s) => format!("line {}", text[..s.start].lines().count().max(1)),
+                Some(s) => {
+                    let before = text.get(..s.start).unwrap_or(text);
+                    let line = before.matches('\n').count() + 1;
+                    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                    format!("line {line}, column {column}")
+                }
                 None => "(syntax)".into(),
             };
-            bad(&at, e.message().trim().to_string())
+            let reason = match e.message().trim() {
+                "" => "invalid TOML syntax".to_string(),
+                m => format!("invalid TOML: {m}"),
+            };
+            bad(&at, reason)
         })?;
         for o in overrides {
-            apply_override(&mut table, o).map_err(|reason| bad(&format!("--set {o}"), reason))?;
+            apply_override(&mut table, o).map_err(|reason| {
+                let shown = match o.char_indices().nth(80) {
+                    Some((i, _)) => format!("{}…", &o[..i]),
+                    None => o.clone(),
+                };
+                bad(&format!("--set {shown}"), reason)
+            })?;
         }
         let mut spec: CaseSpec = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| {
                 let key = e.path().to_string();
-                let key = if key == "." {
+                let key = if key == "." || key.is_empty() {
                     "(top level)".to_string()
                 } else {
                     key
@@ -173,6 +188,21 @@ impl Case {
     /// Ranges of the physics keys, and boundary tags that exist.
     fn check_physics(&self) -> Result<()> {
         let s = &self.spec;
+        if let Some(name) = &s.name {
+            // The name is the default output folder, `out/<name>`.
+            let plain = !name.is_empty()
+                && name != "."
+                && name != ".."
+                && !name
+                    .chars()
+                    .any(|c| c == '/' || c == '\\' || c.is_control());
+            if !plain {
+                return Err(self.bad_key(
+                    "name",
+                    format!("{name:?} is not a plain folder name (no '/', '\\', '..' or control characters)"),
+                ));
+            }
+        }
         let m = &s.material;
         if !(m.young.is_finite() && m.young > 0.0) {
             return Err(self.bad_key(
@@ -328,6 +358,9 @@ impl Case {
     }
 }
 
+/// The most dotted parts a `--set` key may have.
+const MAX_OVERRIDE_DEPTH: usize = 32;
+
 /// Sets the dotted `key` of `table` to `value` (`key=value`).
 fn apply_override(table: &mut toml::Table, assignment: &str) -> std::result::Result<(), String> {
     let (key, value) = assignment
@@ -336,6 +369,14 @@ fn apply_override(table: &mut toml::Table, assignment: &str) -> std::result::Res
     let parts: Vec<&str> = key.trim().split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(format!("bad key '{key}'"));
+    }
+    // Deeper tables than any case needs would only overflow the stack of the
+    // recursive deserialiser (case files are bounded by TOML's own limit).
+    if parts.len() > MAX_OVERRIDE_DEPTH {
+        return Err(format!(
+            "the key has {} parts; at most {MAX_OVERRIDE_DEPTH} are accepted",
+            parts.len()
+        ));
     }
     let parsed: toml::Value = format!("v = {}", value.trim())
         .parse::<toml::Table>()

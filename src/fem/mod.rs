@@ -1,5 +1,6 @@
 //! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
 //! assembled), right-hand sides, the discrete field and its error norms.
+pub mod checks;
 pub mod dofs;
 pub mod field;
 pub mod fixed_point;

@@ -4,10 +4,12 @@
 
 use std::time::Instant;
 
+use super::checks::{check_finite, Assembled};
 use super::operator::{ElasticOperator, OperatorParams};
 use super::problem::Problem;
 use super::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
 use super::stabilisation::{cell_s_matrix, pathological_cells};
+use crate::backend::LinearOperator;
 use crate::case::Case;
 use crate::cells::Cells;
 use crate::error::Result;
@@ -61,6 +63,21 @@ impl Setup {
         }
         let dirichlet = dirichlet_points(&cells, &problem);
         let fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
+        let diagonal = op.diagonal();
+        check_finite(
+            case,
+            &Assembled {
+                grid: &grid,
+                cells: &cells,
+                dofs: &op.dofs,
+                problem: &problem,
+                beta,
+                s_factor,
+                diagonal: &diagonal,
+                dirichlet: &dirichlet,
+                fixed_rhs: &fixed_rhs,
+            },
+        )?;
         timings.push(("operator_and_rhs".to_string(), t.elapsed().as_secs_f64()));
         Ok(Setup {
             grid,

@@ -1,0 +1,195 @@
+//! Finite data on the grid: a case can parse and still give loads that are
+//! not finite where they are used (`log(x)` at negative x, `1/z` on z = 0) or
+//! stiffnesses that overflow (E near the largest float). The setup calls
+//! [`check_finite`], which names the case key and a point where a value is
+//! not finite, instead of letting NaN reach the solver.
+
+use super::dofs::DofMap;
+use super::problem::{Boundary, Problem};
+use super::rhs::DirichletPoint;
+use crate::case::physics::FieldValue;
+use crate::case::Case;
+use crate::cells::{CellKind, Cells};
+use crate::element::tensor_gauss_rule;
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+
+/// What a setup produced, to be checked.
+pub struct Assembled<'a> {
+    pub grid: &'a Grid,
+    pub cells: &'a Cells,
+    pub dofs: &'a DofMap,
+    pub problem: &'a Problem,
+    pub beta: f64,
+    pub s_factor: f64,
+    pub diagonal: &'a [f64],
+    pub dirichlet: &'a [DirichletPoint],
+    pub fixed_rhs: &'a [f64],
+}
+
+fn finite(v: [f64; 3]) -> bool {
+    v.iter().all(|c| c.is_finite())
+}
+
+/// The key a field comes from: its own, or the exact field it is derived from.
+fn source(value: Option<&FieldValue>, key: String, derived: &str) -> String {
+    match value {
+        Some(FieldValue::Given(_)) => key,
+        _ => format!("exact.displacement (the {derived} of {key})"),
+    }
+}
+
+/// Ok when the operator's diagonal and the fixed right-hand side are finite;
+/// otherwise an error naming the key at fault and a point.
+pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
+    let bad = |key: String, reason: String| Error::CaseFile {
+        file: case.file.clone(),
+        key,
+        reason,
+    };
+    let m = &case.spec.material;
+    let st = &case.spec.stabilisation;
+    if !a.beta.is_finite() {
+        return Err(bad(
+            "stabilisation.k1".into(),
+            format!("the penalty k1 E = {} · {} overflows", st.k1, m.young),
+        ));
+    }
+    if !a.s_factor.is_finite() {
+        return Err(bad(
+            "stabilisation.k2".into(),
+            format!("the S-term weight k2 E / h² overflows (h = {})", a.grid.h),
+        ));
+    }
+    if !a.diagonal.iter().all(|v| v.is_finite()) {
+        return Err(bad(
+            "material.young".into(),
+            format!(
+                "the stiffness overflows (E = {}, cell size h = {})",
+                m.young, a.grid.h
+            ),
+        ));
+    }
+    if a.fixed_rhs.iter().all(|v| v.is_finite()) {
+        return Ok(());
+    }
+    let s = &case.spec;
+    let tag = |t: u16| case.geometry.tag_name(t).to_string();
+    for p in a.dirichlet {
+        if !finite(p.g) {
+            let t = tag(p.tag);
+            let value = s.dirichlet.get(&t).map(|d| &d.value);
+            let key = source(value, format!("dirichlet.{t}.value"), "value");
+            return Err(bad(key, format!("not finite at {:?}: {:?}", p.x, p.g)));
+        }
+    }
+    for (i, _) in a.cells.cut.iter().enumerate() {
+        for q in a.cells.surface_points(i) {
+            if let Boundary::Neumann(_) = a.problem.boundary[q.tag as usize] {
+                let t = a.problem.traction(q.tag, q.x, q.n);
+                if !finite(t) {
+                    let name = tag(q.tag);
+                    let value = s.neumann.get(&name).map(|n| &n.traction);
+                    let key = source(value, format!("neumann.{name}.traction"), "traction");
+                    return Err(bad(key, format!("not finite at {:?}: {t:?}", q.x)));
+                }
+            }
+        }
+    }
+    let body_key = || {
+        let value = s.body_load.as_ref().map(|b| &b.value);
+        source(value, "body_load.value".into(), "body load")
+    };
+    let body_at = |x: [f64; 3]| -> Result<()> {
+        let b = a.problem.body_load(x);
+        if finite(b) {
+            Ok(())
+        } else {
+            Err(bad(body_key(), format!("not finite at {x:?}: {b:?}")))
+        }
+    };
+    for i in 0..a.cells.cut.len() {
+        for q in a.cells.volume_points(i) {
+            body_at(q.x)?;
+        }
+    }
+    let rule = tensor_gauss_rule(a.dofs.order.gauss_points_per_axis() + 1);
+    for (c, kind) in a.cells.kinds.iter().enumerate() {
+        if *kind == CellKind::Inside {
+            let lo = a.grid.cell_box(c).lo;
+            for (xi, _) in &rule {
+                body_at([0, 1, 2].map(|k| lo[k] + a.grid.h * xi[k]))?;
+            }
+        }
+    }
+    Err(bad(
+        "material".into(),
+        "the load vector overflows: the loads, the Dirichlet data or the penalty k1 E are too large"
+            .into(),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::case::Case;
+    use crate::error::Error;
+    use crate::fem::setup::Setup;
+
+    const STEEL: &str = "young = 1000\npoisson = 0.3";
+    const CLAMP: &str = "[dirichlet.xmin]\nvalue = [\"0\", \"0\", \"0\"]\n";
+
+    /// The key named by the setup of a cube on [-1, 1]³ with `material` and
+    /// `extra` tables.
+    fn setup_key(material: &str, extra: &str) -> String {
+        let text = format!(
+            "[geometry]\ntype = \"cuboid\"\nmin = [-1, -1, -1]\nmax = [1, 1, 1]\n\
+             [grid]\noffset = [0.3, 0.3, 0.3]\n[material]\n{material}\n{extra}"
+        );
+        let case = Case::from_str("cube.toml", &text).unwrap();
+        match Setup::new(&case, Some(2)) {
+            Err(Error::CaseFile { file, key, reason }) => {
+                assert_eq!(file, "cube.toml");
+                assert!(reason.contains("not finite") || reason.contains("overflows"));
+                key
+            }
+            Err(e) => panic!("untyped error {e}"),
+            Ok(_) => panic!("set up: {extra}"),
+        }
+    }
+
+    #[test]
+    fn names_the_key_of_data_that_is_not_finite() {
+        let key = setup_key(
+            STEEL,
+            "[dirichlet.xmin]\nvalue = [\"log(x)\", \"0\", \"0\"]\n",
+        );
+        assert_eq!(key, "dirichlet.xmin.value");
+        let neumann = "[neumann.xmax]\ntraction = [\"0\", \"1/(x-1)\", \"0\"]\n";
+        assert_eq!(
+            setup_key(STEEL, &format!("{CLAMP}{neumann}")),
+            "neumann.xmax.traction"
+        );
+        let body = "[body_load]\nvalue = [\"0\", \"0\", \"sqrt(z)\"]\n";
+        assert_eq!(
+            setup_key(STEEL, &format!("{CLAMP}{body}")),
+            "body_load.value"
+        );
+        // Derived from the exact field: the exact field is named.
+        let exact = "[dirichlet.xmin]\nvalue = \"exact\"\n\
+                     [exact]\ndisplacement = [\"x\", \"0\", \"sqrt(z)\"]\n";
+        let key = setup_key(STEEL, exact);
+        assert!(key.starts_with("exact.displacement"), "{key}");
+    }
+
+    #[test]
+    fn names_the_key_of_an_overflow() {
+        let k1 = format!("{CLAMP}[stabilisation]\nk1 = 1e306\n");
+        assert_eq!(setup_key(STEEL, &k1), "stabilisation.k1");
+        let k2 = format!("{CLAMP}[stabilisation]\nk2 = 1e306\n");
+        assert_eq!(setup_key(STEEL, &k2), "stabilisation.k2");
+        // λ = E ν / ((1 + ν)(1 − 2ν)) overflows.
+        let k1 = format!("{CLAMP}[stabilisation]\nk1 = 1e-300\n");
+        let key = setup_key("young = 1.7e308\npoisson = 0.49", &k1);
+        assert_eq!(key, "material.young");
+    }
+}
