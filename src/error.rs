@@ -75,6 +75,9 @@ pub enum Error {
     /// evaluated where no patch was recovered.
     #[error("patch recovery at node {node}: {reason}")]
     Recovery { node: usize, reason: String },
+    /// A benchmark could not run (a thread pool, a factorisation).
+    #[error("bench: {what}: {reason}")]
+    Bench { what: String, reason: String },
 }
 
 impl Error {
@@ -82,7 +85,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
-            Error::Recovery { .. } => 1,
+            Error::Recovery { .. } | Error::Bench { .. } => 1,
             _ => 2,
         }
     }

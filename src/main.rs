@@ -63,6 +63,28 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Measure operator and solver throughput on the paper's sphere (Q1, f64):
+    /// prints a table and writes DIR/bench.json.
+    Bench {
+        /// Levels to run (default 5 and 6; 7 needs about 10 GB for the CSR).
+        #[arg(long = "level")]
+        levels: Vec<u32>,
+        /// Rayon thread counts to run each measurement with (default 1 and 2).
+        #[arg(long = "threads", value_delimiter = ',')]
+        threads: Vec<usize>,
+        /// Level of the end-to-end solves, matrix-free against sparse Cholesky.
+        #[arg(long, default_value_t = 6)]
+        solve_level: u32,
+        /// Skip the end-to-end solves.
+        #[arg(long)]
+        no_solve: bool,
+        /// Seconds spent on each timed measurement.
+        #[arg(long, default_value_t = 1.0)]
+        budget: f64,
+        /// Output folder (default: out/bench).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -91,7 +113,47 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             condition,
         } => run_case(&case, level, &set, out, condition),
         Command::Reproduce { what, levels, out } => reproduce(&what, &levels, out),
+        Command::Bench {
+            levels,
+            threads,
+            solve_level,
+            no_solve,
+            budget,
+            out,
+        } => bench(levels, threads, (!no_solve).then_some(solve_level), budget, out),
     }
+}
+
+fn bench(
+    levels: Vec<u32>,
+    threads: Vec<usize>,
+    solve_level: Option<u32>,
+    budget: f64,
+    out: Option<PathBuf>,
+) -> anyhow::Result<()> {
+    let or = |v: Vec<_>, d: Vec<_>| if v.is_empty() { d } else { v };
+    let opts = cgfem_gpu::bench::BenchOptions {
+        levels: or(levels, vec![5, 6]),
+        threads: or(threads, vec![1, 2]),
+        solve_level,
+        budget,
+    };
+    let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));
+    let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
+    let rows = cgfem_gpu::bench::run(&case, &opts, |r| {
+        println!(
+            "  {} {} level {} threads {}: {:.2} Mdofs/s",
+            r.what,
+            r.backend,
+            r.level,
+            r.threads,
+            r.dofs_per_s / 1e6
+        )
+    })?;
+    print!("{}", cgfem_gpu::bench::format_table(&rows));
+    cgfem_gpu::bench::write_json(&rows, &dir)?;
+    println!("wrote {}", dir.join("bench.json").display());
+    Ok(())
 }
 
 fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {

@@ -1,6 +1,7 @@
 //! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
 //! assembled), right-hand sides, the discrete field and its error norms.
 pub mod dofs;
+pub mod fast_apply;
 pub mod field;
 pub mod fixed_point;
 pub mod operator;
@@ -11,3 +12,4 @@ pub mod rhs;
 pub mod setup;
 pub mod solve;
 pub mod stabilisation;
+pub mod stencil;
