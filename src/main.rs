@@ -131,10 +131,9 @@ fn bench(
     budget: f64,
     out: Option<PathBuf>,
 ) -> anyhow::Result<()> {
-    let or = |v: Vec<_>, d: Vec<_>| if v.is_empty() { d } else { v };
     let opts = cgfem_gpu::bench::BenchOptions {
-        levels: or(levels, vec![5, 6]),
-        threads: or(threads, vec![1, 2]),
+        levels: if levels.is_empty() { vec![5, 6] } else { levels },
+        threads: if threads.is_empty() { vec![1, 2] } else { threads },
         solve_level,
         budget,
     };

@@ -164,7 +164,7 @@ fn throughput(setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
     let rayon_csr = RayonCsr(&csc);
     let n = setup.op.nrows();
     let per_dof = |bytes: usize| bytes as f64 / n as f64;
-    let backends: [(&str, &dyn LinearOperator, f64); 3] = [
+    let backends: [(&str, &(dyn LinearOperator + Sync), f64); 3] = [
         ("cpu-mf", &setup.op, per_dof(setup.op.bytes())),
         ("cpu-csr", &csc, per_dof(csr_bytes(&csc))),
         ("cpu-csr-rayon", &rayon_csr, per_dof(csr_bytes(&csc))),
@@ -202,7 +202,7 @@ fn throughput(setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
 fn seconds_per_iteration(
     op: &dyn LinearOperator,
     method: KrylovMethod,
-    b: &[f64],
+    b: &Vec<f64>,
     budget: f64,
 ) -> Result<f64> {
     let be = CpuBackend::new();
