@@ -1,22 +1,24 @@
 //! The fast Q1 apply of [`super::operator::ElasticOperator`]: the interior
-//! stencil along runs ([`super::stencil`]) plus a specialised node-centred
-//! gather for the remaining active nodes, in parallel over chunks of active
-//! nodes.
+//! stencil along runs ([`super::stencil`]), the cut cells' matrices streamed
+//! cell by cell, and a gather for the remaining active nodes, in parallel.
 //!
 //! # Plan
 //! Active nodes split into *interior* nodes (all 8 surrounding cells inside),
 //! grouped in [`Run`]s, and *boundary* nodes (touching a cut or outside cell, or
 //! the grid's edge). Each boundary node gathers its rows from its non-outside
-//! cells, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`, reading the cut cells' own matrices
-//! at apply time (so terms added by `add_to_cut_cell` after the plan was built
-//! are applied). Runs and boundary nodes are cut into chunks of consecutive
-//! active indices; each chunk writes only its own slice of `y`, so chunks run
-//! in parallel with no atomics.
+//! cells, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`. Runs and boundary nodes are cut into
+//! chunks of consecutive active indices; each chunk writes only its own slice
+//! of `y`, so chunks run in parallel with no atomics.
 //!
 //! # Apply
-//! 1. De-interleave `x` into the reused scratch `xs` (three component arrays).
-//! 2. Per chunk (rayon): the stencil on its runs from `xs`, the gather on its
-//!    boundary nodes from `x`. Both write `y` in place, interleaved.
+//! 1. De-interleave `x` into the reused scratch `xs` (three component arrays)
+//!    and, at the same time, compute `z_c = K_c x_c` (24 entries) for every
+//!    cut cell `c` in slot order, reading the own matrices once, front to back
+//!    (at apply time, so terms added by `add_to_cut_cell` after the plan was
+//!    built are applied).
+//! 2. Per chunk: the stencil on its runs from `xs`; for its boundary nodes,
+//!    `z_c[3l .. 3l+3]` of each cut cell and `h K_ref[3l .. 3l+3, :] x_c` of
+//!    each inside cell around them. Both write `y` in place, interleaved.
 //!
 //! Where the CPU has AVX2 and FMA (checked at run time) the chunk kernel is
 //! compiled for them; elsewhere it is the portable build of the same code.
@@ -41,6 +43,8 @@ pub struct Matrices<'a> {
     pub inside: &'a [f64],
     /// Own matrices, row-major 24 × 24 each, in slot order.
     pub own: &'a [f64],
+    /// The cell of each own matrix.
+    pub own_cells: &'a [usize],
     pub node_to_active: &'a [u32],
 }
 
@@ -64,6 +68,7 @@ pub struct FastApply {
     /// Cells per axis.
     n: [usize; 3],
     num_active: usize,
+    num_cut: usize,
     fma: bool,
 }
 
@@ -103,6 +108,7 @@ impl FastApply {
             chunks,
             n: grid.n,
             num_active: active_to_node.len(),
+            num_cut: m.own_cells.len(),
             fma: fma_available(),
         }
     }
@@ -120,21 +126,40 @@ impl FastApply {
         self.runs.iter().map(|r| r.len as usize).sum()
     }
 
-    /// Length of the scratch [`Self::apply`] needs.
+    /// Length of the scratch [`Self::apply`] needs: `xs` and the `z_c`.
     pub fn scratch_len(&self) -> usize {
-        3 * self.stride()
+        3 * self.stride() + 24 * self.num_cut
     }
 
     fn stride(&self) -> usize {
         self.num_active + TILE
     }
 
-    /// `y = A x`, with `xs` a scratch of [`Self::scratch_len`] entries whose
+    /// `y = A x`, with `scratch` of [`Self::scratch_len`] entries whose
     /// padding (past each component's `num_active` entries) is finite.
-    pub fn apply(&self, m: &Matrices, active_to_node: &[u32], x: &[f64], y: &mut [f64], xs: &mut [f64]) {
+    pub fn apply(
+        &self,
+        m: &Matrices,
+        active_to_node: &[u32],
+        x: &[f64],
+        y: &mut [f64],
+        scratch: &mut [f64],
+    ) {
         let stride = self.stride();
-        deinterleave(x, xs, stride, self.num_active);
-        let xs = &*xs;
+        let (xs, z) = scratch.split_at_mut(3 * stride);
+        let mut ctx = Context {
+            plan: self,
+            m,
+            active_to_node,
+            x,
+            xs: &[],
+            z: &[],
+        };
+        rayon::join(
+            || deinterleave(x, xs, stride, self.num_active),
+            || ctx.cut_cells(z),
+        );
+        (ctx.xs, ctx.z) = (xs, z);
         let mut pieces = Vec::with_capacity(self.chunks.len());
         let mut rest = y;
         for c in &self.chunks {
@@ -142,13 +167,6 @@ impl FastApply {
             pieces.push((c, piece));
             rest = tail;
         }
-        let ctx = Context {
-            plan: self,
-            m,
-            active_to_node,
-            x,
-            xs,
-        };
         pieces
             .into_par_iter()
             .for_each(|(c, piece)| ctx.chunk(c, piece));
@@ -161,7 +179,10 @@ struct Context<'a> {
     m: &'a Matrices<'a>,
     active_to_node: &'a [u32],
     x: &'a [f64],
+    /// `x` de-interleaved.
     xs: &'a [f64],
+    /// `K_c x_c` per cut cell, 24 entries each, in slot order.
+    z: &'a [f64],
 }
 
 impl Context<'_> {
@@ -182,6 +203,58 @@ impl Context<'_> {
         self.chunk_body::<true>(c, y);
     }
 
+    /// `z_c = K_c x_c` for every cut cell, in parallel over blocks of cells.
+    fn cut_cells(&self, z: &mut [f64]) {
+        const CELLS: usize = 64;
+        z.par_chunks_mut(24 * CELLS)
+            .enumerate()
+            .for_each(|(b, zb)| {
+                #[cfg(target_arch = "x86_64")]
+                if self.plan.fma {
+                    // SAFETY: `fma` is set only when the CPU reports AVX2 and FMA.
+                    unsafe { self.cut_block_fma(b * CELLS, zb) };
+                    return;
+                }
+                self.cut_block::<false>(b * CELLS, zb);
+            });
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn cut_block_fma(&self, first: usize, z: &mut [f64]) {
+        self.cut_block::<true>(first, z);
+    }
+
+    /// `z_s = K_s x_c` for the cut cells `s = first, first + 1, …`.
+    #[inline(always)]
+    fn cut_block<const FMA: bool>(&self, first: usize, z: &mut [f64]) {
+        for (s, zs) in (first..).zip(z.chunks_exact_mut(24)) {
+            let c = self.m.own_cells[s];
+            let [nx, ny, _] = self.plan.n;
+            let ijk = [c % nx, (c / nx) % ny, c / (nx * ny)];
+            let xe = self.cell_x(ijk);
+            let k = &self.m.own[s * 576..(s + 1) * 576];
+            for (zr, rows) in zs.chunks_exact_mut(3).zip(k.chunks_exact(72)) {
+                zr.copy_from_slice(&rows_dot::<FMA>(rows, &xe));
+            }
+        }
+    }
+
+    /// The 24 dofs of cell `ijk`'s nodes, in local order.
+    #[inline(always)]
+    fn cell_x(&self, [i, j, k]: [usize; 3]) -> [f64; 24] {
+        let [nx, ny, _] = self.plan.n;
+        let (mx, my) = (nx + 1, ny + 1);
+        let corner = i + mx * (j + my * k);
+        let mut xe = [0.0; 24];
+        for q in 0..8 {
+            let nq = corner + (q & 1) + mx * (((q >> 1) & 1) + my * (q >> 2));
+            let aq = self.m.node_to_active[nq] as usize;
+            xe[3 * q..3 * q + 3].copy_from_slice(&self.x[3 * aq..3 * aq + 3]);
+        }
+        xe
+    }
+
     #[inline(always)]
     fn chunk_body<const FMA: bool>(&self, c: &Chunk, y: &mut [f64]) {
         let plan = self.plan;
@@ -196,7 +269,8 @@ impl Context<'_> {
     }
 
     /// Rows of boundary node `a`: `Σ_{c ∋ n} K_c[3l+i, :] x_c` over its
-    /// non-outside cells `c`, `l` the node's local index in `c`.
+    /// non-outside cells `c`, `l` the node's local index in `c` (for a cut
+    /// cell, entries of `z_c`).
     #[inline(always)]
     fn gather<const FMA: bool>(&self, a: usize) -> [f64; 3] {
         let [nx, ny, nz] = self.plan.n;
@@ -214,31 +288,40 @@ impl Context<'_> {
             ) else {
                 continue;
             };
-            let cell = ia + nx * (ja + ny * ka);
-            let k_c = match self.m.slot[cell] {
-                OUTSIDE => continue,
-                INSIDE => self.m.inside,
-                s => &self.m.own[s as usize * 576..(s as usize + 1) * 576],
-            };
-            let corner = ia + mx * (ja + my * ka);
-            let mut xe = [0.0; 24];
-            for q in 0..8 {
-                let nq = corner + (q & 1) + mx * (((q >> 1) & 1) + my * (q >> 2));
-                let aq = self.m.node_to_active[nq] as usize;
-                xe[3 * q..3 * q + 3].copy_from_slice(&self.x[3 * aq..3 * aq + 3]);
-            }
             let l = 7 - cc;
-            for (r, o) in out.iter_mut().enumerate() {
-                let row = &k_c[(3 * l + r) * 24..(3 * l + r + 1) * 24];
-                let mut s = 0.0;
-                for (kv, xv) in row.iter().zip(&xe) {
-                    s = madd::<FMA>(*kv, *xv, s);
+            let part = match self.m.slot[ia + nx * (ja + ny * ka)] {
+                OUTSIDE => continue,
+                INSIDE => {
+                    let rows = &self.m.inside[3 * l * 24..(3 * l + 3) * 24];
+                    rows_dot::<FMA>(rows, &self.cell_x([ia, ja, ka]))
                 }
-                *o += s;
+                s => {
+                    let zl = &self.z[24 * s as usize + 3 * l..];
+                    [zl[0], zl[1], zl[2]]
+                }
+            };
+            for (o, p) in out.iter_mut().zip(part) {
+                *o += p;
             }
         }
         out
     }
+}
+
+/// `(R x)_r` for the three rows `R` (row-major 3 × 24): four partial sums per
+/// row, so that the products vectorise and the additions do not form one
+/// long dependency chain.
+#[inline(always)]
+fn rows_dot<const FMA: bool>(rows: &[f64], x: &[f64; 24]) -> [f64; 3] {
+    let mut acc = [[0.0; 4]; 3];
+    for (a, row) in acc.iter_mut().zip(rows.chunks_exact(24)) {
+        for q in (0..24).step_by(4) {
+            for lane in 0..4 {
+                a[lane] = madd::<FMA>(row[q + lane], x[q + lane], a[lane]);
+            }
+        }
+    }
+    acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]))
 }
 
 /// Whether node `(i, j, k)` has all 8 surrounding cells inside.

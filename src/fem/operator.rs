@@ -115,6 +115,7 @@ impl ElasticOperator {
             slot: &self.slot,
             inside: &self.k_inside,
             own: &self.k_own,
+            own_cells: &self.own_cells,
             node_to_active: &self.dofs.node_to_active,
         }
     }
