@@ -120,7 +120,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             no_solve,
             budget,
             out,
-        } => bench(levels, threads, (!no_solve).then_some(solve_level), budget, out),
+        } => bench(
+            levels,
+            threads,
+            (!no_solve).then_some(solve_level),
+            budget,
+            out,
+        ),
     }
 }
 
@@ -132,8 +138,16 @@ fn bench(
     out: Option<PathBuf>,
 ) -> anyhow::Result<()> {
     let opts = cgfem_gpu::bench::BenchOptions {
-        levels: if levels.is_empty() { vec![5, 6] } else { levels },
-        threads: if threads.is_empty() { vec![1, 2] } else { threads },
+        levels: if levels.is_empty() {
+            vec![5, 6]
+        } else {
+            levels
+        },
+        threads: if threads.is_empty() {
+            vec![1, 2]
+        } else {
+            threads
+        },
         solve_level,
         budget,
     };

@@ -18,7 +18,10 @@ fn sphere(overrides: &[&str]) -> Case {
 /// `max |a − b| / max |b|`.
 fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
     let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let diff = a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
     diff / scale
 }
 
@@ -40,8 +43,14 @@ fn check(name: &str, case: &Case, level: u32, seed: u64) -> Setup {
         assembled.apply(&x, &mut csc);
         let d_gather = relative_difference(&fast, &gather);
         let d_csc = relative_difference(&fast, &csc);
-        assert!(d_gather < 1e-12, "{name} level {level}: vs gather {d_gather:e}");
-        assert!(d_csc < 1e-12, "{name} level {level}: vs assembled {d_csc:e}");
+        assert!(
+            d_gather < 1e-12,
+            "{name} level {level}: vs gather {d_gather:e}"
+        );
+        assert!(
+            d_csc < 1e-12,
+            "{name} level {level}: vs assembled {d_csc:e}"
+        );
     }
     setup
 }
@@ -58,7 +67,11 @@ fn fast_apply_matches_gather_and_assembled_on_the_sphere() {
 #[test]
 fn fast_apply_reads_cut_matrices_changed_after_construction() {
     // The S-term is added to the pathological cut cells after the plan exists.
-    let case = sphere(&["stabilisation.k2=0.01", "stabilisation.A=0.1", "grid.offset=[0.45, 0.1, 0.6]"]);
+    let case = sphere(&[
+        "stabilisation.k2=0.01",
+        "stabilisation.A=0.1",
+        "grid.offset=[0.45, 0.1, 0.6]",
+    ]);
     let setup = check("sphere with S-term", &case, 4, 5);
     assert!(!setup.omega_star.is_empty(), "no pathological cell to test");
     assert!(setup.s_factor > 0.0);
@@ -69,7 +82,9 @@ fn fast_apply_reuses_its_scratch_and_allows_concurrent_applies() {
     let setup = Setup::new(&sphere(&[]), Some(3)).unwrap();
     let op = &setup.op;
     let n = op.nrows();
-    let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1000) as f64 / 1000.0).collect();
+    let x: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 1000) as f64 / 1000.0)
+        .collect();
     let mut expected = vec![0.0; n];
     op.apply_gather(&x, &mut expected);
     let results: Vec<Vec<f64>> = std::thread::scope(|s| {

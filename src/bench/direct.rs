@@ -32,7 +32,14 @@ pub(super) fn solves(setup: &Setup, krylov: &KrylovOptions, pool: &ThreadPool) -
     })?;
     let mf = Row {
         bytes_per_dof: op.bytes() as f64 / n as f64,
-        ..row("solve", "cpu-mf", level, n, threads, t.elapsed().as_secs_f64())
+        ..row(
+            "solve",
+            "cpu-mf",
+            level,
+            n,
+            threads,
+            t.elapsed().as_secs_f64(),
+        )
     };
     println!(
         "solve level {level}: cpu-mf {} {} iterations, {:.2} s",
@@ -44,9 +51,19 @@ pub(super) fn solves(setup: &Setup, krylov: &KrylovOptions, pool: &ThreadPool) -
     let (u_direct, factor_len) = pool.install(|| cholesky_solve(setup, threads))?;
     let direct = Row {
         bytes_per_dof: 8.0 * factor_len as f64 / n as f64,
-        ..row("solve", "cpu-direct", level, n, threads, t.elapsed().as_secs_f64())
+        ..row(
+            "solve",
+            "cpu-direct",
+            level,
+            n,
+            threads,
+            t.elapsed().as_secs_f64(),
+        )
     };
-    let diff = u_mf.iter().zip(&u_direct).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let diff = u_mf
+        .iter()
+        .zip(&u_direct)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     let scale = u_direct.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     println!(
         "solve level {level}: cpu-direct {:.2} s, factor {:.1} M entries; \

@@ -169,7 +169,9 @@ fn throughput(setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
         ("cpu-csr", &csc, per_dof(csr_bytes(&csc))),
         ("cpu-csr-rayon", &rayon_csr, per_dof(csr_bytes(&csc))),
     ];
-    let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0).collect();
+    let x: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0)
+        .collect();
     let mut b = vec![0.0; n];
     setup.op.apply(&x, &mut b);
     let mut rows = Vec::new();
@@ -186,8 +188,12 @@ fn throughput(setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
                 bytes_per_dof,
                 ..row("apply", name, level, n, t, apply)
             });
-            for (what, method) in [("cg_iter", KrylovMethod::Cg), ("cgs_iter", KrylovMethod::Cgs)] {
-                let seconds = pool.install(|| seconds_per_iteration(op, method, &b, opts.budget))?;
+            for (what, method) in [
+                ("cg_iter", KrylovMethod::Cg),
+                ("cgs_iter", KrylovMethod::Cgs),
+            ] {
+                let seconds =
+                    pool.install(|| seconds_per_iteration(op, method, &b, opts.budget))?;
                 rows.push(Row {
                     bytes_per_dof,
                     ..row(what, name, level, n, t, seconds)
@@ -215,14 +221,16 @@ fn seconds_per_iteration(
             max_iterations: iterations,
         };
         let mut x = vec![0.0; b.len()];
-        seconds_per_call(budget / 2.0, || match solve(&be, op, None, b, &mut x, &opts) {
-            Err(Error::MaxIterations { .. }) => {}
-            Err(e) => failure = Some(e),
-            Ok(_) => {
-                failure = Some(Error::Bench {
-                    what: format!("timing {method}"),
-                    reason: "converged to the smallest tolerance".into(),
-                })
+        seconds_per_call(budget / 2.0, || {
+            match solve(&be, op, None, b, &mut x, &opts) {
+                Err(Error::MaxIterations { .. }) => {}
+                Err(e) => failure = Some(e),
+                Ok(_) => {
+                    failure = Some(Error::Bench {
+                        what: format!("timing {method}"),
+                        reason: "converged to the smallest tolerance".into(),
+                    })
+                }
             }
         })
     };

@@ -53,7 +53,18 @@ pub fn format_table(rows: &[Row]) -> String {
     let _ = writeln!(
         s,
         "{:<9} {:<14} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8}",
-        "what", "backend", "lvl", "dofs", "thr", "Mdofs/s", "×ref", "×1t", "%bw", "B/dof", "seconds", "peak MB"
+        "what",
+        "backend",
+        "lvl",
+        "dofs",
+        "thr",
+        "Mdofs/s",
+        "×ref",
+        "×1t",
+        "%bw",
+        "B/dof",
+        "seconds",
+        "peak MB"
     );
     for r in rows {
         let one = rate(rows, |q| {

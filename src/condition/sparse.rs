@@ -81,10 +81,7 @@ impl Cholesky {
     }
 
     /// Factors `A` with the parallelism `par` (also used by the solves).
-    pub fn with_par(
-        a: &SparseColMat<usize, f64>,
-        par: Par,
-    ) -> std::result::Result<Self, String> {
+    pub fn with_par(a: &SparseColMat<usize, f64>, par: Par) -> std::result::Result<Self, String> {
         let symbolic = factorize_symbolic_cholesky(
             a.symbolic(),
             Side::Lower,

@@ -225,18 +225,23 @@ impl Context<'_> {
         self.cut_block::<true>(first, z);
     }
 
-    /// `z_s = K_s x_c` for the cut cells `s = first, first + 1, …`.
+    /// `z_s = K_s x_c` for the cut cells `s = first, first + 1, …`, as
+    /// `Σ_q x_q K_s[q, :]`: `K_s` is symmetric (as the assembled apply also
+    /// assumes), and rows are contiguous, so each row is one vector update.
     #[inline(always)]
     fn cut_block<const FMA: bool>(&self, first: usize, z: &mut [f64]) {
+        let [nx, ny, _] = self.plan.n;
         for (s, zs) in (first..).zip(z.chunks_exact_mut(24)) {
             let c = self.m.own_cells[s];
-            let [nx, ny, _] = self.plan.n;
-            let ijk = [c % nx, (c / nx) % ny, c / (nx * ny)];
-            let xe = self.cell_x(ijk);
+            let xe = self.cell_x([c % nx, (c / nx) % ny, c / (nx * ny)]);
             let k = &self.m.own[s * 576..(s + 1) * 576];
-            for (zr, rows) in zs.chunks_exact_mut(3).zip(k.chunks_exact(72)) {
-                zr.copy_from_slice(&rows_dot::<FMA>(rows, &xe));
+            let mut acc = [0.0; 24];
+            for (xq, row) in xe.iter().zip(k.chunks_exact(24)) {
+                for (a, kv) in acc.iter_mut().zip(row) {
+                    *a = madd::<FMA>(*xq, *kv, *a);
+                }
             }
+            zs.copy_from_slice(&acc);
         }
     }
 
@@ -331,7 +336,11 @@ fn is_interior(grid: &Grid, slot: &[u32], [i, j, k]: [usize; 3]) -> bool {
         return false;
     }
     (0..8).all(|cc| {
-        let c = [(i - 1 + (cc & 1)), (j - 1 + ((cc >> 1) & 1)), (k - 1 + (cc >> 2))];
+        let c = [
+            (i - 1 + (cc & 1)),
+            (j - 1 + ((cc >> 1) & 1)),
+            (k - 1 + (cc >> 2)),
+        ];
         slot[grid.cell_index(c)] == INSIDE
     })
 }
@@ -386,7 +395,8 @@ fn deinterleave(x: &[f64], xs: &mut [f64], stride: usize, n: usize) {
         .zip(x2[..n].par_chunks_mut(B))
         .zip(x.par_chunks(3 * B))
         .for_each(|(((a, b), c), xc)| {
-            for (q, ((ai, bi), ci)) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()).enumerate() {
+            for (q, ((ai, bi), ci)) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()).enumerate()
+            {
                 *ai = xc[3 * q];
                 *bi = xc[3 * q + 1];
                 *ci = xc[3 * q + 2];

@@ -104,7 +104,11 @@ impl ElasticOperator {
             scratch: Scratch::default(),
         };
         if order == ElementOrder::Q1 {
-            op.fast = Some(FastApply::new(grid, &op.matrices(), &op.dofs.active_to_node));
+            op.fast = Some(FastApply::new(
+                grid,
+                &op.matrices(),
+                &op.dofs.active_to_node,
+            ));
         }
         op
     }

@@ -74,7 +74,11 @@ impl Stencil {
                 }
             }
         }
-        let scale = s.iter().flatten().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+        let scale = s
+            .iter()
+            .flatten()
+            .flatten()
+            .fold(0.0f64, |a, v| a.max(v.abs()));
         let mut terms: [Vec<Term>; 3] = Default::default();
         for (d, sd) in s.iter().enumerate() {
             let (shift, row) = (d % 3, d / 3);
@@ -90,14 +94,10 @@ impl Stencil {
         Stencil { terms }
     }
 
-    /// Number of stored terms.
-    pub fn len(&self) -> usize {
-        self.terms.iter().map(Vec::len).sum()
-    }
-
     /// Bytes of stencil data.
     pub fn bytes(&self) -> usize {
-        self.len() * std::mem::size_of::<Term>()
+        let terms: usize = self.terms.iter().map(Vec::len).sum();
+        terms * std::mem::size_of::<Term>()
     }
 
     /// `y[3 (a − lo) + i] = (A x)_{3a+i}` for the nodes `a` of `runs`, with
