@@ -72,9 +72,11 @@ enum Command {
         /// Rayon thread counts to run each measurement with (default 1 and 2).
         #[arg(long = "threads", value_delimiter = ',')]
         threads: Vec<usize>,
-        /// Level of the end-to-end solves, matrix-free against sparse Cholesky.
-        #[arg(long, default_value_t = 6)]
-        solve_level: u32,
+        /// Levels of the end-to-end solves, matrix-free against sparse
+        /// Cholesky (default 5 and 6; Cholesky is skipped where its factor
+        /// would not fit in half the available memory).
+        #[arg(long = "solve-level")]
+        solve_levels: Vec<u32>,
         /// Skip the end-to-end solves.
         #[arg(long)]
         no_solve: bool,
@@ -116,24 +118,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench {
             levels,
             threads,
-            solve_level,
+            solve_levels,
             no_solve,
             budget,
             out,
-        } => bench(
-            levels,
-            threads,
-            (!no_solve).then_some(solve_level),
-            budget,
-            out,
-        ),
+        } => {
+            let solve_levels = match (no_solve, solve_levels.is_empty()) {
+                (true, _) => Vec::new(),
+                (false, true) => vec![5, 6],
+                (false, false) => solve_levels,
+            };
+            bench(levels, threads, solve_levels, budget, out)
+        }
     }
 }
 
 fn bench(
     levels: Vec<u32>,
     threads: Vec<usize>,
-    solve_level: Option<u32>,
+    solve_levels: Vec<u32>,
     budget: f64,
     out: Option<PathBuf>,
 ) -> anyhow::Result<()> {
@@ -148,7 +151,7 @@ fn bench(
         } else {
             threads
         },
-        solve_level,
+        solve_levels,
         budget,
     };
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));

@@ -1,7 +1,9 @@
 //! The end-to-end solve rows: the first linear system of the fixed-point loop,
 //! `A u = F` (`F` the fixed right-hand side), by the case's Krylov method on the
 //! matrix-free operator against assembly plus sparse Cholesky (faer, AMD
-//! ordering), each timed from scratch with its own peak resident memory.
+//! ordering), each timed from scratch with its own peak resident memory. The
+//! direct solve is skipped, with the reason printed, when its factor would
+//! take more than half the available memory.
 
 use std::time::Instant;
 
@@ -14,6 +16,7 @@ use crate::backend::{CpuBackend, LinearOperator};
 use crate::condition::sparse::Cholesky;
 use crate::error::{Error, Result};
 use crate::fem::setup::Setup;
+use crate::grid::machine_memory_bytes;
 use crate::solver::{solve, KrylovOptions};
 
 /// The `solve` rows of `cpu-mf` and `cpu-direct`, run in `pool`. Prints the
@@ -48,7 +51,13 @@ pub(super) fn solves(setup: &Setup, krylov: &KrylovOptions, pool: &ThreadPool) -
 
     reset_peak_resident();
     let t = Instant::now();
-    let (u_direct, factor_len) = pool.install(|| cholesky_solve(setup, threads))?;
+    let (u_direct, factor_len) = match pool.install(|| cholesky_solve(setup, threads)) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("solve level {level}: cpu-direct skipped: {e}");
+            return Ok(vec![mf]);
+        }
+    };
     let direct = Row {
         bytes_per_dof: 8.0 * factor_len as f64 / n as f64,
         ..row(
@@ -81,10 +90,12 @@ fn cholesky_solve(setup: &Setup, threads: usize) -> Result<(Vec<f64>, usize)> {
     let t = Instant::now();
     let a = setup.op.assemble();
     let assembled = t.elapsed().as_secs_f64();
-    let chol = Cholesky::with_par(&a, Par::rayon(threads)).map_err(|reason| Error::Bench {
-        what: "sparse Cholesky of the assembled operator".into(),
-        reason,
-    })?;
+    let max_bytes = (available_memory_bytes() / 2) as usize;
+    let chol =
+        Cholesky::with_par(&a, Par::rayon(threads), max_bytes).map_err(|reason| Error::Bench {
+            what: "sparse Cholesky of the assembled operator".into(),
+            reason,
+        })?;
     let factored = t.elapsed().as_secs_f64();
     let mut u = setup.fixed_rhs.clone();
     chol.solve_in_place(&mut u);
@@ -94,4 +105,13 @@ fn cholesky_solve(setup: &Setup, threads: usize) -> Result<(Vec<f64>, usize)> {
         t.elapsed().as_secs_f64() - factored
     );
     Ok((u, chol.factor_len()))
+}
+
+/// `MemAvailable` of `/proc/meminfo` (the machine's memory where unknown).
+fn available_memory_bytes() -> u64 {
+    let text = std::fs::read_to_string("/proc/meminfo").unwrap_or_default();
+    text.lines()
+        .find_map(|l| l.strip_prefix("MemAvailable:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        .map_or_else(machine_memory_bytes, |kb| kb * 1024)
 }

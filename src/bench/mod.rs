@@ -14,7 +14,7 @@
 //!   reference for the bandwidth fraction
 //!   `(bytes_per_dof + 16) · dofs_per_s / triad bytes/s` of an apply (operator
 //!   data plus reading `x` and writing `y`, 8 bytes each per dof);
-//! - `solve` at the solve level: the first linear system of the fixed-point
+//! - `solve` at the solve levels: the first linear system of the fixed-point
 //!   loop, `A u = F`, by the case's Krylov method on the matrix-free operator
 //!   (`cpu-mf`) and by assembly plus sparse Cholesky (`cpu-direct`,
 //!   [`direct`]), each with its peak resident memory.
@@ -71,8 +71,8 @@ pub struct Row {
 pub struct BenchOptions {
     pub levels: Vec<u32>,
     pub threads: Vec<usize>,
-    /// Level of the end-to-end solves (`None`: none).
-    pub solve_level: Option<u32>,
+    /// Levels of the end-to-end solves.
+    pub solve_levels: Vec<u32>,
     /// Seconds spent on each timed measurement.
     pub budget: f64,
 }
@@ -96,13 +96,13 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
         });
     }
     let mut levels = opts.levels.clone();
-    levels.extend(opts.solve_level);
+    levels.extend(&opts.solve_levels);
     levels.sort_unstable();
     levels.dedup();
     for level in levels {
         reset_peak_resident();
         let setup = Setup::new(case, Some(level))?;
-        if opts.solve_level == Some(level) {
+        if opts.solve_levels.contains(&level) {
             let threads = opts.threads.iter().copied().max().unwrap_or(1);
             let krylov = krylov_options(case);
             for r in direct::solves(&setup, &krylov, &pool(threads)?)? {

@@ -2,7 +2,8 @@
 //!
 //! Beside each rate the table shows
 //! - `×ref`: the rate over the reference of its kind at the same level: faer's
-//!   one-thread `cpu-csr` for `apply` and `*_iter`, `cpu-direct` for `solve`;
+//!   one-thread `cpu-csr` for `apply` and `*_iter`, `cpu-direct` (same
+//!   threads) for `solve`;
 //! - `×1t`: the rate over the same row at one thread;
 //! - `%bw` (applies): `(bytes_per_dof + 16) · dofs_per_s` over the triad's
 //!   bytes per second at the same thread count.
@@ -25,13 +26,13 @@ fn ratio(a: f64, b: Option<f64>, unit: &str) -> String {
 
 /// The reference rate of `r` (see the module doc).
 fn reference(rows: &[Row], r: &Row) -> Option<f64> {
-    let backend = if r.what == "solve" {
-        "cpu-direct"
+    let (backend, threads) = if r.what == "solve" {
+        ("cpu-direct", r.threads)
     } else {
-        "cpu-csr"
+        ("cpu-csr", 1)
     };
     rate(rows, |q| {
-        q.what == r.what && q.level == r.level && q.backend == backend && q.threads == 1
+        q.what == r.what && q.level == r.level && q.backend == backend && q.threads == threads
     })
 }
 

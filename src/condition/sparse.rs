@@ -77,11 +77,16 @@ impl Cholesky {
     /// Factors `A` sequentially; `Err` says why it failed (a non-positive
     /// pivot: `A` is not numerically positive definite; or out of memory).
     pub fn new(a: &SparseColMat<usize, f64>) -> std::result::Result<Self, String> {
-        Cholesky::with_par(a, Par::Seq)
+        Cholesky::with_par(a, Par::Seq, usize::MAX)
     }
 
-    /// Factors `A` with the parallelism `par` (also used by the solves).
-    pub fn with_par(a: &SparseColMat<usize, f64>, par: Par) -> std::result::Result<Self, String> {
+    /// Factors `A` with the parallelism `par` (also used by the solves),
+    /// refusing when the factor would take more than `max_bytes`.
+    pub fn with_par(
+        a: &SparseColMat<usize, f64>,
+        par: Par,
+        max_bytes: usize,
+    ) -> std::result::Result<Self, String> {
         let symbolic = factorize_symbolic_cholesky(
             a.symbolic(),
             Side::Lower,
@@ -89,7 +94,19 @@ impl Cholesky {
             Default::default(),
         )
         .map_err(|e| format!("{e:?}"))?;
-        let mut values = vec![0.0; symbolic.len_val()];
+        let bytes = 8 * symbolic.len_val();
+        if bytes > max_bytes {
+            return Err(format!(
+                "the factor needs {:.1} GB, over the limit of {:.1} GB",
+                bytes as f64 / 1e9,
+                max_bytes as f64 / 1e9
+            ));
+        }
+        let mut values = Vec::new();
+        values
+            .try_reserve_exact(symbolic.len_val())
+            .map_err(|e| format!("the factor ({bytes} bytes): {e}"))?;
+        values.resize(symbolic.len_val(), 0.0);
         let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
         let mut mem = MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?;
         symbolic
