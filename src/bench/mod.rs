@@ -91,6 +91,7 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
         let seconds = pool(t)?.install(|| triad_seconds(opts.budget));
         let dofs = TRIAD_LEN;
         emit(Row {
+            element: "-".into(),
             bytes_per_dof: TRIAD_BYTES_PER_ENTRY,
             ..row("bandwidth", "cpu", 0, dofs, t, seconds)
         });
