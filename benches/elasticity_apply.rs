@@ -1,10 +1,13 @@
-//! Operator apply of the paper's sphere (Q1, f64): the node-centred
-//! matrix-free apply against the assembled faer CSC apply of the same operator,
-//! at levels 5 and 6, in one run. Throughput is in dofs per second.
+//! Operator apply of the paper's sphere (Q1, f64): the fast matrix-free apply
+//! (interior stencil + boundary gather), the generic node-centred gather, the
+//! assembled faer CSC apply and the row-parallel CSR apply of the same
+//! operator, at levels 5 and 6, in one run. Throughput is in dofs per second.
+//! `cgfem-gpu bench` measures the same with thread counts and writes JSON.
 //!
 //! `cargo bench --bench elasticity_apply`
 
 use cgfem_gpu::backend::LinearOperator;
+use cgfem_gpu::bench::{csr_bytes, RayonCsr};
 use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::operator::AssembledOperator;
 use cgfem_gpu::fem::setup::Setup;
@@ -22,7 +25,7 @@ fn apply(c: &mut Criterion) {
         println!(
             "level {level}: {n} dofs; matrix-free data {:.1} bytes/dof, CSC {:.1} bytes/dof ({} nonzeros)",
             setup.op.bytes() as f64 / n as f64,
-            (12 * csr.0.compute_nnz() + 8 * (n + 1)) as f64 / n as f64,
+            csr_bytes(&csr) as f64 / n as f64,
             csr.0.compute_nnz()
         );
         let x: Vec<f64> = (0..n)
@@ -33,8 +36,15 @@ fn apply(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("matrix_free", level), &level, |b, _| {
             b.iter(|| setup.op.apply(&x, &mut y))
         });
+        group.bench_with_input(BenchmarkId::new("gather", level), &level, |b, _| {
+            b.iter(|| setup.op.apply_gather(&x, &mut y))
+        });
         group.bench_with_input(BenchmarkId::new("faer_csc", level), &level, |b, _| {
             b.iter(|| csr.apply(&x, &mut y))
+        });
+        let rayon_csr = RayonCsr(&csr);
+        group.bench_with_input(BenchmarkId::new("rayon_csr", level), &level, |b, _| {
+            b.iter(|| rayon_csr.apply(&x, &mut y))
         });
     }
     group.finish();

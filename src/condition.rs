@@ -24,7 +24,7 @@
 //! Krylov bases are stored: memory is `n × steps` doubles per run.
 
 mod lanczos;
-mod sparse;
+pub(crate) mod sparse;
 #[cfg(test)]
 mod tests;
 

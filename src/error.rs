@@ -85,6 +85,9 @@ pub enum Error {
     /// The GPU device failed (opening it, a buffer map, a lost device).
     #[error("GPU: {what}")]
     Gpu { what: String },
+    /// A benchmark could not run (a thread pool, a factorisation).
+    #[error("bench: {what}: {reason}")]
+    Bench { what: String, reason: String },
 }
 
 impl Error {
@@ -92,7 +95,10 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
-            Error::Recovery { .. } | Error::Plot { .. } | Error::Gpu { .. } => 1,
+            Error::Recovery { .. }
+            | Error::Plot { .. }
+            | Error::Gpu { .. }
+            | Error::Bench { .. } => 1,
             _ => 2,
         }
     }

@@ -8,6 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod backend;
+pub mod bench;
 pub mod case;
 pub mod cells;
 pub mod condition;

@@ -95,6 +95,30 @@ enum Command {
         #[arg(long)]
         no_condition: bool,
     },
+    /// Measure operator and solver throughput on the paper's sphere (Q1, f64):
+    /// prints a table and writes DIR/bench.json.
+    Bench {
+        /// Levels to run (default 5 and 6; 7 needs about 10 GB for the CSR).
+        #[arg(long = "level")]
+        levels: Vec<u32>,
+        /// Rayon thread counts to run each measurement with (default 1 and 2).
+        #[arg(long = "threads", value_delimiter = ',')]
+        threads: Vec<usize>,
+        /// Levels of the end-to-end solves, matrix-free against sparse
+        /// Cholesky (default 5 and 6; Cholesky is skipped where its factor
+        /// would not fit in half the available memory).
+        #[arg(long = "solve-level")]
+        solve_levels: Vec<u32>,
+        /// Skip the end-to-end solves.
+        #[arg(long)]
+        no_solve: bool,
+        /// Seconds spent on each timed measurement.
+        #[arg(long, default_value_t = 1.0)]
+        budget: f64,
+        /// Output folder (default: out/bench).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -159,7 +183,61 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             reproduce(&what, &levels, &sweep, out)
         }
+        Command::Bench {
+            levels,
+            threads,
+            solve_levels,
+            no_solve,
+            budget,
+            out,
+        } => {
+            let solve_levels = match (no_solve, solve_levels.is_empty()) {
+                (true, _) => Vec::new(),
+                (false, true) => vec![5, 6],
+                (false, false) => solve_levels,
+            };
+            bench(levels, threads, solve_levels, budget, out)
+        }
     }
+}
+
+fn bench(
+    levels: Vec<u32>,
+    threads: Vec<usize>,
+    solve_levels: Vec<u32>,
+    budget: f64,
+    out: Option<PathBuf>,
+) -> anyhow::Result<()> {
+    let opts = cgfem_gpu::bench::BenchOptions {
+        levels: if levels.is_empty() {
+            vec![5, 6]
+        } else {
+            levels
+        },
+        threads: if threads.is_empty() {
+            vec![1, 2]
+        } else {
+            threads
+        },
+        solve_levels,
+        budget,
+    };
+    let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));
+    let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
+    let rows = cgfem_gpu::bench::run(&case, &opts, |r| {
+        println!(
+            "  {} {} level {} threads {}: {:.2} Mdofs/s",
+            r.what,
+            r.backend,
+            r.level,
+            r.threads,
+            r.dofs_per_s / 1e6
+        )
+    })?;
+    print!("{}", cgfem_gpu::bench::format_table(&rows));
+    cgfem_gpu::bench::write_json(&rows, &dir)?;
+    println!("wrote {}", dir.join("bench.json").display());
+    Ok(())
 }
 
 fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {

@@ -1,7 +1,8 @@
 //! The sparse-matrix side of the condition estimate: `A x`, the Jacobi scaling
 //! `D^-1/2 A D^-1/2`, the sparse Cholesky factor `A = L Lᵀ` (faer, AMD
-//! ordering, sequential so that results are reproducible) and the Rayleigh
-//! quotient `zᵀ A z` with its rounding level.
+//! ordering, sequential so that results are reproducible; the benchmark's
+//! direct solve runs it in parallel) and the Rayleigh quotient `zᵀ A z` with
+//! its rounding level.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
@@ -66,15 +67,26 @@ pub(super) fn jacobi_scaled(a: &SparseColMat<usize, f64>) -> Result<SparseColMat
 }
 
 /// The sparse Cholesky factor of a symmetric matrix (its lower triangle read).
-pub(super) struct Cholesky {
+pub(crate) struct Cholesky {
     symbolic: SymbolicCholesky<usize>,
     values: Vec<f64>,
+    par: Par,
 }
 
 impl Cholesky {
-    /// Factors `A`; `Err` says why it failed (a non-positive pivot: `A` is not
-    /// numerically positive definite; or out of memory).
+    /// Factors `A` sequentially; `Err` says why it failed (a non-positive
+    /// pivot: `A` is not numerically positive definite; or out of memory).
     pub fn new(a: &SparseColMat<usize, f64>) -> std::result::Result<Self, String> {
+        Cholesky::with_par(a, Par::Seq, usize::MAX)
+    }
+
+    /// Factors `A` with the parallelism `par` (also used by the solves),
+    /// refusing when the factor would take more than `max_bytes`.
+    pub fn with_par(
+        a: &SparseColMat<usize, f64>,
+        par: Par,
+        max_bytes: usize,
+    ) -> std::result::Result<Self, String> {
         let symbolic = factorize_symbolic_cholesky(
             a.symbolic(),
             Side::Lower,
@@ -82,8 +94,20 @@ impl Cholesky {
             Default::default(),
         )
         .map_err(|e| format!("{e:?}"))?;
-        let mut values = vec![0.0; symbolic.len_val()];
-        let req = symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+        let bytes = 8 * symbolic.len_val();
+        if bytes > max_bytes {
+            return Err(format!(
+                "the factor needs {:.1} GB, over the limit of {:.1} GB",
+                bytes as f64 / 1e9,
+                max_bytes as f64 / 1e9
+            ));
+        }
+        let mut values = Vec::new();
+        values
+            .try_reserve_exact(symbolic.len_val())
+            .map_err(|e| format!("the factor ({bytes} bytes): {e}"))?;
+        values.resize(symbolic.len_val(), 0.0);
+        let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
         let mut mem = MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?;
         symbolic
             .factorize_numeric_llt(
@@ -91,24 +115,33 @@ impl Cholesky {
                 a.as_ref(),
                 Side::Lower,
                 Default::default(),
-                Par::Seq,
+                par,
                 MemStack::new(&mut mem),
                 Default::default(),
             )
             .map_err(|LltError::NonPositivePivot { index }| {
                 format!("non-positive pivot {index} of {}", a.nrows())
             })?;
-        Ok(Cholesky { symbolic, values })
+        Ok(Cholesky {
+            symbolic,
+            values,
+            par,
+        })
+    }
+
+    /// Entries of the factor `L`.
+    pub fn factor_len(&self) -> usize {
+        self.values.len()
     }
 
     /// `x ← A⁻¹ x`.
     pub fn solve_in_place(&self, x: &mut [f64]) {
         let n = x.len();
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, self.par));
         LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(x, n, 1),
-            Par::Seq,
+            self.par,
             MemStack::new(&mut mem),
         );
     }

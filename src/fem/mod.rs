@@ -2,6 +2,7 @@
 //! assembled), right-hand sides, the discrete field and its error norms.
 pub mod checks;
 pub mod dofs;
+pub mod fast_apply;
 pub mod field;
 pub mod fixed_point;
 pub mod linear;
@@ -13,3 +14,4 @@ pub mod rhs;
 pub mod setup;
 pub mod solve;
 pub mod stabilisation;
+pub mod stencil;

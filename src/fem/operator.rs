@@ -10,11 +10,17 @@
 //! gathers, from the (up to 8) cells around it, its rows of the cell matrix
 //! times the cell's displacements, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`. No two
 //! threads write the same entry, so no atomics and no colouring are needed.
+//! For Q1 the apply runs the plan of [`super::fast_apply`] (the constant
+//! interior stencil along runs, the gather elsewhere); the generic gather
+//! ([`ElasticOperator::apply_gather`]) is the reference and serves Q2.
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
+use std::sync::Mutex;
+
 use super::dofs::{node_cells, DofMap};
+use super::fast_apply::{FastApply, Matrices};
 use crate::backend::LinearOperator;
 use crate::cells::{CellKind, Cells};
 use crate::element::reference::{elasticity_matrix, reference_stiffness, strain_displacement};
@@ -40,6 +46,19 @@ pub struct ElasticOperator {
     /// Own matrices, row-major `ne × ne` each, and the cell of each.
     k_own: Vec<f64>,
     own_cells: Vec<usize>,
+    /// The fast apply's plan (Q1 only) and its reused scratch.
+    fast: Option<FastApply>,
+    scratch: Scratch,
+}
+
+/// A reusable scratch vector; a clone starts empty.
+#[derive(Debug, Default)]
+struct Scratch(Mutex<Vec<f64>>);
+
+impl Clone for Scratch {
+    fn clone(&self) -> Self {
+        Scratch::default()
+    }
 }
 
 /// What the operator needs to know about the material and the Dirichlet parts.
@@ -73,7 +92,7 @@ impl ElasticOperator {
             .into_par_iter()
             .flat_map_iter(|i| row_major(&cut_cell_matrix(grid, cells, i, order, p)))
             .collect();
-        ElasticOperator {
+        let mut op = ElasticOperator {
             grid: grid.clone(),
             dofs,
             ne,
@@ -81,7 +100,33 @@ impl ElasticOperator {
             k_inside,
             k_own,
             own_cells: cells.cut.clone(),
+            fast: None,
+            scratch: Scratch::default(),
+        };
+        if order == ElementOrder::Q1 {
+            op.fast = Some(FastApply::new(
+                grid,
+                &op.matrices(),
+                &op.dofs.active_to_node,
+            ));
         }
+        op
+    }
+
+    /// The data the fast apply reads.
+    fn matrices(&self) -> Matrices<'_> {
+        Matrices {
+            slot: &self.slot,
+            inside: &self.k_inside,
+            own: &self.k_own,
+            own_cells: &self.own_cells,
+            node_to_active: &self.dofs.node_to_active,
+        }
+    }
+
+    /// The fast apply's plan (Q1), for reports.
+    pub fn fast_apply(&self) -> Option<&FastApply> {
+        self.fast.as_ref()
     }
 
     /// The matrix of a cell, row-major, or `None` for an outside cell.
@@ -134,12 +179,43 @@ impl ElasticOperator {
         &self.own_cells
     }
 
-    /// Bytes of operator data (matrices and maps), for the memory reports.
+    /// Bytes of operator data (matrices, maps and the fast apply's plan), for
+    /// the memory reports; the apply's scratch (three vectors) is not counted.
     pub fn bytes(&self) -> usize {
         8 * (self.k_inside.len() + self.k_own.len())
             + 4 * (self.slot.len()
                 + self.dofs.node_to_active.len()
                 + self.dofs.active_to_node.len())
+            + self.fast.as_ref().map_or(0, FastApply::bytes)
+    }
+
+    /// `y = A x` by the generic node-centred gather (see the module doc): the
+    /// reference the fast apply is tested against, and the Q2 apply.
+    pub fn apply_gather(&self, x: &[f64], y: &mut [f64]) {
+        let npc = self.dofs.order.nodes_per_cell();
+        y.par_chunks_mut(3)
+            .enumerate()
+            .with_min_len(64)
+            .for_each_init(
+                || (vec![0usize; npc], vec![0.0; 3 * npc]),
+                |(nodes, xe), (a, yn)| {
+                    yn.fill(0.0);
+                    self.for_node_cells(a, |cell, l, k| {
+                        self.dofs.cell_active_nodes(&self.grid, cell, nodes);
+                        for (m, &an) in nodes.iter().enumerate() {
+                            xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
+                        }
+                        for i in 0..3 {
+                            let row = &k[(3 * l + i) * self.ne..(3 * l + i + 1) * self.ne];
+                            let mut s = 0.0;
+                            for j in 0..self.ne {
+                                s += row[j] * xe[j];
+                            }
+                            yn[i] += s;
+                        }
+                    });
+                },
+            );
     }
 
     /// Calls `f(cell, local, matrix)` for the cells around an active node.
@@ -216,32 +292,17 @@ impl LinearOperator for ElasticOperator {
         self.dofs.ndofs()
     }
 
-    /// `y = A x`, node-centred gather (see the module doc).
+    /// `y = A x`: the fast plan for Q1, the generic gather otherwise.
     fn apply(&self, x: &[f64], y: &mut [f64]) {
-        let npc = self.dofs.order.nodes_per_cell();
-        y.par_chunks_mut(3)
-            .enumerate()
-            .with_min_len(64)
-            .for_each_init(
-                || (vec![0usize; npc], vec![0.0; 3 * npc]),
-                |(nodes, xe), (a, yn)| {
-                    yn.fill(0.0);
-                    self.for_node_cells(a, |cell, l, k| {
-                        self.dofs.cell_active_nodes(&self.grid, cell, nodes);
-                        for (m, &an) in nodes.iter().enumerate() {
-                            xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
-                        }
-                        for i in 0..3 {
-                            let row = &k[(3 * l + i) * self.ne..(3 * l + i + 1) * self.ne];
-                            let mut s = 0.0;
-                            for j in 0..self.ne {
-                                s += row[j] * xe[j];
-                            }
-                            yn[i] += s;
-                        }
-                    });
-                },
-            );
+        let Some(fast) = &self.fast else {
+            return self.apply_gather(x, y);
+        };
+        let mut local = Vec::new();
+        let mut guard = self.scratch.0.try_lock();
+        // A concurrent apply holds the shared scratch: use a fresh one.
+        let xs = guard.as_deref_mut().unwrap_or(&mut local);
+        xs.resize(fast.scratch_len(), 0.0);
+        fast.apply(&self.matrices(), &self.dofs.active_to_node, x, y, xs);
     }
 
     fn diagonal(&self) -> Vec<f64> {

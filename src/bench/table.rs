@@ -1,0 +1,104 @@
+//! The bench table as text, and `bench.json` (DESIGN §8).
+//!
+//! Beside each rate the table shows
+//! - `×ref`: the rate over the reference of its kind at the same level: faer's
+//!   one-thread `cpu-csr` for `apply` and `*_iter`, `cpu-direct` (same
+//!   threads) for `solve`;
+//! - `×1t`: the rate over the same row at one thread;
+//! - `%bw` (applies): `(bytes_per_dof + 16) · dofs_per_s` over the triad's
+//!   bytes per second at the same thread count.
+
+use std::fmt::Write;
+use std::path::Path;
+
+use super::Row;
+use crate::error::{Error, Result};
+
+/// The rate of the first row matching `pred`.
+fn rate(rows: &[Row], pred: impl Fn(&Row) -> bool) -> Option<f64> {
+    rows.iter().find(|r| pred(r)).map(|r| r.dofs_per_s)
+}
+
+/// `a / b` formatted, or `-` when there is no `b`.
+fn ratio(a: f64, b: Option<f64>, unit: &str) -> String {
+    b.map_or("-".into(), |b| format!("{:.2}{unit}", a / b))
+}
+
+/// The reference rate of `r` (see the module doc).
+fn reference(rows: &[Row], r: &Row) -> Option<f64> {
+    let (backend, threads) = if r.what == "solve" {
+        ("cpu-direct", r.threads)
+    } else {
+        ("cpu-csr", 1)
+    };
+    rate(rows, |q| {
+        q.what == r.what && q.level == r.level && q.backend == backend && q.threads == threads
+    })
+}
+
+/// The bandwidth fraction of an apply row, in percent.
+fn bandwidth(rows: &[Row], r: &Row) -> String {
+    let triad = rate(rows, |q| q.what == "bandwidth" && q.threads == r.threads);
+    match (r.what.as_str(), triad) {
+        ("apply", Some(t)) => {
+            let moved = (r.bytes_per_dof + 16.0) * r.dofs_per_s;
+            format!("{:.0}%", 100.0 * moved / (t * super::TRIAD_BYTES_PER_ENTRY))
+        }
+        _ => "-".into(),
+    }
+}
+
+/// The rows as an aligned text table.
+pub fn format_table(rows: &[Row]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<9} {:<14} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8}",
+        "what",
+        "backend",
+        "lvl",
+        "dofs",
+        "thr",
+        "Mdofs/s",
+        "×ref",
+        "×1t",
+        "%bw",
+        "B/dof",
+        "seconds",
+        "peak MB"
+    );
+    for r in rows {
+        let one = rate(rows, |q| {
+            q.what == r.what && q.backend == r.backend && q.level == r.level && q.threads == 1
+        });
+        let _ = writeln!(
+            s,
+            "{:<9} {:<14} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0}",
+            r.what,
+            r.backend,
+            r.level,
+            r.dofs,
+            r.threads,
+            r.dofs_per_s / 1e6,
+            ratio(r.dofs_per_s, reference(rows, r), "×"),
+            ratio(r.dofs_per_s, one, "×"),
+            bandwidth(rows, r),
+            r.bytes_per_dof,
+            r.seconds,
+            r.peak_bytes as f64 / (1 << 20) as f64
+        );
+    }
+    s
+}
+
+/// Writes `dir/bench.json`: `{"rows": [...]}`.
+pub fn write_json(rows: &[Row], dir: &Path) -> Result<()> {
+    let io = |e: std::io::Error| Error::Io {
+        path: dir.join("bench.json").display().to_string(),
+        reason: e.to_string(),
+    };
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let json = serde_json::json!({ "rows": rows });
+    let text = serde_json::to_vec_pretty(&json).map_err(|e| io(e.into()))?;
+    crate::output::write_atomic(&dir.join("bench.json"), &text)
+}
