@@ -115,6 +115,10 @@ enum Command {
         /// Seconds spent on each timed measurement.
         #[arg(long, default_value_t = 1.0)]
         budget: f64,
+        /// cpu: the CPU backends only; auto (default): also the preferred GPU
+        /// adapter when one is found; gpu: as auto, but no adapter is an error.
+        #[arg(long)]
+        backend: Option<BackendChoice>,
         /// Output folder (default: out/bench).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -189,6 +193,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             solve_levels,
             no_solve,
             budget,
+            backend,
             out,
         } => {
             let solve_levels = match (no_solve, solve_levels.is_empty()) {
@@ -196,7 +201,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 (false, true) => vec![5, 6],
                 (false, false) => solve_levels,
             };
-            bench(levels, threads, solve_levels, budget, out)
+            let backend = BackendChoice::resolve(backend)?;
+            if backend == BackendChoice::Gpu {
+                // Refuse early, with the adapters found, rather than bench the CPU only.
+                cgfem_gpu::gpu::GpuContext::new(None, Default::default())?;
+            }
+            let gpu = backend != BackendChoice::Cpu;
+            bench(levels, threads, solve_levels, budget, gpu, out)
         }
     }
 }
@@ -206,6 +217,7 @@ fn bench(
     threads: Vec<usize>,
     solve_levels: Vec<u32>,
     budget: f64,
+    gpu: bool,
     out: Option<PathBuf>,
 ) -> anyhow::Result<()> {
     let opts = cgfem_gpu::bench::BenchOptions {
@@ -221,6 +233,7 @@ fn bench(
         },
         solve_levels,
         budget,
+        gpu,
     };
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));
     let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;

@@ -1,5 +1,5 @@
 //! `cgfem-gpu bench` (DESIGN §8): operator and solver throughput on the paper's
-//! sphere (Q1, f64) for the CPU backends, in one process, as rows of
+//! sphere (Q1) for the CPU backends and the GPU, in one process, as rows of
 //! `bench.json`.
 //!
 //! Per level and thread count (each run inside its own rayon pool):
@@ -19,12 +19,17 @@
 //!   (`cpu-mf`) and by assembly plus sparse Cholesky (`cpu-direct`,
 //!   [`direct`]), each with its peak resident memory.
 //!
+//! - on the preferred GPU adapter, when `gpu` is asked for and one is found:
+//!   its copy-kernel bandwidth and the same apply and iteration rows
+//!   ([`gpu`]), per precision.
+//!
 //! Rates are dofs per second (entries per second for the triad); `seconds` is
 //! per call (per iteration for the `*_iter` rows); `peak_bytes` is the process's
 //! peak resident memory since the level (or the solve) started.
 
 mod csr;
 mod direct;
+mod gpu;
 mod measure;
 mod table;
 
@@ -75,6 +80,8 @@ pub struct BenchOptions {
     pub solve_levels: Vec<u32>,
     /// Seconds spent on each timed measurement.
     pub budget: f64,
+    /// Also bench the preferred GPU adapter (f64 where it can, and f32).
+    pub gpu: bool,
 }
 
 /// Iterations timed per Krylov method (beyond the 2 subtracted).
@@ -96,6 +103,14 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
             ..row("bandwidth", "cpu", 0, dofs, t, seconds)
         });
     }
+    let gpus = if opts.gpu {
+        gpu::backends()
+    } else {
+        Vec::new()
+    };
+    for be in &gpus {
+        emit(gpu::bandwidth(be, opts.budget));
+    }
     let mut levels = opts.levels.clone();
     levels.extend(&opts.solve_levels);
     levels.sort_unstable();
@@ -113,6 +128,11 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
         if opts.levels.contains(&level) {
             for r in throughput(&setup, opts)? {
                 emit(r);
+            }
+            for be in &gpus {
+                for r in gpu::throughput(be, &setup, opts) {
+                    emit(r);
+                }
             }
         }
     }

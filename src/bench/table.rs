@@ -36,13 +36,22 @@ fn reference(rows: &[Row], r: &Row) -> Option<f64> {
     })
 }
 
-/// The bandwidth fraction of an apply row, in percent.
+/// The bandwidth fraction of an apply row, in percent: against the triad at
+/// the same thread count on the CPU, against the device copy kernel of the
+/// same adapter and precision on a GPU.
 fn bandwidth(rows: &[Row], r: &Row) -> String {
-    let triad = rate(rows, |q| q.what == "bandwidth" && q.threads == r.threads);
-    match (r.what.as_str(), triad) {
-        ("apply", Some(t)) => {
-            let moved = (r.bytes_per_dof + 16.0) * r.dofs_per_s;
-            format!("{:.0}%", 100.0 * moved / (t * super::TRIAD_BYTES_PER_ENTRY))
+    let reference = if r.backend.starts_with("gpu:") {
+        rows.iter()
+            .find(|q| q.what == "bandwidth" && q.backend == r.backend && q.precision == r.precision)
+    } else {
+        rows.iter()
+            .find(|q| q.what == "bandwidth" && q.backend == "cpu" && q.threads == r.threads)
+    };
+    match (r.what.as_str(), reference) {
+        ("apply", Some(q)) => {
+            let value_bytes = if r.precision == "f32" { 4.0 } else { 8.0 };
+            let moved = (r.bytes_per_dof + 2.0 * value_bytes) * r.dofs_per_s;
+            format!("{:.0}%", 100.0 * moved / (q.dofs_per_s * q.bytes_per_dof))
         }
         _ => "-".into(),
     }
@@ -69,7 +78,11 @@ pub fn format_table(rows: &[Row]) -> String {
     );
     for r in rows {
         let one = rate(rows, |q| {
-            q.what == r.what && q.backend == r.backend && q.level == r.level && q.threads == 1
+            q.what == r.what
+                && q.backend == r.backend
+                && q.precision == r.precision
+                && q.level == r.level
+                && q.threads == 1
         });
         let _ = writeln!(
             s,

@@ -74,6 +74,12 @@ impl GpuBackend {
         self.ctx.precision
     }
 
+    /// Blocks until every submitted command has run (for timing).
+    pub fn finish(&self) {
+        // A lost device shows in the next read-back, which reports it.
+        let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+
     /// `data` converted to the device precision, as bytes.
     pub(super) fn to_bytes(&self, data: &[f64]) -> Vec<u8> {
         match self.ctx.precision {

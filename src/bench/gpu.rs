@@ -1,0 +1,134 @@
+//! GPU rows of `cgfem-gpu bench`: on the first adapter found (the preferred
+//! one, as `run --backend gpu` picks it), per precision it offers (f64 where
+//! it has `SHADER_F64`, and f32):
+//! - `bandwidth`: the device copy kernel over one storage binding's worth of
+//!   entries (at most 2^24), `bytes_per_dof` = bytes read + written per entry;
+//! - `apply`: the device-resident operator, `y = A x`, waited for;
+//! - `cg_iter`, `cgs_iter`: `(t(K+2) − t(2)) / K` of device-scalar iterations
+//!   ([`crate::gpu::device_krylov::run_iterations`]), residual read back at the
+//!   end of each run.
+//!
+//! No adapter is not an error here: the bench says so and has no GPU rows.
+
+use std::sync::Arc;
+
+use super::{peak_resident_bytes, seconds_per_call, BenchOptions, Row};
+use crate::backend::Backend;
+use crate::error::Error;
+use crate::fem::setup::Setup;
+use crate::gpu::device_krylov::run_iterations;
+use crate::gpu::{GpuBackend, GpuContext, GpuOperator, Precision, PrecisionChoice};
+use crate::solver::KrylovMethod;
+
+/// Iterations timed per method (beyond the 2 subtracted).
+const ITERATIONS: usize = 10;
+
+/// The precisions to bench on the preferred adapter, each with its backend;
+/// empty (with a notice) when there is no adapter.
+pub fn backends() -> Vec<GpuBackend> {
+    let mut out = Vec::new();
+    for choice in [PrecisionChoice::Auto, PrecisionChoice::F32] {
+        match GpuContext::new(None, choice) {
+            Ok(ctx) => {
+                let dup = out
+                    .iter()
+                    .any(|b: &GpuBackend| b.precision() == ctx.precision);
+                if !dup {
+                    out.push(GpuBackend::new(Arc::new(ctx)));
+                }
+            }
+            Err(Error::NoAdapter { .. }) => {
+                eprintln!("bench: no GPU adapter; GPU rows skipped");
+                break;
+            }
+            Err(e) => eprintln!("bench: GPU at {choice:?} precision skipped: {e}"),
+        }
+    }
+    out
+}
+
+fn name(be: &GpuBackend) -> String {
+    format!("gpu:{}", be.context().adapter.name)
+}
+
+fn precision(be: &GpuBackend) -> &'static str {
+    match be.precision() {
+        Precision::F64 => "f64",
+        Precision::F32 => "f32",
+    }
+}
+
+fn row(be: &GpuBackend, what: &str, level: u32, dofs: usize, seconds: f64) -> Row {
+    Row {
+        what: what.into(),
+        backend: name(be),
+        element: "q1".into(),
+        precision: precision(be).into(),
+        level,
+        dofs,
+        dofs_per_s: dofs as f64 / seconds,
+        bytes_per_dof: 0.0,
+        threads: 1,
+        seconds,
+        peak_bytes: peak_resident_bytes(),
+    }
+}
+
+/// The copy-kernel bandwidth row of `be`.
+pub fn bandwidth(be: &GpuBackend, budget: f64) -> Row {
+    let n = be.context().max_binding_entries().min(1 << 24) as usize;
+    let src = be.upload(&vec![1.0; n]);
+    let mut dst = be.zeros(n);
+    let seconds = seconds_per_call(budget, || {
+        be.copy(&src, &mut dst);
+        be.finish();
+    });
+    Row {
+        element: "-".into(),
+        bytes_per_dof: 2.0 * be.precision().bytes() as f64,
+        ..row(be, "bandwidth", 0, n, seconds)
+    }
+}
+
+/// Apply and iteration rows of `be` on the set-up sphere.
+pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Vec<Row> {
+    let level = setup.grid.level;
+    let op = GpuOperator::new(be, &setup.op);
+    let n = be.nrows(&op);
+    let host: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0)
+        .collect();
+    let x = be.upload(&host);
+    let mut y = be.zeros(n);
+    let bytes_per_dof = setup.op.bytes() as f64 / n as f64;
+    let apply = seconds_per_call(opts.budget, || {
+        be.apply(&op, &x, &mut y);
+        be.finish();
+    });
+    let mut rows = vec![Row {
+        bytes_per_dof,
+        ..row(be, "apply", level, n, apply)
+    }];
+    let mut b = be.zeros(n);
+    be.apply(&op, &x, &mut b);
+    for (what, method) in [
+        ("cg_iter", KrylovMethod::Cg),
+        ("cgs_iter", KrylovMethod::Cgs),
+    ] {
+        let timed = |iterations: usize| {
+            let mut u = be.zeros(n);
+            seconds_per_call(opts.budget / 2.0, || {
+                be.scale(0.0, &mut u);
+                run_iterations(be, &op, method, &b, &mut u, iterations);
+            })
+        };
+        let short = timed(2);
+        let long = timed(2 + ITERATIONS);
+        let seconds = ((long - short) / ITERATIONS as f64).max(f64::MIN_POSITIVE);
+        rows.push(Row {
+            bytes_per_dof,
+            ..row(be, what, level, n, seconds)
+        });
+    }
+    rows
+}
