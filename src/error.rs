@@ -82,6 +82,9 @@ pub enum Error {
     /// name, f64).
     #[error("no GPU adapter: wanted {wanted}; adapters found: {found}")]
     NoAdapter { wanted: String, found: String },
+    /// The problem does not fit the device (a vector beyond one storage binding).
+    #[error("the GPU cannot hold this problem: {what}")]
+    DeviceTooSmall { what: String },
     /// The GPU device failed (opening it, a buffer map, a lost device).
     #[error("GPU: {what}")]
     Gpu { what: String },

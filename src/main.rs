@@ -439,6 +439,17 @@ fn run_case(
 
     let t = Instant::now();
     let (mut cpu_solver, mut gpu_solver);
+    let gpu = match gpu {
+        Some(ctx) => match ctx.check_vector_len(setup.op.dofs.ndofs()) {
+            Ok(()) => Some(ctx),
+            Err(e) if BackendChoice::resolve(device.backend)? == BackendChoice::Auto => {
+                println!("note: {e}; solving on the CPU");
+                None
+            }
+            Err(e) => return Err(e.into()),
+        },
+        None => None,
+    };
     let solver: &mut dyn LinearSolver = match &gpu {
         Some(ctx) => {
             gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device);

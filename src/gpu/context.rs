@@ -273,6 +273,25 @@ impl GpuContext {
         })
     }
 
+    /// Can vectors of `n` entries live on this device? Each vector is one
+    /// storage binding (the operator's matrices are split across bindings,
+    /// vectors are not yet): [`Error::DeviceTooSmall`] (exit code 2) naming
+    /// both sizes when not.
+    pub fn check_vector_len(&self, n: usize) -> Result<()> {
+        let max = self.max_binding_entries();
+        if n as u64 > max {
+            return Err(Error::DeviceTooSmall {
+                what: format!(
+                    "{n} dofs exceed one storage binding of {} ({max} entries at {}); \
+                     use a lower level or --backend cpu",
+                    self.adapter.name,
+                    self.precision.name()
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Largest storage binding, in entries of the context's precision.
     pub fn max_binding_entries(&self) -> u64 {
         let bytes = self

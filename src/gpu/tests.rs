@@ -226,3 +226,17 @@ fn scalar_kernels_compute_ratios_and_mark_done() {
     mirror::krylov_check(&prm, &mut s);
     assert_eq!(s[5], 4.0, "done: no more counting");
 }
+
+/// A problem larger than one storage binding is refused with a typed error
+/// (exit code 2) naming both sizes, before any buffer is made.
+#[test]
+fn vectors_beyond_one_binding_are_refused() {
+    let Some(ctx) = crate::gpu::context_or_skip(crate::gpu::PrecisionChoice::Auto) else {
+        return;
+    };
+    let max = ctx.max_binding_entries() as usize;
+    assert!(ctx.check_vector_len(max).is_ok());
+    let e = ctx.check_vector_len(max + 1).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains(&format!("{}", max + 1)), "{e}");
+}
