@@ -116,7 +116,7 @@ fn markdown(rows: &[Table1Row], solver: &crate::case::physics::SolverSpec) -> St
     for r in rows {
         let bound = if r.kappa_is_lower_bound { "≥ " } else { "" };
         let (paper, ratio) = match r.paper_kappa {
-            Some(p) => (format!("{p:.3e}"), format!("{:.3}", r.kappa / p)),
+            Some(p) => (format!("{p:.3e}"), format!("{:.3e}", r.kappa / p)),
             None => ("–".into(), "–".into()),
         };
         s += &format!(
