@@ -100,13 +100,31 @@ impl Chart {
         X: Ranged<ValueType = f64> + ValueFormatter<f64>,
         Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
     {
-        chart
-            .configure_mesh()
-            .x_desc(&self.x_label)
+        // A linear axis of whole numbers (levels, indices) gets one label per
+        // whole number (at most 20), without decimals.
+        let xs = || {
+            self.series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|p| p.0))
+        };
+        let integral = !self.x_log && xs().all(|x| x.fract() == 0.0);
+        let span = xs().fold(f64::MIN, f64::max) - xs().fold(f64::MAX, f64::min);
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(&self.x_label)
             .y_desc(&self.y_label)
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| e.to_string())?;
+            .y_label_formatter(&|v| format!("{v:.0e}"));
+        let integer_label = |v: &f64| {
+            if v.fract().abs() < 1e-9 {
+                format!("{v:.0}")
+            } else {
+                String::new()
+            }
+        };
+        if integral {
+            mesh.x_labels((span as usize + 1).clamp(2, 20))
+                .x_label_formatter(&integer_label);
+        }
+        mesh.draw().map_err(|e| e.to_string())?;
         for (i, s) in self.series.iter().enumerate() {
             let colour = COLOURS[i % COLOURS.len()];
             let width = if s.reference { 1 } else { 2 };
