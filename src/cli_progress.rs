@@ -24,6 +24,8 @@ enum Mode {
 struct State {
     phase: Option<(Phase, ProgressBar, Instant)>,
     fixed_point: Option<ProgressBar>,
+    /// The true relative residual of the last Krylov solve.
+    residual: f64,
 }
 
 /// The progress display and interrupt flag of one `run`.
@@ -158,12 +160,15 @@ impl Progress for Terminal {
                 iterations,
                 relative_residual,
             } => {
+                s.residual = relative_residual;
                 let text = format!(
                     "solve {index}: {iterations} Krylov iterations, residual {relative_residual:.2e}"
                 );
                 match self.mode {
                     Mode::Bars => self.fixed_point_bar(&mut s).set_message(text),
-                    _ => eprintln!("{text}"),
+                    // The later solves are told with their iteration.
+                    _ if index == 0 => eprintln!("{text}"),
+                    _ => {}
                 }
             }
             Event::FixedPoint {
@@ -175,12 +180,14 @@ impl Progress for Terminal {
                     let bar = self.fixed_point_bar(&mut s);
                     bar.set_position(iteration as u64);
                     bar.set_message(format!(
-                        "ε = {eps:.2e}, {krylov_iterations} Krylov iterations"
+                        "ε = {eps:.2e}, {krylov_iterations} Krylov iterations, residual {:.2e}",
+                        s.residual
                     ));
                 }
                 _ => eprintln!(
                     "fixed-point iteration {iteration}: ε = {eps:.3e} \
-                     ({krylov_iterations} Krylov iterations)"
+                     ({krylov_iterations} Krylov iterations, residual {:.2e})",
+                    s.residual
                 ),
             },
         }
