@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use cgfem_gpu::progress::{Event, Phase, Progress};
-use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 
 /// How progress is shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,11 +91,10 @@ impl Terminal {
     fn start(&self, s: &mut State, phase: Phase, total: Option<u64>) {
         let bar = match total {
             Some(n) => ProgressBar::new(n).with_style(
-                ProgressStyle::with_template(
-                    "{msg:>10} [{bar:30}] {pos}/{len} {per_sec} ETA {eta}",
-                )
-                .expect("template")
-                .progress_chars("=> "),
+                ProgressStyle::with_template("{msg:>10} [{bar:30}] {pos}/{len} {rate} ETA {eta}")
+                    .expect("template")
+                    .with_key("rate", rate)
+                    .progress_chars("=> "),
             ),
             None => {
                 let bar = ProgressBar::new_spinner().with_style(
@@ -123,15 +122,27 @@ impl Terminal {
             .get_or_insert_with(|| {
                 let bar = ProgressBar::new_spinner().with_style(
                     ProgressStyle::with_template(
-                        "{spinner} fixed point: {pos} iterations ({per_sec}) {elapsed} {msg}",
+                        "{spinner} fixed point: {pos} iterations ({rate}) {elapsed} {msg}",
                     )
-                    .expect("template"),
+                    .expect("template")
+                    .with_key("rate", rate),
                 );
                 bar.enable_steady_tick(Duration::from_millis(120));
                 self.multi.insert(0, bar)
             })
             .clone()
     }
+}
+
+/// Steps per second with three significant digits (indicatif's `per_sec`
+/// prints all of them).
+fn rate(state: &ProgressState, w: &mut dyn std::fmt::Write) {
+    let r = state.per_sec();
+    let _ = match r {
+        r if r >= 100.0 => write!(w, "{r:.0}/s"),
+        r if r >= 10.0 => write!(w, "{r:.1}/s"),
+        r => write!(w, "{r:.2}/s"),
+    };
 }
 
 impl Progress for Terminal {

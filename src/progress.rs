@@ -28,8 +28,8 @@ impl Phase {
 /// What a run reports as it goes.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Event {
-    /// A phase starts; `total` is its number of steps when known (e.g. the
-    /// candidate cells of the cut-cell quadrature, the fixed-point budget).
+    /// A phase starts; `total` is its number of steps when known (the
+    /// candidate cells of the cut-cell quadrature), else `None`.
     Start { phase: Phase, total: Option<u64> },
     /// `steps` more steps of the current phase are done (may come from any thread).
     Advance { phase: Phase, steps: u64 },
