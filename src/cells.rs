@@ -17,6 +17,7 @@ use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::progress::{Event, Phase, Progress, Silent};
 use crate::quadrature::saye::{box_rule, BoxRule, SurfacePoint, VolumePoint};
 
 /// The class of a cell.
@@ -64,6 +65,17 @@ impl Cells {
     /// Classifies `grid`'s cells and builds cut-cell rules with `q` points per
     /// segment.
     pub fn classify(grid: &Grid, geometry: &Geometry, q: usize) -> Result<Cells> {
+        Cells::classify_with_progress(grid, geometry, q, &Silent)
+    }
+
+    /// [`Cells::classify`], reporting each cut-cell rule built to `progress`
+    /// (phase [`Phase::Quadrature`], one step per candidate cell).
+    pub fn classify_with_progress(
+        grid: &Grid,
+        geometry: &Geometry,
+        q: usize,
+        progress: &dyn Progress,
+    ) -> Result<Cells> {
         let gbox = grid.bounding_box();
         if geometry.bounding_box().intersection(&gbox).is_empty() {
             return Err(Error::GeometryOutsideGrid {
@@ -75,10 +87,20 @@ impl Cells {
         let mut candidates = Vec::new();
         descend(grid, geometry, [0; 3], grid.n, &mut kinds, &mut candidates);
         candidates.sort_unstable();
+        let phase = Phase::Quadrature;
+        progress.event(&Event::Start {
+            phase,
+            total: Some(candidates.len() as u64),
+        });
         let rules: Vec<BoxRule> = candidates
             .par_iter()
-            .map(|&c| box_rule(geometry, &grid.cell_box(c), &[0, 1, 2], q))
+            .map(|&c| {
+                let rule = box_rule(geometry, &grid.cell_box(c), &[0, 1, 2], q);
+                progress.event(&Event::Advance { phase, steps: 1 });
+                rule
+            })
             .collect();
+        progress.event(&Event::Finish { phase });
         let cell_volume = grid.h.powi(3);
         let mut cells = Cells {
             kinds,

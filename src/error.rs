@@ -91,12 +91,17 @@ pub enum Error {
     /// A benchmark could not run (a thread pool, a factorisation).
     #[error("bench: {what}: {reason}")]
     Bench { what: String, reason: String },
+    /// The run was stopped (Ctrl-C) at a fixed-point iteration boundary.
+    #[error("interrupted after {iterations} fixed-point iterations")]
+    Interrupted { iterations: usize },
 }
 
 impl Error {
-    /// Exit code of the binary for this error (DESIGN §8).
+    /// Exit code of the binary for this error (DESIGN §8; 130 = 128 + SIGINT
+    /// for an interrupted run, as shells report it).
     pub fn exit_code(&self) -> i32 {
         match self {
+            Error::Interrupted { .. } => 130,
             Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
             Error::Recovery { .. }
             | Error::Plot { .. }

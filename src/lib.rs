@@ -21,6 +21,7 @@ pub mod gpu;
 pub mod grid;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod quadrature;
 pub mod recovery;
 pub mod report;

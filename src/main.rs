@@ -1,6 +1,9 @@
 //! The `cgfem-gpu` command line. Exit codes (DESIGN §8): 0 success, 2 bad
 //! input (the message names the file, key and reason), 3 solver failure (the
-//! report is still written, marked failed), 1 internal error.
+//! report is still written, marked failed), 1 internal error, 130 interrupted
+//! by Ctrl-C (the report is still written, marked interrupted).
+
+mod cli_progress;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,12 +21,13 @@ use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve_with;
+use cgfem_gpu::fem::solve::solve_with_progress;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
+use cli_progress::Terminal;
 
 #[derive(Parser)]
 #[command(
@@ -34,6 +38,9 @@ use cgfem_gpu::reproduce::{self, CutSweepOptions};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// No progress bars or progress lines on stderr (errors still show).
+    #[arg(long, short, global = true)]
+    quiet: bool,
 }
 
 #[derive(Subcommand)]
@@ -67,6 +74,10 @@ enum Command {
         /// in f64 defect correction) or f64.
         #[arg(long, default_value = "auto")]
         precision: PrecisionChoice,
+        /// Also write DIR/residuals.svg: ε per fixed-point iteration and the
+        /// Krylov iterations per solve.
+        #[arg(long)]
+        plots: bool,
     },
     /// List the GPU adapters: backend, device type, driver, f64 and subgroup
     /// support, storage and dispatch limits.
@@ -127,6 +138,13 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .init();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -152,13 +170,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             backend,
             adapter,
             precision,
+            plots,
         } => {
             let device = Device {
                 backend,
                 adapter,
                 precision,
             };
-            run_case(&case, level, &set, out, condition, &device)
+            let progress = Terminal::new(cli.quiet);
+            progress.catch_ctrl_c()?;
+            let outputs = Outputs { dir: out, plots };
+            run_case(&case, level, &set, &outputs, condition, &device, &progress)
         }
         Command::Info => {
             info();
@@ -253,10 +275,30 @@ fn bench(
     Ok(())
 }
 
-fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
+/// Where `run` writes and what besides the report and the solution.
+struct Outputs {
+    /// `--out` (default: out/<case name>).
+    dir: Option<PathBuf>,
+    /// `--plots`: also DIR/residuals.svg.
+    plots: bool,
+}
+
+/// Writes DIR/report.json and, with `plots`, DIR/residuals.svg from the loop's
+/// history.
+fn write_report(
+    dir: &Path,
+    report: &Report,
+    fp: &FixedPointReport,
+    plots: bool,
+) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
     write_atomic(&dir.join("report.json"), &json)?;
+    if plots {
+        let title = format!("{}: fixed-point convergence", report.case);
+        let svg = fp.residual_chart(&title).to_svg()?;
+        write_atomic(&dir.join("residuals.svg"), svg.as_bytes())?;
+    }
     Ok(())
 }
 
@@ -381,14 +423,18 @@ fn run_case(
     path: &Path,
     level: Option<u32>,
     set: &[String],
-    out: Option<PathBuf>,
+    outputs: &Outputs,
     condition: bool,
     device: &Device,
+    progress: &Terminal,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
     let gpu = open_device(device)?;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
+    let dir = outputs
+        .dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&name));
     if dir.exists() && !dir.is_dir() {
         return Err(cgfem_gpu::Error::Io {
             path: dir.display().to_string(),
@@ -396,7 +442,9 @@ fn run_case(
         }
         .into());
     }
-    let setup = Setup::new(&case, level)?;
+    let setup = Setup::new_with_progress(&case, level, progress);
+    progress.finish();
+    let setup = setup?;
     let order = case.spec.element;
     let mut report = Report::geometry(
         &name,
@@ -477,7 +525,8 @@ fn run_case(
     );
     let t = Instant::now();
     let mut fp = FixedPointReport::default();
-    let result = solve_with(&setup, &case.spec.solver, solver, &mut fp);
+    let result = solve_with_progress(&setup, &case.spec.solver, solver, &mut fp, progress);
+    progress.finish();
     report
         .timings
         .insert("solve".into(), t.elapsed().as_secs_f64());
@@ -501,11 +550,16 @@ fn run_case(
     let solution = match result {
         Ok(s) => s,
         Err(e) => {
-            report.status = "failed".into();
+            report.status = match e {
+                cgfem_gpu::Error::Interrupted { .. } => "interrupted",
+                _ => "failed",
+            }
+            .into();
             report.failure = Some(e.to_string());
-            write_report(&dir, &report)?;
+            write_report(&dir, &report, &fp, outputs.plots)?;
             eprintln!(
-                "report (marked failed): {}",
+                "report (marked {}): {}",
+                report.status,
                 dir.join("report.json").display()
             );
             return Err(e.into());
@@ -551,7 +605,7 @@ fn run_case(
     report
         .timings
         .insert("output".into(), t.elapsed().as_secs_f64());
-    write_report(&dir, &report)?;
+    write_report(&dir, &report, &fp, outputs.plots)?;
 
     println!(
         "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
@@ -575,8 +629,9 @@ fn run_case(
         );
     }
     println!(
-        "  wrote {} and solution.vtu",
-        dir.join("report.json").display()
+        "  wrote {} and solution.vtu{}",
+        dir.join("report.json").display(),
+        if outputs.plots { ", residuals.svg" } else { "" }
     );
     Ok(())
 }

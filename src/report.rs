@@ -73,7 +73,7 @@ pub struct Condition {
 pub struct Report {
     pub case: String,
     pub file: String,
-    /// `"ok"`, `"failed"` (with `failure`).
+    /// `"ok"`, `"failed"` or `"interrupted"` (Ctrl-C), the last two with `failure`.
     pub status: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub failure: Option<String>,

@@ -340,13 +340,24 @@ impl Case {
     /// Classifies the grid against the case's solid with the element's rule;
     /// an empty or misplaced solid is reported against the case's keys.
     pub fn classify(&self, grid: &Grid) -> Result<Cells> {
-        Cells::classify(grid, &self.geometry, self.rule_points()).map_err(|e| {
-            let key = match e {
-                Error::GeometryOutsideGrid { .. } => "grid.box_min",
-                _ => "geometry",
-            };
-            self.bad_key(key, e.to_string())
-        })
+        self.classify_with_progress(grid, &crate::progress::Silent)
+    }
+
+    /// [`Case::classify`], reporting the cut-cell rules built to `progress`.
+    pub fn classify_with_progress(
+        &self,
+        grid: &Grid,
+        progress: &dyn crate::progress::Progress,
+    ) -> Result<Cells> {
+        Cells::classify_with_progress(grid, &self.geometry, self.rule_points(), progress).map_err(
+            |e| {
+                let key = match e {
+                    Error::GeometryOutsideGrid { .. } => "grid.box_min",
+                    _ => "geometry",
+                };
+                self.bad_key(key, e.to_string())
+            },
+        )
     }
 
     fn bad_key(&self, key: &str, reason: String) -> Error {

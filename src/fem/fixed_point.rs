@@ -11,6 +11,8 @@ use serde::Serialize;
 
 use super::linear::LinearSolver;
 use crate::error::{Error, Result};
+use crate::plot::{Chart, Series};
+use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::{KrylovOptions, KrylovStats};
 
 /// Settings of the loop.
@@ -59,6 +61,29 @@ pub fn fixed_point(
     opts: &FixedPointOptions,
     report: &mut FixedPointReport,
 ) -> Result<Vec<f64>> {
+    fixed_point_with_progress(solver, fixed, recovered, opts, report, &Silent)
+}
+
+/// [`fixed_point`], reporting each solve and iteration to `progress` and
+/// stopping with [`Error::Interrupted`] at the first iteration boundary (before
+/// the initial solve, or after any solve) where `progress.should_stop()`.
+pub fn fixed_point_with_progress(
+    solver: &mut dyn LinearSolver,
+    fixed: &[f64],
+    recovered: &mut dyn FnMut(&[f64]) -> Result<Vec<f64>>,
+    opts: &FixedPointOptions,
+    report: &mut FixedPointReport,
+    progress: &dyn Progress,
+) -> Result<Vec<f64>> {
+    let stop = |report: &FixedPointReport| -> Result<()> {
+        if progress.should_stop() {
+            tracing::info!(iterations = report.iterations, "interrupted");
+            return Err(Error::Interrupted {
+                iterations: report.iterations,
+            });
+        }
+        Ok(())
+    };
     let mut krylov = opts.krylov.clone();
     let mut run_solve =
         |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
@@ -79,6 +104,17 @@ pub fn fixed_point(
                     return Err(e);
                 }
             };
+            progress.event(&Event::KrylovSolve {
+                index: report.iterations_per_solve.len(),
+                iterations: stats.iterations,
+                relative_residual: stats.true_relative_residual,
+            });
+            tracing::debug!(
+                iterations = stats.iterations,
+                residual = stats.true_relative_residual,
+                tol,
+                "Krylov solve"
+            );
             report.iterations_per_solve.push(stats.iterations);
             report.total_iterations += stats.iterations;
             report.tolerances.push(tol);
@@ -87,10 +123,21 @@ pub fn fixed_point(
         };
     let mut u = vec![0.0; fixed.len()];
     let mut tau = opts.krylov.rel_tol;
+    stop(report)?;
     run_solve(fixed, &mut u, tau, report)?;
-    for _ in 0..opts.max_iterations {
+    for k in 1..=opts.max_iterations {
+        stop(report)?;
+        let _span = tracing::info_span!("fixed_point", iteration = k).entered();
         let t = std::time::Instant::now();
-        let extra = recovered(&u)?;
+        progress.event(&Event::Start {
+            phase: Phase::Recovery,
+            total: None,
+        });
+        let extra = recovered(&u);
+        progress.event(&Event::Finish {
+            phase: Phase::Recovery,
+        });
+        let extra = extra?;
         report.recovery_seconds += t.elapsed().as_secs_f64();
         let rhs: Vec<f64> = fixed.iter().zip(&extra).map(|(a, b)| a + b).collect();
         let mut next = u.clone();
@@ -105,6 +152,13 @@ pub fn fixed_point(
         let eps = if norm > 0.0 { diff / norm } else { 0.0 };
         report.iterations += 1;
         report.eps_history.push(eps);
+        let krylov_iterations = report.iterations_per_solve.last().copied().unwrap_or(0);
+        tracing::info!(eps, krylov_iterations, "fixed-point iteration");
+        progress.event(&Event::FixedPoint {
+            iteration: k,
+            eps,
+            krylov_iterations,
+        });
         u = next;
         if eps < opts.tol {
             report.converged = true;
@@ -118,3 +172,42 @@ pub fn fixed_point(
         residual: report.eps_history.last().copied().unwrap_or(f64::NAN),
     })
 }
+
+impl FixedPointReport {
+    /// The convergence of the loop as a chart (log y): `ε` per fixed-point
+    /// iteration and the Krylov iterations of each solve (solve 0 is the
+    /// initial one). Zero values, which a log axis cannot show, are left out.
+    pub fn residual_chart(&self, title: &str) -> Chart {
+        let positive = |p: &(f64, f64)| p.1 > 0.0;
+        Chart {
+            title: title.into(),
+            x_label: "fixed-point iteration (solve)".into(),
+            y_label: "ε; Krylov iterations".into(),
+            x_log: false,
+            series: vec![
+                Series {
+                    label: "ε = ‖ΔU‖/‖U‖".into(),
+                    points: (1..)
+                        .zip(&self.eps_history)
+                        .map(|(k, &e)| (k as f64, e))
+                        .filter(positive)
+                        .collect(),
+                    reference: false,
+                },
+                Series {
+                    label: "Krylov iterations per solve".into(),
+                    points: (0..)
+                        .zip(&self.iterations_per_solve)
+                        .map(|(k, &n)| (k as f64, n as f64))
+                        .filter(positive)
+                        .collect(),
+                    reference: false,
+                },
+            ],
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "fixed_point_tests.rs"]
+mod tests;

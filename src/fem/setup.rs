@@ -14,6 +14,7 @@ use crate::case::Case;
 use crate::cells::Cells;
 use crate::error::Result;
 use crate::grid::{machine_memory_bytes, Grid};
+use crate::progress::{Event, Phase, Progress, Silent};
 
 /// A case set up on its grid.
 pub struct Setup {
@@ -36,11 +37,32 @@ impl Setup {
     /// Builds the grid at `level` (default: the case's), classifies it, and
     /// assembles the operator data and the fixed right-hand side.
     pub fn new(case: &Case, level: Option<u32>) -> Result<Setup> {
+        Setup::new_with_progress(case, level, &Silent)
+    }
+
+    /// [`Setup::new`], reporting its phases ([`Phase::Quadrature`],
+    /// [`Phase::Operator`]) to `progress`.
+    pub fn new_with_progress(
+        case: &Case,
+        level: Option<u32>,
+        progress: &dyn Progress,
+    ) -> Result<Setup> {
         let grid = case.grid(level)?;
+        let _span = tracing::info_span!("setup", level = grid.level).entered();
         case.check_memory(&grid, machine_memory_bytes())?;
         let t = Instant::now();
-        let cells = case.classify(&grid)?;
+        let cells = case.classify_with_progress(&grid, progress)?;
         let mut timings = vec![("quadrature".to_string(), t.elapsed().as_secs_f64())];
+        tracing::info!(
+            cut = cells.cut.len(),
+            inside = cells.num_inside,
+            seconds = timings[0].1,
+            "classified the cells"
+        );
+        progress.event(&Event::Start {
+            phase: Phase::Operator,
+            total: None,
+        });
         let problem = Problem::new(case);
         let beta = case.spec.stabilisation.k1 * problem.young;
         let t = Instant::now();
@@ -79,6 +101,15 @@ impl Setup {
             },
         )?;
         timings.push(("operator_and_rhs".to_string(), t.elapsed().as_secs_f64()));
+        progress.event(&Event::Finish {
+            phase: Phase::Operator,
+        });
+        tracing::info!(
+            dofs = fixed_rhs.len(),
+            pathological = omega_star.len(),
+            seconds = timings[1].1,
+            "assembled the operator and right-hand side"
+        );
         Ok(Setup {
             grid,
             cells,

@@ -3,14 +3,15 @@
 //! displacement on the pathological cells; then the recovered tractions at the
 //! converged solution and the reactions.
 
-use super::fixed_point::{fixed_point, FixedPointOptions, FixedPointReport};
+use super::fixed_point::{fixed_point_with_progress, FixedPointOptions, FixedPointReport};
 use super::linear::{CpuSolver, LinearSolver};
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::rhs::traction_rhs;
 use super::setup::Setup;
 use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::SolverSpec;
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::KrylovOptions;
 
 /// A converged solution.
@@ -50,6 +51,20 @@ pub fn solve_with(
     solver: &mut dyn LinearSolver,
     report: &mut FixedPointReport,
 ) -> Result<Solution> {
+    solve_with_progress(setup, spec, solver, report, &Silent)
+}
+
+/// [`solve_with`], reporting the solves, iterations and recoveries to
+/// `progress`, which may stop the run at an iteration boundary
+/// ([`crate::Error::Interrupted`]).
+pub fn solve_with_progress(
+    setup: &Setup,
+    spec: &SolverSpec,
+    solver: &mut dyn LinearSolver,
+    report: &mut FixedPointReport,
+    progress: &dyn Progress,
+) -> Result<Solution> {
+    let _span = tracing::info_span!("solve", dofs = setup.fixed_rhs.len()).entered();
     let nodes = traction_patch_nodes(setup);
     let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
     let mut traction_load = |u: &[f64]| -> Result<Vec<f64>> {
@@ -68,13 +83,33 @@ pub fn solve_with(
     let opts = fixed_point_options(spec);
     let u = if setup.dirichlet.is_empty() && !stabilised {
         // Nothing is recovered into the right-hand side: one solve is the answer.
-        solve_once(setup, solver, &opts, report)?
+        solve_once(setup, solver, &opts, report, progress)?
     } else {
-        fixed_point(solver, &setup.fixed_rhs, &mut traction_load, &opts, report)?
+        fixed_point_with_progress(
+            solver,
+            &setup.fixed_rhs,
+            &mut traction_load,
+            &opts,
+            report,
+            progress,
+        )?
     };
-    let sigma = recover_stress(setup, &u, &nodes)?;
-    let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
+    let _span = tracing::info_span!("recovery").entered();
+    progress.event(&Event::Start {
+        phase: Phase::Recovery,
+        total: None,
+    });
+    let recovered = recover_stress(setup, &u, &nodes)
+        .and_then(|sigma| recovered_tractions(&setup.dirichlet, &sigma));
+    progress.event(&Event::Finish {
+        phase: Phase::Recovery,
+    });
+    let t_hat = recovered?;
     let reactions = reactions(setup, &u, &t_hat);
+    tracing::info!(
+        points = t_hat.len(),
+        "recovered the tractions and reactions"
+    );
     Ok(Solution {
         u,
         t_hat,
@@ -88,11 +123,20 @@ fn solve_once(
     solver: &mut dyn LinearSolver,
     opts: &FixedPointOptions,
     report: &mut FixedPointReport,
+    progress: &dyn Progress,
 ) -> Result<Vec<f64>> {
+    if progress.should_stop() {
+        return Err(Error::Interrupted { iterations: 0 });
+    }
     let mut u = vec![0.0; setup.fixed_rhs.len()];
     let t = std::time::Instant::now();
     let stats = solver.solve(&setup.fixed_rhs, &mut u, &opts.krylov)?;
     report.krylov_seconds = t.elapsed().as_secs_f64();
+    progress.event(&Event::KrylovSolve {
+        index: 0,
+        iterations: stats.iterations,
+        relative_residual: stats.true_relative_residual,
+    });
     report.iterations_per_solve.push(stats.iterations);
     report.total_iterations = stats.iterations;
     report.tolerances.push(opts.krylov.rel_tol);

@@ -1,0 +1,210 @@
+//! The binary's side of the library's progress events: indicatif bars and
+//! spinners when stderr is a terminal, one plain line per step when it is not,
+//! nothing with `--quiet`; and the Ctrl-C flag that stops a run at the next
+//! fixed-point iteration boundary.
+
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use cgfem_gpu::progress::{Event, Phase, Progress};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
+
+/// How progress is shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    Quiet,
+    Plain,
+    Bars,
+}
+
+/// The bars on screen (or, in plain mode, when the current phase started).
+#[derive(Default)]
+struct State {
+    phase: Option<(Phase, ProgressBar, Instant)>,
+    fixed_point: Option<ProgressBar>,
+    /// The true relative residual of the last Krylov solve.
+    residual: f64,
+}
+
+/// The progress display and interrupt flag of one `run`.
+pub struct Terminal {
+    mode: Mode,
+    multi: MultiProgress,
+    state: Mutex<State>,
+    interrupt: Arc<AtomicBool>,
+}
+
+impl Terminal {
+    /// Bars when stderr is a terminal, plain lines otherwise; nothing if `quiet`.
+    pub fn new(quiet: bool) -> Self {
+        let mode = match (quiet, std::io::stderr().is_terminal()) {
+            (true, _) => Mode::Quiet,
+            (false, true) => Mode::Bars,
+            (false, false) => Mode::Plain,
+        };
+        let target = if mode == Mode::Bars {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        };
+        Terminal {
+            mode,
+            multi: MultiProgress::with_draw_target(target),
+            state: Mutex::new(State::default()),
+            interrupt: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
+    /// Installs the Ctrl-C handler: the first press asks the run to stop at
+    /// the next fixed-point iteration boundary, a second one exits at once
+    /// (code 130).
+    pub fn catch_ctrl_c(&self) -> anyhow::Result<()> {
+        let flag = self.interrupt.clone();
+        let quiet = self.mode == Mode::Quiet;
+        ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            if !quiet {
+                eprintln!(
+                    "interrupt: stopping at the next fixed-point iteration \
+                     (Ctrl-C again to abort at once)"
+                );
+            }
+        })?;
+        Ok(())
+    }
+
+    /// Clears the bars (before the summary is printed).
+    pub fn finish(&self) {
+        let mut s = self.state.lock().expect("progress state");
+        if let Some((_, bar, _)) = s.phase.take() {
+            bar.finish_and_clear();
+        }
+        if let Some(bar) = s.fixed_point.take() {
+            bar.finish_and_clear();
+        }
+    }
+
+    fn start(&self, s: &mut State, phase: Phase, total: Option<u64>) {
+        let bar = match total {
+            Some(n) => ProgressBar::new(n).with_style(
+                ProgressStyle::with_template("{msg:>10} [{bar:30}] {pos}/{len} {rate} ETA {eta}")
+                    .expect("template")
+                    .with_key("rate", rate)
+                    .progress_chars("=> "),
+            ),
+            None => {
+                let bar = ProgressBar::new_spinner().with_style(
+                    ProgressStyle::with_template("{spinner} {msg:>10} {elapsed}")
+                        .expect("template"),
+                );
+                bar.enable_steady_tick(Duration::from_millis(120));
+                bar
+            }
+        };
+        let bar = self.multi.add(bar.with_message(phase.name()));
+        if let Some((_, old, _)) = s.phase.replace((phase, bar, Instant::now())) {
+            old.finish_and_clear();
+        }
+        if self.mode == Mode::Plain && phase != Phase::Recovery {
+            match total {
+                Some(n) => eprintln!("{}: {n} steps", phase.name()),
+                None => eprintln!("{}", phase.name()),
+            }
+        }
+    }
+
+    fn fixed_point_bar(&self, s: &mut State) -> ProgressBar {
+        s.fixed_point
+            .get_or_insert_with(|| {
+                let bar = ProgressBar::new_spinner().with_style(
+                    ProgressStyle::with_template(
+                        "{spinner} fixed point: {pos} iterations ({rate}) {elapsed} {msg}",
+                    )
+                    .expect("template")
+                    .with_key("rate", rate),
+                );
+                bar.enable_steady_tick(Duration::from_millis(120));
+                self.multi.insert(0, bar)
+            })
+            .clone()
+    }
+}
+
+/// Steps per second with three significant digits (indicatif's `per_sec`
+/// prints all of them).
+fn rate(state: &ProgressState, w: &mut dyn std::fmt::Write) {
+    let r = state.per_sec();
+    let _ = match r {
+        r if r >= 100.0 => write!(w, "{r:.0}/s"),
+        r if r >= 10.0 => write!(w, "{r:.1}/s"),
+        r => write!(w, "{r:.2}/s"),
+    };
+}
+
+impl Progress for Terminal {
+    fn event(&self, event: &Event) {
+        if self.mode == Mode::Quiet {
+            return;
+        }
+        let mut s = self.state.lock().expect("progress state");
+        match *event {
+            Event::Start { phase, total } => self.start(&mut s, phase, total),
+            Event::Advance { steps, .. } => {
+                if let Some((_, bar, _)) = &s.phase {
+                    bar.inc(steps);
+                }
+            }
+            Event::Finish { phase } => {
+                if let Some((p, bar, t)) = s.phase.take() {
+                    bar.finish_and_clear();
+                    if self.mode == Mode::Plain && p == phase && p != Phase::Recovery {
+                        eprintln!("{}: done in {:.2} s", p.name(), t.elapsed().as_secs_f64());
+                    }
+                }
+            }
+            Event::KrylovSolve {
+                index,
+                iterations,
+                relative_residual,
+            } => {
+                s.residual = relative_residual;
+                let text = format!(
+                    "solve {index}: {iterations} Krylov iterations, residual {relative_residual:.2e}"
+                );
+                match self.mode {
+                    Mode::Bars => self.fixed_point_bar(&mut s).set_message(text),
+                    // The later solves are told with their iteration.
+                    _ if index == 0 => eprintln!("{text}"),
+                    _ => {}
+                }
+            }
+            Event::FixedPoint {
+                iteration,
+                eps,
+                krylov_iterations,
+            } => match self.mode {
+                Mode::Bars => {
+                    let bar = self.fixed_point_bar(&mut s);
+                    bar.set_position(iteration as u64);
+                    bar.set_message(format!(
+                        "ε = {eps:.2e}, {krylov_iterations} Krylov iterations, residual {:.2e}",
+                        s.residual
+                    ));
+                }
+                _ => eprintln!(
+                    "fixed-point iteration {iteration}: ε = {eps:.3e} \
+                     ({krylov_iterations} Krylov iterations, residual {:.2e})",
+                    s.residual
+                ),
+            },
+        }
+    }
+
+    fn should_stop(&self) -> bool {
+        self.interrupt.load(Ordering::SeqCst)
+    }
+}
