@@ -4,30 +4,18 @@
 //! by Ctrl-C (the report is still written, marked interrupted).
 
 mod cli_progress;
+mod cli_run;
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::time::Instant;
 
-use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::condition::{condition_number, ConditionOptions};
-use cgfem_gpu::fem::field::{error_norms, interpolate};
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
-use cgfem_gpu::fem::output::write_solution;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve_with_progress;
-use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
-use cgfem_gpu::gpu::{list_adapters, BackendChoice, GpuContext, PrecisionChoice};
-use cgfem_gpu::output::write_atomic;
-use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
+use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
 use cli_progress::Terminal;
+use cli_run::{run_case, Device, Outputs};
 
 #[derive(Parser)]
 #[command(
@@ -275,33 +263,6 @@ fn bench(
     Ok(())
 }
 
-/// Where `run` writes and what besides the report and the solution.
-struct Outputs {
-    /// `--out` (default: out/<case name>).
-    dir: Option<PathBuf>,
-    /// `--plots`: also DIR/residuals.svg.
-    plots: bool,
-}
-
-/// Writes DIR/report.json and, with `plots`, DIR/residuals.svg from the loop's
-/// history.
-fn write_report(
-    dir: &Path,
-    report: &Report,
-    fp: &FixedPointReport,
-    plots: bool,
-) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
-    write_atomic(&dir.join("report.json"), &json)?;
-    if plots {
-        let title = format!("{}: fixed-point convergence", report.case);
-        let svg = fp.residual_chart(&title).to_svg()?;
-        write_atomic(&dir.join("residuals.svg"), svg.as_bytes())?;
-    }
-    Ok(())
-}
-
 /// The paper's Problem 1 as shipped in `cases/sphere.toml`.
 const SPHERE_CASE: &str = include_str!("../cases/sphere.toml");
 
@@ -356,21 +317,6 @@ fn reproduce(
     Ok(())
 }
 
-/// κ and Jacobi-scaled κ of the assembled operator.
-fn condition_numbers(setup: &Setup) -> anyhow::Result<Condition> {
-    let a = setup.op.assemble();
-    let opts = ConditionOptions::default();
-    let plain = condition_number(&a, false, &opts)?;
-    let scaled = condition_number(&a, true, &opts)?;
-    Ok(Condition {
-        kappa: plain.kappa,
-        kappa_jacobi: scaled.kappa,
-        kappa_is_lower_bound: plain.kappa_is_lower_bound,
-        kappa_jacobi_is_lower_bound: scaled.kappa_is_lower_bound,
-        method: format!("plain: {}; jacobi: {}", plain.method, scaled.method),
-    })
-}
-
 /// `cgfem-gpu info`.
 fn info() {
     let adapters = list_adapters();
@@ -380,258 +326,4 @@ fn info() {
     for (i, a) in adapters.iter().enumerate() {
         println!("[{i}] {a}");
     }
-}
-
-/// What `run` asked of the device.
-struct Device {
-    backend: Option<BackendChoice>,
-    adapter: Option<String>,
-    precision: PrecisionChoice,
-}
-
-/// The GPU context to solve on, or `None` for the CPU.
-fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
-    let filter = cgfem_gpu::gpu::context::adapter_filter(d.adapter.as_deref());
-    match BackendChoice::resolve(d.backend)? {
-        BackendChoice::Cpu => {
-            if d.precision == PrecisionChoice::F32 {
-                return Err(cgfem_gpu::Error::CaseFile {
-                    file: "(command line)".into(),
-                    key: "--precision".into(),
-                    reason: "f32 needs the GPU backend".into(),
-                }
-                .into());
-            }
-            Ok(None)
-        }
-        BackendChoice::Gpu => Ok(Some(Arc::new(GpuContext::new(
-            filter.as_deref(),
-            d.precision,
-        )?))),
-        BackendChoice::Auto => match GpuContext::new(filter.as_deref(), d.precision) {
-            Ok(ctx) => Ok(Some(Arc::new(ctx))),
-            Err(e @ cgfem_gpu::Error::NoAdapter { .. }) => {
-                println!("note: {e}; solving on the CPU");
-                Ok(None)
-            }
-            Err(e) => Err(e.into()),
-        },
-    }
-}
-
-fn run_case(
-    path: &Path,
-    level: Option<u32>,
-    set: &[String],
-    outputs: &Outputs,
-    condition: bool,
-    device: &Device,
-    progress: &Terminal,
-) -> anyhow::Result<()> {
-    let case = Case::from_file_with(path, set)?;
-    let gpu = open_device(device)?;
-    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let dir = outputs
-        .dir
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&name));
-    if dir.exists() && !dir.is_dir() {
-        return Err(cgfem_gpu::Error::Io {
-            path: dir.display().to_string(),
-            reason: "--out names a file, not a folder".into(),
-        }
-        .into());
-    }
-    let setup = Setup::new_with_progress(&case, level, progress);
-    progress.finish();
-    let setup = setup?;
-    let order = case.spec.element;
-    let mut report = Report::geometry(
-        &name,
-        &case.file,
-        order,
-        &case.geometry,
-        &setup.grid,
-        &setup.cells,
-    );
-    report.timings.extend(setup.timings.iter().cloned());
-    report.cells.pathological = Some(setup.omega_star.len());
-    let st = &case.spec.stabilisation;
-    report.stabilisation = Some(Stabilisation {
-        k1: st.k1,
-        k2: st.k2,
-        a: st.a,
-    });
-    println!(
-        "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
-        case.file, setup.grid.level, report.dofs, report.cells.inside, report.cells.cut
-    );
-
-    if condition {
-        let t = Instant::now();
-        report.condition = Some(condition_numbers(&setup)?);
-        report
-            .timings
-            .insert("condition".into(), t.elapsed().as_secs_f64());
-        if let Some(c) = &report.condition {
-            let bound = |b: bool| if b { "≥ " } else { "" };
-            println!(
-                "  κ = {}{:.3e}, Jacobi-scaled κ = {}{:.3e}",
-                bound(c.kappa_is_lower_bound),
-                c.kappa,
-                bound(c.kappa_jacobi_is_lower_bound),
-                c.kappa_jacobi
-            );
-        }
-    }
-
-    let t = Instant::now();
-    let (mut cpu_solver, mut gpu_solver);
-    let gpu = match gpu {
-        Some(ctx) => match ctx.check_vector_len(setup.op.dofs.ndofs()) {
-            Ok(()) => Some(ctx),
-            Err(e) if BackendChoice::resolve(device.backend)? == BackendChoice::Auto => {
-                println!("note: {e}; solving on the CPU");
-                None
-            }
-            Err(e) => return Err(e.into()),
-        },
-        None => None,
-    };
-    let solver: &mut dyn LinearSolver = match &gpu {
-        Some(ctx) => {
-            gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device);
-            report.backend = "gpu".into();
-            report.adapter = Some(ctx.adapter.name.clone());
-            report.precision = ctx.precision.name().into();
-            &mut gpu_solver
-        }
-        None => {
-            cpu_solver = CpuSolver::new(&setup.op);
-            &mut cpu_solver
-        }
-    };
-    report
-        .timings
-        .insert("upload".into(), t.elapsed().as_secs_f64());
-    println!(
-        "  backend {}{} ({})",
-        report.backend,
-        report
-            .adapter
-            .as_ref()
-            .map_or(String::new(), |a| format!(": {a}")),
-        report.precision
-    );
-    let t = Instant::now();
-    let mut fp = FixedPointReport::default();
-    let result = solve_with_progress(&setup, &case.spec.solver, solver, &mut fp, progress);
-    progress.finish();
-    report
-        .timings
-        .insert("solve".into(), t.elapsed().as_secs_f64());
-    report.timings.insert("krylov".into(), fp.krylov_seconds);
-    report
-        .timings
-        .insert("recovery".into(), fp.recovery_seconds);
-    let so = &case.spec.solver;
-    report.krylov = Some(Krylov {
-        method: so.method.name().into(),
-        preconditioner: format!("{:?}", so.preconditioner).to_lowercase(),
-        iterations_per_solve: fp.iterations_per_solve.clone(),
-        total_iterations: fp.total_iterations,
-        final_relative_residual: fp.final_relative_residual,
-    });
-    report.fixed_point = Some(FixedPoint {
-        iterations: fp.iterations,
-        eps_history: fp.eps_history.clone(),
-        converged: fp.converged,
-    });
-    let solution = match result {
-        Ok(s) => s,
-        Err(e) => {
-            report.status = match e {
-                cgfem_gpu::Error::Interrupted { .. } => "interrupted",
-                _ => "failed",
-            }
-            .into();
-            report.failure = Some(e.to_string());
-            write_report(&dir, &report, &fp, outputs.plots)?;
-            eprintln!(
-                "report (marked {}): {}",
-                report.status,
-                dir.join("report.json").display()
-            );
-            return Err(e.into());
-        }
-    };
-    if let Some(exact) = &setup.problem.exact {
-        let (l, m) = (setup.problem.lambda, setup.problem.mu);
-        let dofs = &setup.op.dofs;
-        report.error = Some(error_norms(
-            &setup.grid,
-            &setup.cells,
-            dofs,
-            &solution.u,
-            exact,
-            l,
-            m,
-        ));
-        let ui = interpolate(&setup.grid, dofs, exact);
-        report.interpolant_error = Some(error_norms(
-            &setup.grid,
-            &setup.cells,
-            dofs,
-            &ui,
-            exact,
-            l,
-            m,
-        ));
-    }
-    let mut reactions: BTreeMap<String, [f64; 3]> = BTreeMap::new();
-    for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
-        let e = reactions
-            .entry(case.geometry.tag_name(p.tag).to_string())
-            .or_default();
-        for i in 0..3 {
-            e[i] += p.w * r[i];
-        }
-    }
-    report.reactions = reactions;
-
-    let t = Instant::now();
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_solution(&setup, &solution.u, &dir.join("solution.vtu"))?;
-    report
-        .timings
-        .insert("output".into(), t.elapsed().as_secs_f64());
-    write_report(&dir, &report, &fp, outputs.plots)?;
-
-    println!(
-        "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
-        so.method.name(),
-        format!("{:?}", so.preconditioner).to_lowercase(),
-        fp.iterations,
-        fp.iterations_per_solve,
-        fp.total_iterations,
-        fp.final_relative_residual
-    );
-    if let (Some(e), Some(ei)) = (&report.error, &report.interpolant_error) {
-        println!(
-            "  energy error {:.4e} (relative {:.4e}; interpolant {:.4e}), L2 relative {:.4e}",
-            e.energy, e.energy_relative, ei.energy_relative, e.l2_relative
-        );
-    }
-    for (tag, r) in &report.reactions {
-        println!(
-            "  reaction on '{tag}': [{:.6e}, {:.6e}, {:.6e}]",
-            r[0], r[1], r[2]
-        );
-    }
-    println!(
-        "  wrote {} and solution.vtu{}",
-        dir.join("report.json").display(),
-        if outputs.plots { ", residuals.svg" } else { "" }
-    );
-    Ok(())
 }
