@@ -364,6 +364,22 @@ fn sphere_solves_on_the_gpu_in_f64_like_on_the_cpu() {
     }
 }
 
+/// Level 5 (66 627 dofs), the paper's CGS with device scalars: about 20 s
+/// on lavapipe, so only the production path (host scalars are tested above).
+#[test]
+fn sphere_level_5_solves_on_the_gpu_like_on_the_cpu() {
+    let Some(ctx) = context_or_skip(PrecisionChoice::F64) else {
+        return;
+    };
+    let (case, setup) = sphere_with(5, &["solver.method=cgs"]);
+    let (u_cpu, it_cpu, _, _) = solve_sphere(&case, &setup, &mut CpuSolver::new(&setup.op));
+    let mut gpu = GpuSolver::new(ctx, &setup.op, Scalars::Device);
+    let (u, it, res, _) = solve_sphere(&case, &setup, &mut gpu);
+    assert_close("level 5, cgs, device scalars", &u, &u_cpu, 1e-10);
+    assert_iterations_close("level 5", &it, &it_cpu);
+    assert!(res <= case.spec.solver.rel_tol, "residual {res:e}");
+}
+
 #[test]
 fn sphere_solves_in_f32_with_defect_correction() {
     let Some(ctx) = context_or_skip(PrecisionChoice::F32) else {
