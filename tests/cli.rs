@@ -5,6 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod common;
+use common::{with_physics, SPHERE};
+
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
 }
@@ -43,26 +46,6 @@ fn assert_no_output(out: &Path) {
         "a report was left in {}",
         out.display()
     );
-}
-
-const SPHERE: &str = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n";
-
-/// The physics of the paper's sphere, appended after the geometry and grid.
-const PHYSICS: &str = r#"
-[material]
-young = 1000.0
-poisson = 0.3
-[exact]
-displacement = ["x + x^2 - 2*x*y + x^3 - 3*x*y^2 + x^2*y", "-y - 2*x*y - 3*x^2*y + y^3 - x*y^2", "0"]
-[dirichlet.surface]
-value = "exact"
-[solver]
-method = "cg"
-preconditioner = "jacobi"
-"#;
-
-fn with_physics(text: &str) -> String {
-    format!("{text}{PHYSICS}")
 }
 
 #[test]

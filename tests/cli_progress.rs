@@ -7,6 +7,9 @@ use std::io::{BufRead, BufReader, Read};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
+mod common;
+use common::{with_physics, SPHERE};
+
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"));
     c.env_remove("RUST_LOG").env("CGFEM_BACKEND", "cpu");
@@ -19,27 +22,13 @@ fn scratch(name: &str) -> (PathBuf, PathBuf) {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     let case = d.join("sphere.toml");
-    std::fs::write(&case, SPHERE).unwrap();
+    std::fs::write(
+        &case,
+        format!("name = \"sphere\"\n{}", with_physics(SPHERE)),
+    )
+    .unwrap();
     (case, d.join("out"))
 }
-
-const SPHERE: &str = r#"
-name = "sphere"
-[geometry]
-type = "sphere"
-center = [0, 0, 0]
-radius = 1
-[material]
-young = 1000.0
-poisson = 0.3
-[exact]
-displacement = ["x + x^2 - 2*x*y + x^3 - 3*x*y^2 + x^2*y", "-y - 2*x*y - 3*x^2*y + y^3 - x*y^2", "0"]
-[dirichlet.surface]
-value = "exact"
-[solver]
-method = "cg"
-preconditioner = "jacobi"
-"#;
 
 /// Runs `run` to the end; returns (exit code, stderr, output folder).
 fn run(name: &str, extra: &[&str], env: &[(&str, &str)]) -> (i32, String, PathBuf) {
