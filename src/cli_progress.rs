@@ -1,7 +1,8 @@
 //! The binary's side of the library's progress events: indicatif bars and
 //! spinners when stderr is a terminal, one plain line per step when it is not,
-//! nothing with `--quiet`; and the Ctrl-C flag that stops a run at the next
-//! fixed-point iteration boundary.
+//! nothing with `--quiet`; the log writer that prints `tracing` lines above
+//! the bars (so neither garbles the other); and the Ctrl-C flag that stops a
+//! run at the next fixed-point iteration boundary.
 
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -77,6 +78,12 @@ impl Terminal {
         Ok(())
     }
 
+    /// The writer for `tracing`'s log lines: each line is printed with the
+    /// bars suspended (cleared, then redrawn below it).
+    pub fn log_writer(&self) -> LogWriter {
+        LogWriter(self.multi.clone())
+    }
+
     /// Clears the bars (before the summary is printed).
     pub fn finish(&self) {
         let mut s = self.state.lock().expect("progress state");
@@ -131,6 +138,29 @@ impl Terminal {
                 self.multi.insert(0, bar)
             })
             .clone()
+    }
+}
+
+/// `tracing`'s writer through the bars (see [`Terminal::log_writer`]).
+#[derive(Clone)]
+pub struct LogWriter(MultiProgress);
+
+impl std::io::Write for LogWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.suspend(|| std::io::stderr().write_all(buf))?;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        std::io::stderr().flush()
+    }
+}
+
+impl<'a> tracing_subscriber::fmt::MakeWriter<'a> for LogWriter {
+    type Writer = LogWriter;
+
+    fn make_writer(&'a self) -> LogWriter {
+        self.clone()
     }
 }
 

@@ -72,8 +72,12 @@ pub enum Error {
         reason: String,
     },
     /// A node's recovery patch has no acceptable fit, or a recovered field was
-    /// evaluated where no patch was recovered.
-    #[error("patch recovery at node {node}: {reason}")]
+    /// evaluated where no patch was recovered: in practice a grid too coarse
+    /// for the body, so a solver failure (exit code 3), not an internal error.
+    #[error(
+        "patch recovery at node {node}: {reason} (is the grid too coarse for the body? \
+         try a higher grid.level)"
+    )]
     Recovery { node: usize, reason: String },
     /// An SVG plot could not be drawn (a bug, not bad input).
     #[error("drawing the plot '{title}': {reason}")]
@@ -102,11 +106,8 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Interrupted { .. } => 130,
-            Error::MaxIterations { .. } | Error::Breakdown { .. } => 3,
-            Error::Recovery { .. }
-            | Error::Plot { .. }
-            | Error::Gpu { .. }
-            | Error::Bench { .. } => 1,
+            Error::MaxIterations { .. } | Error::Breakdown { .. } | Error::Recovery { .. } => 3,
+            Error::Plot { .. } | Error::Gpu { .. } | Error::Bench { .. } => 1,
             _ => 2,
         }
     }

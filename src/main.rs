@@ -126,14 +126,15 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let terminal = Terminal::new(cli.quiet);
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
     tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
+        .with_writer(terminal.log_writer())
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
-    match run(cli) {
+    match run(cli, &terminal) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -147,7 +148,7 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> anyhow::Result<()> {
+fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
     match cli.command {
         Command::Run {
             case,
@@ -165,10 +166,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 adapter,
                 precision,
             };
-            let progress = Terminal::new(cli.quiet);
             progress.catch_ctrl_c()?;
             let outputs = Outputs { dir: out, plots };
-            run_case(&case, level, &set, &outputs, condition, &device, &progress)
+            run_case(&case, level, &set, &outputs, condition, &device, progress)
         }
         Command::Info => {
             info();
