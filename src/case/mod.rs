@@ -4,6 +4,7 @@
 //! The geometry tree is in [`geometry`], the physics tables in [`physics`].
 //! `--set key=value` overrides any key (dotted path) before checking.
 
+pub mod bodies;
 pub mod geometry;
 pub mod physics;
 
@@ -129,51 +130,10 @@ impl Case {
 
     /// Parses case text, applies `key=value` overrides, then checks it.
     pub fn from_str_with(file: &str, text: &str, overrides: &[String]) -> Result<Case> {
-        let bad = |key: &str, reason: String| Error::CaseFile {
-            file: file.into(),
-            key: key.into(),
-            reason,
-        };
-        let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-            let at = match e.span() {
-                Some(s) => {
-                    let before = text.get(..s.start).unwrap_or(text);
-                    let line = before.matches('\n').count() + 1;
-                    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-                    format!("line {line}, column {column}")
-                }
-                None => "(syntax)".into(),
-            };
-            let reason = match e.message().trim() {
-                "" => "invalid TOML syntax".to_string(),
-                m => format!("invalid TOML: {m}"),
-            };
-            bad(&at, reason)
-        })?;
-        for o in overrides {
-            apply_override(&mut table, o).map_err(|reason| {
-                let shown = match o.char_indices().nth(80) {
-                    Some((i, _)) => format!("{}…", &o[..i]),
-                    None => o.clone(),
-                };
-                bad(&format!("--set {shown}"), reason)
-            })?;
-        }
-        let mut spec: CaseSpec = serde_path_to_error::deserialize(toml::Value::Table(table))
-            .map_err(|e| {
-                let key = e.path().to_string();
-                let key = if key == "." || key.is_empty() {
-                    "(top level)".to_string()
-                } else {
-                    key
-                };
-                bad(&key, e.into_inner().message().trim().to_string())
-            })?;
+        let table = parse_table(file, text, overrides)?;
+        let mut spec: CaseSpec = deserialize(file, table)?;
         if spec.name.is_none() {
-            let stem = Path::new(file)
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned());
-            spec.name = stem;
+            spec.name = file_stem(file);
         }
         let geometry = spec.geometry.build(file)?;
         let case = Case {
@@ -299,27 +259,7 @@ impl Case {
 
     /// The grid of the case at its level (or `level` when given).
     pub fn grid(&self, level: Option<u32>) -> Result<Grid> {
-        let g = &self.spec.grid;
-        let bbox = match (g.box_min, g.box_max) {
-            (Some(lo), Some(hi)) => Aabb::new(lo, hi),
-            (None, None) => self.geometry.bounding_box(),
-            _ => {
-                return Err(self.bad_key(
-                    "grid.box_min",
-                    "give both grid.box_min and grid.box_max, or neither".into(),
-                ))
-            }
-        };
-        if !bbox.is_finite() {
-            return Err(self.bad_key(
-                "grid.box_min",
-                "the geometry is unbounded: give grid.box_min and grid.box_max".into(),
-            ));
-        }
-        Grid::new(&bbox, level.unwrap_or(g.level), g.offset).map_err(|e| match e {
-            Error::InvalidGrid { what, reason } => self.bad_key(&format!("grid.{what}"), reason),
-            other => other,
-        })
+        grid_of(&self.file, "grid", &self.spec.grid, &self.geometry, level)
     }
 
     /// Refuses a grid whose memory estimate exceeds `budget_bytes` (the error
@@ -361,12 +301,101 @@ impl Case {
     }
 
     fn bad_key(&self, key: &str, reason: String) -> Error {
-        Error::CaseFile {
-            file: self.file.clone(),
-            key: key.into(),
-            reason,
-        }
+        bad_key(&self.file, key, reason)
     }
+}
+
+/// A case-file error of `file` at `key`.
+fn bad_key(file: &str, key: &str, reason: String) -> Error {
+    Error::CaseFile {
+        file: file.into(),
+        key: key.into(),
+        reason,
+    }
+}
+
+/// The stem of a case file's name (the default case name).
+fn file_stem(file: &str) -> Option<String> {
+    Path::new(file)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+}
+
+/// Parses case text as TOML (an error names the line and column) and applies
+/// the `key=value` overrides.
+fn parse_table(file: &str, text: &str, overrides: &[String]) -> Result<toml::Table> {
+    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+        let at = match e.span() {
+            Some(s) => {
+                let before = text.get(..s.start).unwrap_or(text);
+                let line = before.matches('\n').count() + 1;
+                let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                format!("line {line}, column {column}")
+            }
+            None => "(syntax)".into(),
+        };
+        let reason = match e.message().trim() {
+            "" => "invalid TOML syntax".to_string(),
+            m => format!("invalid TOML: {m}"),
+        };
+        bad_key(file, &at, reason)
+    })?;
+    for o in overrides {
+        apply_override(&mut table, o).map_err(|reason| {
+            let shown = match o.char_indices().nth(80) {
+                Some((i, _)) => format!("{}…", &o[..i]),
+                None => o.clone(),
+            };
+            bad_key(file, &format!("--set {shown}"), reason)
+        })?;
+    }
+    Ok(table)
+}
+
+/// Deserialises a parsed case; an error names the key path.
+fn deserialize<T: serde::de::DeserializeOwned>(file: &str, table: toml::Table) -> Result<T> {
+    serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+        let key = e.path().to_string();
+        let key = if key == "." || key.is_empty() {
+            "(top level)".to_string()
+        } else {
+            key
+        };
+        bad_key(file, &key, e.into_inner().message().trim().to_string())
+    })
+}
+
+/// The grid of a `[grid]` table (`key` its path in the file) around
+/// `geometry`, at `level` when given, else at the table's level.
+fn grid_of(
+    file: &str,
+    key: &str,
+    g: &GridSpec,
+    geometry: &Geometry,
+    level: Option<u32>,
+) -> Result<Grid> {
+    let bbox = match (g.box_min, g.box_max) {
+        (Some(lo), Some(hi)) => Aabb::new(lo, hi),
+        (None, None) => geometry.bounding_box(),
+        _ => {
+            return Err(bad_key(
+                file,
+                &format!("{key}.box_min"),
+                "give both box_min and box_max, or neither".into(),
+            ))
+        }
+    };
+    if !bbox.is_finite() {
+        return Err(bad_key(
+            file,
+            &format!("{key}.box_min"),
+            "the geometry is unbounded: give box_min and box_max".into(),
+        ));
+    }
+    Grid::new(&bbox, level.unwrap_or(g.level), g.offset).map_err(|e| match e {
+        Error::InvalidGrid { what, reason } => bad_key(file, &format!("{key}.{what}"), reason),
+        other => other,
+    })
 }
 
 /// The most dotted parts a `--set` key may have.
