@@ -51,13 +51,13 @@ pub fn intersect_line(tri: &[[f64; 3]; 3], o: [f64; 3], d: [f64; 3]) -> Option<(
     let e2 = sub(tri[2], tri[0]);
     let p = cross(d, e2);
     let det = dot(e1, p);
-    if det.abs() <= 1e-14 * norm(d) * norm(triangle_normal_scaled(tri)) || det == 0.0 {
+    if det.abs() <= 1e-14 * norm(d) * norm(triangle_normal_scaled(tri)) {
         return None;
     }
     let inv = 1.0 / det;
     let s = sub(o, tri[0]);
     let u = dot(s, p) * inv;
-    if u < -EDGE_TOLERANCE || u > 1.0 + EDGE_TOLERANCE {
+    if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
         return None;
     }
     let q = cross(s, e1);
