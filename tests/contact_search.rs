@@ -5,7 +5,7 @@
 //! the current configuration (Q1 interpolation, Nanson) is exact for linear
 //! displacement fields.
 
-use cgfem_gpu::cells::Cells;
+use cgfem_gpu::cells::{CellKind, Cells};
 use cgfem_gpu::contact::search::deformation_gradient;
 use cgfem_gpu::contact::{area_ratio, current_normal, slave_point, Bvh, MasterSurface, Surface};
 use cgfem_gpu::element::ElementOrder;
@@ -63,6 +63,46 @@ fn sphere_area_converges_at_rate_two_with_vertices_on_the_zero_set() {
     eprintln!("area rates {r:?}");
     for &rate in &r[1..] {
         assert!((1.8..2.2).contains(&rate), "rates {r:?}");
+    }
+}
+
+#[test]
+fn a_one_cell_slab_with_caps_on_node_planes_keeps_its_lateral_surfaces() {
+    // Plane strain as a slab one cell thick (issue 8's annuli): the caps lie on
+    // node planes, so the combined level set has no node strictly inside.
+    let h = 2.0 / 16.0;
+    let g = Geometry::annulus([0.0, 0.0, -h / 2.0], [0.0, 0.0, h / 2.0], 0.6, 1.0).unwrap();
+    let grid = Grid::new(&g.bounding_box(), 4, [0.0; 3]).unwrap();
+    assert_eq!((grid.h, grid.n[2]), (h, 1));
+    let order = ElementOrder::Q1;
+    let inside_nodes = (0..grid.num_nodes(order))
+        .filter(|&n| g.inside(grid.node_position(order, n)))
+        .count();
+    assert_eq!(inside_nodes, 0, "the degenerate case this test is about");
+    let cells = Cells::classify(&grid, &g, 2).unwrap();
+    for (tag, r, outward) in [("outer", 1.0, 1.0), ("inner", 0.6, -1.0)] {
+        let s = Surface::from_level_set(&grid, &g, &[g.tag_id(tag).unwrap()]);
+        let exact = 2.0 * std::f64::consts::PI * r * h;
+        let area = s.area(&s.vertices);
+        eprintln!(
+            "slab {tag}: {} triangles, area {area:.6} vs {exact:.6}",
+            s.num_triangles()
+        );
+        assert!(
+            (area / exact - 1.0).abs() < h * h / (r * r),
+            "{tag}: {area} vs {exact}"
+        );
+        for t in 0..s.num_triangles() {
+            let n = s.normal(&s.vertices, t);
+            let x = s.reference_corners(t)[0];
+            let radial = normalize([x[0], x[1], 0.0]);
+            let cos = outward * (n[0] * radial[0] + n[1] * radial[1]);
+            assert!(
+                cos > 0.99 && n[2].abs() < 1e-12,
+                "{tag}: normal {n:?} at {x:?}"
+            );
+            assert_ne!(cells.kinds[s.triangles[t].cell], CellKind::Outside);
+        }
     }
 }
 

@@ -1,5 +1,5 @@
-//! Marching tetrahedra on the Q1 node lattice: the zero set of φ as a
-//! conforming, outward-oriented triangle mesh.
+//! Marching tetrahedra on the Q1 node lattice: the zero set of a level set ψ
+//! as a conforming triangle mesh oriented along ∇ψ.
 //!
 //! Each cell is split into the 6 tetrahedra of the Freudenthal (Kuhn)
 //! triangulation, all sharing the cell's main diagonal from local corner
@@ -7,16 +7,16 @@
 //! tetrahedron `0, e_p, e_p + e_q, e_p + e_q + e_r`. The triangulation is
 //! translation invariant, so neighbouring cells split their common face along
 //! the same diagonal and the mesh is conforming. A node is inside when
-//! `φ < 0` (as [`Geometry::inside`]). A tetrahedron with one or three inside
+//! `ψ < 0` (as [`crate::geometry::Geometry::inside`]). A tetrahedron with one or three inside
 //! corners gives one triangle, with two a quadrilateral split in two; there is
 //! no ambiguous case (unlike marching cubes).
 //!
 //! The vertex on a tet edge from an inside corner `a` to an outside corner `b`
-//! is the root of `t ↦ φ(a + t (b − a))` on `[0, 1]`, found by the Illinois
-//! variant of regula falsi (bracketing, superlinear) to `|φ| ≤ 1e-15` or a
-//! bracket of a few ulps, so vertices lie on φ = 0 to round-off and stay on
+//! is the root of `t ↦ ψ(a + t (b − a))` on `[0, 1]`, found by the Illinois
+//! variant of regula falsi (bracketing, superlinear) to `|ψ| ≤ 1e-15` or a
+//! bracket of a few ulps, so vertices lie on ψ = 0 to round-off and stay on
 //! their edge. Vertices are shared through their edge's pair of global node
-//! ids (a node with `φ = 0` exactly is its own vertex), which makes the
+//! ids (a node with `ψ = 0` exactly is its own vertex), which makes the
 //! mesh's vertex list free of duplicates and its edges watertight.
 
 use std::collections::HashMap;
@@ -25,7 +25,6 @@ use rayon::prelude::*;
 
 use super::vec3::{dot, lerp, norm, sub, triangle_normal_scaled};
 use crate::element::ElementOrder;
-use crate::geometry::Geometry;
 use crate::grid::Grid;
 
 /// The raw zero-set mesh: vertices (with a cell containing each) and
@@ -57,17 +56,17 @@ const TETS: [[usize; 4]; 6] = {
     tets
 };
 
-/// Extracts the zero set of `geometry`'s level set on `grid`.
-pub(super) fn extract(grid: &Grid, geometry: &Geometry) -> RawMesh {
+/// Extracts the zero set of the level set `psi` on `grid`.
+pub(super) fn extract(grid: &Grid, psi: &(impl Fn([f64; 3]) -> f64 + Sync)) -> RawMesh {
     let order = ElementOrder::Q1;
-    let phi: Vec<f64> = (0..grid.num_nodes(order))
+    let values: Vec<f64> = (0..grid.num_nodes(order))
         .into_par_iter()
-        .map(|n| geometry.phi(grid.node_position(order, n)))
+        .map(|n| psi(grid.node_position(order, n)))
         .collect();
     let mut builder = Builder {
         grid,
-        geometry,
-        phi: &phi,
+        psi,
+        values: &values,
         edge_vertex: HashMap::new(),
         mesh: RawMesh {
             vertices: Vec::new(),
@@ -78,7 +77,7 @@ pub(super) fn extract(grid: &Grid, geometry: &Geometry) -> RawMesh {
     let mut nodes = [0usize; 8];
     for c in 0..grid.num_cells() {
         grid.cell_nodes(order, c, &mut nodes);
-        let inside = nodes.map(|n| phi[n] < 0.0);
+        let inside = nodes.map(|n| values[n] < 0.0);
         if inside.iter().all(|&i| i) || inside.iter().all(|&i| !i) {
             continue;
         }
@@ -89,22 +88,24 @@ pub(super) fn extract(grid: &Grid, geometry: &Geometry) -> RawMesh {
     builder.mesh
 }
 
-struct Builder<'a> {
+struct Builder<'a, F> {
     grid: &'a Grid,
-    geometry: &'a Geometry,
-    phi: &'a [f64],
+    psi: &'a F,
+    /// ψ at the Q1 nodes.
+    values: &'a [f64],
     edge_vertex: HashMap<(usize, usize), u32>,
     mesh: RawMesh,
 }
 
-impl Builder<'_> {
+impl<F: Fn([f64; 3]) -> f64> Builder<'_, F> {
     fn position(&self, node: usize) -> [f64; 3] {
         self.grid.node_position(ElementOrder::Q1, node)
     }
 
     /// The triangles of one tetrahedron (global node ids).
     fn tetrahedron(&mut self, cell: usize, tet: [usize; 4]) {
-        let (ins, outs): (Vec<usize>, Vec<usize>) = tet.iter().partition(|&&n| self.phi[n] < 0.0);
+        let (ins, outs): (Vec<usize>, Vec<usize>) =
+            tet.iter().partition(|&&n| self.values[n] < 0.0);
         if ins.is_empty() || outs.is_empty() {
             return;
         }
@@ -158,7 +159,7 @@ impl Builder<'_> {
 
     /// The vertex on the edge from the inside node `a` to the outside node `b`.
     fn vertex(&mut self, cell: usize, a: usize, b: usize) -> u32 {
-        let key = if self.phi[b] == 0.0 {
+        let key = if self.values[b] == 0.0 {
             (b, b)
         } else {
             (a.min(b), a.max(b))
@@ -166,15 +167,15 @@ impl Builder<'_> {
         if let Some(&v) = self.edge_vertex.get(&key) {
             return v;
         }
-        let x = if self.phi[b] == 0.0 {
+        let x = if self.values[b] == 0.0 {
             self.position(b)
         } else {
             edge_root(
-                self.geometry,
+                self.psi,
                 self.position(a),
-                self.phi[a],
+                self.values[a],
                 self.position(b),
-                self.phi[b],
+                self.values[b],
             )
         };
         let id = self.mesh.vertices.len() as u32;
@@ -185,9 +186,15 @@ impl Builder<'_> {
     }
 }
 
-/// The root of `φ` on the segment from `a` (`φ(a) = fa < 0`) to `b`
-/// (`φ(b) = fb > 0`): Illinois regula falsi on the segment parameter.
-pub(super) fn edge_root(g: &Geometry, a: [f64; 3], fa: f64, b: [f64; 3], fb: f64) -> [f64; 3] {
+/// The root of `ψ` on the segment from `a` (`ψ(a) = fa < 0`) to `b`
+/// (`ψ(b) = fb > 0`): Illinois regula falsi on the segment parameter.
+fn edge_root(
+    psi: &impl Fn([f64; 3]) -> f64,
+    a: [f64; 3],
+    fa: f64,
+    b: [f64; 3],
+    fb: f64,
+) -> [f64; 3] {
     let (mut t0, mut f0, mut t1, mut f1) = (0.0f64, fa, 1.0f64, fb);
     let mut best = if -fa < fb { (0.0, -fa) } else { (1.0, fb) };
     let mut last_side = 0i8;
@@ -196,7 +203,7 @@ pub(super) fn edge_root(g: &Geometry, a: [f64; 3], fa: f64, b: [f64; 3], fb: f64
         if !(t > t0 && t < t1) {
             t = 0.5 * (t0 + t1);
         }
-        let f = g.phi(lerp(a, b, t));
+        let f = psi(lerp(a, b, t));
         if f.abs() < best.1 {
             best = (t, f.abs());
         }
@@ -246,10 +253,10 @@ mod tests {
 
     #[test]
     fn edge_root_lands_on_the_sphere() {
-        let g = Geometry::sphere([0.0; 3], 1.0).unwrap();
+        let g = crate::geometry::Geometry::sphere([0.0; 3], 1.0).unwrap();
         let a = [0.1, 0.2, 0.3];
         let b = [1.4, 0.9, -0.2];
-        let x = edge_root(&g, a, g.phi(a), b, g.phi(b));
+        let x = edge_root(&|x| g.phi(x), a, g.phi(a), b, g.phi(b));
         assert!(g.phi(x).abs() < 1e-15, "{}", g.phi(x));
         assert!((norm(x) - 1.0).abs() < 1e-14);
     }
