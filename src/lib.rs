@@ -12,6 +12,7 @@ pub mod bench;
 pub mod case;
 pub mod cells;
 pub mod condition;
+pub mod contact;
 pub mod element;
 pub mod error;
 pub mod expr;

@@ -1,0 +1,28 @@
+//! Geometric contact machinery (DESIGN §6, issue 8): what the contact search
+//! needs, independent of the mechanics that will use it.
+//!
+//! - [`surface`]: a body's boundary as a triangle mesh in the reference
+//!   configuration, extracted from its level set on its Cartesian grid by
+//!   marching tetrahedra, and mapped to the current configuration
+//!   `x = X + u(X)`.
+//! - [`bvh`]: a bounding-volume hierarchy over the current triangles, with
+//!   nearest-hit line queries (Möller–Trumbore).
+//! - [`search`]: the ray-tracing search of the paper's eq. 2 — from a slave
+//!   point `x1` along the current slave normal `n1` to the current master
+//!   surface, the normal gap `g_N = (x2 − x1)·n1` — and the current normal by
+//!   Nanson's formula.
+//! - [`report`]: the per-pair, per-step `contact` row of the report.
+
+pub mod bvh;
+mod marching;
+pub mod report;
+pub mod search;
+pub mod surface;
+mod vec3;
+
+pub use bvh::{Bvh, Hit};
+pub use report::{ContactRow, SlaveSample};
+pub use search::{
+    area_ratio, current_normal, slave_point, ContactPoint, MasterSurface, SlavePoint,
+};
+pub use surface::{Surface, SurfaceTriangle};

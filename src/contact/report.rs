@@ -1,0 +1,95 @@
+//! The report's `contact` rows (issue 8): per contact pair and load step, the
+//! resultant normal force, contact area, peak pressure and largest
+//! penetration, from the slave points' quadrature weights, gaps and
+//! pressures.
+//!
+//! With slave points `k` of current surface weight `w_k`, gap `g_k` and
+//! contact pressure `p_k = −λ_N,k ≥ 0` (compression positive):
+//! `normal_force = Σ_k w_k p_k`, `contact_area = Σ_{k: p_k > 0} w_k`,
+//! `peak_pressure = max_k p_k` and `max_penetration = max(0, max_k −g_k)`
+//! (all 0 for a pair without points).
+
+use serde::Serialize;
+
+/// One slave point's contribution: current weight, gap and pressure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlaveSample {
+    pub weight: f64,
+    pub gap: f64,
+    /// Contact pressure, compression positive.
+    pub pressure: f64,
+}
+
+/// `contact {pair, step, normal_force, contact_area, peak_pressure,
+/// max_penetration}` in `report.json`.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ContactRow {
+    pub pair: String,
+    pub step: usize,
+    pub normal_force: f64,
+    pub contact_area: f64,
+    pub peak_pressure: f64,
+    pub max_penetration: f64,
+}
+
+impl ContactRow {
+    /// The row of pair `pair` at load step `step` from its slave samples.
+    pub fn from_samples(pair: &str, step: usize, samples: &[SlaveSample]) -> ContactRow {
+        let active = samples.iter().filter(|s| s.pressure > 0.0);
+        ContactRow {
+            pair: pair.to_string(),
+            step,
+            normal_force: samples.iter().map(|s| s.weight * s.pressure).sum(),
+            contact_area: active.map(|s| s.weight).sum(),
+            peak_pressure: samples.iter().map(|s| s.pressure).fold(0.0, f64::max),
+            max_penetration: samples.iter().map(|s| -s.gap).fold(0.0, f64::max),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hand_made_row() {
+        let s = |weight, gap, pressure| SlaveSample {
+            weight,
+            gap,
+            pressure,
+        };
+        let samples = [
+            s(0.5, -0.002, 10.0),
+            s(0.25, -0.001, 4.0),
+            s(0.125, 0.0, 0.0),
+            s(1.0, 0.3, 0.0),
+        ];
+        let row = ContactRow::from_samples("ring", 3, &samples);
+        assert_eq!(
+            row,
+            ContactRow {
+                pair: "ring".into(),
+                step: 3,
+                normal_force: 6.0,
+                contact_area: 0.75,
+                peak_pressure: 10.0,
+                max_penetration: 0.002,
+            }
+        );
+        let json = serde_json::to_string(&row).unwrap();
+        assert_eq!(
+            json,
+            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"peak_pressure":10.0,"max_penetration":0.002}"#
+        );
+        let empty = ContactRow::from_samples("none", 0, &[]);
+        assert_eq!(
+            (
+                empty.normal_force,
+                empty.contact_area,
+                empty.peak_pressure,
+                empty.max_penetration
+            ),
+            (0.0, 0.0, 0.0, 0.0)
+        );
+    }
+}

@@ -1,0 +1,193 @@
+//! The ray-tracing contact search (paper eq. 2, DESIGN §6) and the current
+//! slave normal.
+//!
+//! **Search.** From a slave point `x1` in the current configuration, along its
+//! current unit outward normal `n1`, the line `x1 + t n1` is intersected with
+//! the current master surface (both directions, so a penetrated point finds
+//! the surface behind it); `x2` is the hit of smallest `|t|` within the search
+//! radius, and the normal gap is
+//! `g_N = (x2 − x1)·n1`
+//! (= t: positive when the master lies ahead of the slave's outward normal,
+//! i.e. the bodies are apart; negative on penetration). With the hit come
+//! what an augmented Lagrangian needs to linearise `g_N`: the master
+//! triangle, its cell, the barycentric coordinates of `x2` in the current
+//! triangle, the same point in the reference configuration
+//! `X2 = Σ_i ξ_i X_i` (where the master's shape functions are evaluated) and
+//! the master's current unit outward normal (of the flat triangle).
+//!
+//! **Nanson's formula.** An oriented area element `N dA` of the reference
+//! configuration is mapped by the deformation gradient `F = I + ∇_X u` to
+//! `n da = J F⁻ᵀ N dA = cof(F) N dA`, with `J = det F` and
+//! `cof(F) = J F⁻ᵀ` the cofactor matrix (rows `F₂×F₃, F₃×F₁, F₁×F₂` for rows
+//! `F₁, F₂, F₃` of F, so no inverse is formed). Hence the current unit normal
+//! `n = F⁻ᵀN / |F⁻ᵀN| = sign(J) cof(F)N / |cof(F)N|` and the area ratio
+//! `da/dA = |cof(F) N|` for a unit `N`.
+
+use rayon::prelude::*;
+
+use super::bvh::Bvh;
+use super::surface::Surface;
+use super::vec3::{barycentric_point, cross, dot, norm, normalize, scale, sub};
+use crate::fem::dofs::DofMap;
+use crate::fem::field::value_and_gradient;
+use crate::grid::Grid;
+
+/// The master surface in its current configuration, ready for searches.
+#[derive(Clone, Debug)]
+pub struct MasterSurface<'a> {
+    surface: &'a Surface,
+    current: Vec<[f64; 3]>,
+    bvh: Bvh,
+}
+
+/// The result of a successful search from one slave point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactPoint {
+    /// Index of the master triangle in its [`Surface`].
+    pub triangle: usize,
+    /// The master cell the triangle lies in.
+    pub cell: usize,
+    /// Barycentric coordinates of `x2` in the master triangle.
+    pub barycentric: [f64; 3],
+    /// The hit in the current configuration.
+    pub x2: [f64; 3],
+    /// The hit in the master's reference configuration.
+    pub reference_x2: [f64; 3],
+    /// `g_N = (x2 − x1)·n1`; negative on penetration.
+    pub gap: f64,
+    /// Current unit outward normal of the master triangle.
+    pub master_normal: [f64; 3],
+}
+
+impl<'a> MasterSurface<'a> {
+    /// The master `surface` with current vertex positions `current` (one per
+    /// surface vertex, e.g. from [`Surface::deformed`]); builds the BVH.
+    pub fn new(surface: &'a Surface, current: Vec<[f64; 3]>) -> MasterSurface<'a> {
+        assert_eq!(
+            current.len(),
+            surface.vertices.len(),
+            "one position per vertex"
+        );
+        let corners = (0..surface.num_triangles())
+            .map(|t| surface.corners(&current, t))
+            .collect();
+        MasterSurface {
+            surface,
+            current,
+            bvh: Bvh::new(corners),
+        }
+    }
+
+    /// The current vertex positions.
+    pub fn current(&self) -> &[[f64; 3]] {
+        &self.current
+    }
+
+    /// The ray search from `x1` along `n1` (normalised here) for hits with
+    /// `|t| ≤ radius`.
+    pub fn search(&self, x1: [f64; 3], n1: [f64; 3], radius: f64) -> Option<ContactPoint> {
+        let n1 = normalize(n1);
+        let hit = self.bvh.nearest_hit(x1, n1, radius)?;
+        let t = hit.triangle;
+        let x2 = barycentric_point(&self.surface.corners(&self.current, t), hit.barycentric);
+        Some(ContactPoint {
+            triangle: t,
+            cell: self.surface.triangles[t].cell,
+            barycentric: hit.barycentric,
+            x2,
+            reference_x2: barycentric_point(&self.surface.reference_corners(t), hit.barycentric),
+            gap: dot(sub(x2, x1), n1),
+            master_normal: self.surface.normal(&self.current, t),
+        })
+    }
+
+    /// [`MasterSurface::search`] for many slave points `(x1, n1)`, in parallel.
+    pub fn search_all(
+        &self,
+        points: &[([f64; 3], [f64; 3])],
+        radius: f64,
+    ) -> Vec<Option<ContactPoint>> {
+        points
+            .par_iter()
+            .map(|&(x, n)| self.search(x, n, radius))
+            .collect()
+    }
+}
+
+/// `F = I + ∇u` from the displacement gradient `g[i][j] = ∂u_i/∂X_j`.
+pub fn deformation_gradient(g: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut f = *g;
+    (0..3).for_each(|i| f[i][i] += 1.0);
+    f
+}
+
+/// `cof(F) N = J F⁻ᵀ N` (rows of F: `f[i]`).
+fn cofactor_times(f: &[[f64; 3]; 3], n: [f64; 3]) -> [f64; 3] {
+    let rows = [cross(f[1], f[2]), cross(f[2], f[0]), cross(f[0], f[1])];
+    rows.map(|r| dot(r, n))
+}
+
+/// The current unit normal `F⁻ᵀN / |F⁻ᵀN|` (Nanson) of the reference normal
+/// `n_ref` under the deformation gradient `f` (`f[i][j] = ∂x_i/∂X_j`).
+pub fn current_normal(f: &[[f64; 3]; 3], n_ref: [f64; 3]) -> [f64; 3] {
+    let j = dot(f[0], cross(f[1], f[2]));
+    scale(normalize(cofactor_times(f, n_ref)), j.signum())
+}
+
+/// The area ratio `da/dA = |J F⁻ᵀ N|` for a unit reference normal `n_ref`.
+pub fn area_ratio(f: &[[f64; 3]; 3], n_ref: [f64; 3]) -> f64 {
+    norm(cofactor_times(f, n_ref))
+}
+
+/// A slave boundary point in the current configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlavePoint {
+    /// `x1 = X + u(X)`.
+    pub x: [f64; 3],
+    /// The current unit outward normal (Nanson).
+    pub normal: [f64; 3],
+    /// `da/dA`, which turns a reference surface weight into a current one.
+    pub area_ratio: f64,
+}
+
+/// The slave point with reference position `x_ref` in `cell` and reference
+/// unit normal `n_ref`, under the nodal displacement field `u` (layout of
+/// [`DofMap`]).
+pub fn slave_point(
+    grid: &Grid,
+    dofs: &DofMap,
+    u: &[f64],
+    cell: usize,
+    x_ref: [f64; 3],
+    n_ref: [f64; 3],
+) -> SlavePoint {
+    let (value, grad) = value_and_gradient(grid, dofs, u, cell, x_ref);
+    let f = deformation_gradient(&grad);
+    SlavePoint {
+        x: [0, 1, 2].map(|i| x_ref[i] + value[i]),
+        normal: current_normal(&f, n_ref),
+        area_ratio: area_ratio(&f, n_ref),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nanson_for_a_stretch_and_shear() {
+        // x = (2X + Y, Y, Z/2): J = 1, F⁻¹ = [[1/2, −1/2, 0], [0, 1, 0], [0, 0, 2]];
+        // F⁻ᵀN is the row of F⁻¹ picked by N.
+        let f = [[2.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.5]];
+        let n = current_normal(&f, [1.0, 0.0, 0.0]);
+        let expected = normalize([0.5, -0.5, 0.0]);
+        assert!((0..3).all(|i| (n[i] - expected[i]).abs() < 1e-15), "{n:?}");
+        assert!((area_ratio(&f, [1.0, 0.0, 0.0]) - 0.5f64.sqrt()).abs() < 1e-15);
+        // Planes Y = const stay planes y = const, with unchanged area.
+        assert_eq!(current_normal(&f, [0.0, 1.0, 0.0]), [0.0, 1.0, 0.0]);
+        assert!((area_ratio(&f, [0.0, 1.0, 0.0]) - 1.0).abs() < 1e-15);
+        // e_z: F⁻ᵀ e_z = (0, 0, 2); the area ratio J·2 = 2.
+        assert_eq!(current_normal(&f, [0.0, 0.0, 1.0]), [0.0, 0.0, 1.0]);
+        assert!((area_ratio(&f, [0.0, 0.0, 1.0]) - 2.0).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,243 @@
+//! A body's boundary as a triangle mesh on its Cartesian grid, in the
+//! reference configuration, and its image in the current configuration.
+//!
+//! **Extraction, part by part.** The boundary parts are the CSG leaves
+//! (DESIGN §2.3), each a smooth level set ψ with its tag. For every leaf whose
+//! tag is requested, the zero set of ψ is meshed by marching tetrahedra (see
+//! the private `marching` module): vertices lie on ψ = 0 to round-off, on
+//! edges of the grid's Freudenthal tetrahedra, shared between neighbouring
+//! triangles. A triangle is kept when its centroid, projected onto ψ = 0 by a
+//! Newton step `p = c − ψ(c) ∇ψ/|∇ψ|²`, lies on the body's boundary as this
+//! leaf: just off `p` along `∇ψ`, at `q = p + 10⁻⁶ h ∇ψ/|∇ψ|`, the leaf attains
+//! φ, i.e. `φ(q) = ψ(q)` (an added leaf; the triangle keeps the orientation of
+//! ∇ψ) or `φ(q) = −ψ(q)` (a subtracted leaf: the triangle is flipped), bit for
+//! bit, since the geometry evaluates the same leaf function. So triangles are
+//! oriented by the body's outward normal and carry their leaf's tag.
+//!
+//! Meshing each leaf rather than the combined φ = min/max(ψ…) matters where a
+//! second part lies on grid nodes: a plane-strain slab one cell thick has its
+//! caps on node planes, so φ ≥ 0 at every node and the zero set of φ has no
+//! sign change to mesh, while the lateral leaf's zero set is found as usual.
+//! The price: where two parts meet, whole triangles are kept or dropped, so a
+//! part's rim is ragged by up to one triangle (O(h)) instead of chamfered.
+//!
+//! Away from the rims the geometric error is O(h²): chords of a surface of
+//! curvature κ sag by at most `κ ℓ²/8` over an edge of length `ℓ ≤ √3 h`,
+//! and the area converges at rate 2 (measured in `tests/contact_search.rs`).
+//!
+//! Each triangle also carries the cell whose tetrahedron produced it. The
+//! current configuration maps each reference vertex `X` to `x = X + u(X)`,
+//! with `u` evaluated in the cell of a triangle using the vertex (the vertex
+//! lies in that cell's closure) — by a closure, or from a nodal field with the
+//! grid's numbering through the cell's shape functions
+//! ([`crate::fem::field::value_and_gradient`]). The displacement is continuous
+//! across cells, so the choice of cell does not matter.
+
+use rayon::prelude::*;
+
+use super::marching;
+use super::vec3::{add, dot, norm, normalize, triangle_normal_scaled};
+use crate::fem::dofs::DofMap;
+use crate::fem::field::value_and_gradient;
+use crate::geometry::scalar::Dual;
+use crate::geometry::surface::Leaf;
+use crate::geometry::Geometry;
+use crate::grid::Grid;
+
+/// One triangle of a [`Surface`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceTriangle {
+    /// Indices into [`Surface::vertices`], counter-clockwise seen from outside.
+    pub vertices: [u32; 3],
+    /// The grid cell the triangle lies in.
+    pub cell: usize,
+    /// The boundary tag (of the leaf whose zero set it meshes).
+    pub tag: u16,
+}
+
+/// A triangulated boundary part in the reference configuration.
+#[derive(Clone, Debug)]
+pub struct Surface {
+    /// Reference positions `X` of the vertices (all on φ = 0 up to the
+    /// part's rim).
+    pub vertices: Vec<[f64; 3]>,
+    /// A grid cell whose closure contains each vertex, that of the first
+    /// triangle using it (for evaluating `u`).
+    pub vertex_cell: Vec<usize>,
+    pub triangles: Vec<SurfaceTriangle>,
+}
+
+impl Surface {
+    /// The triangles of `geometry`'s boundary on `grid` whose tag is in `tags`.
+    pub fn from_level_set(grid: &Grid, geometry: &Geometry, tags: &[u16]) -> Surface {
+        let mut surface = Surface {
+            vertices: Vec::new(),
+            vertex_cell: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for (i, leaf) in geometry.leaves().iter().enumerate() {
+            if tags.contains(&leaf.tag) {
+                surface.add_leaf(grid, geometry, i);
+            }
+        }
+        surface
+    }
+
+    /// Appends the triangles of leaf `i`'s zero set that lie on the boundary.
+    fn add_leaf(&mut self, grid: &Grid, geometry: &Geometry, i: usize) {
+        let leaf = &geometry.leaves()[i];
+        let raw = marching::extract(grid, &|x| leaf.eval(x));
+        let mut kept = vec![u32::MAX; raw.vertices.len()];
+        for (mut v, cell) in raw.triangles {
+            let p = v.map(|k| raw.vertices[k as usize]);
+            let centroid = [0, 1, 2].map(|a| (p[0][a] + p[1][a] + p[2][a]) / 3.0);
+            match polarity_on_boundary(geometry, leaf, centroid, grid.h) {
+                None => continue,
+                Some(Polarity::Subtracted) => v.swap(1, 2),
+                Some(Polarity::Added) => {}
+            }
+            let vertices = v.map(|k| {
+                let k = k as usize;
+                if kept[k] == u32::MAX {
+                    kept[k] = self.vertices.len() as u32;
+                    self.vertices.push(raw.vertices[k]);
+                    self.vertex_cell.push(cell);
+                }
+                kept[k]
+            });
+            let tag = leaf.tag;
+            self.triangles.push(SurfaceTriangle {
+                vertices,
+                cell,
+                tag,
+            });
+        }
+    }
+
+    /// Every boundary part of `geometry` on `grid`.
+    pub fn whole_boundary(grid: &Grid, geometry: &Geometry) -> Surface {
+        let tags: Vec<u16> = (0..geometry.tag_names().len() as u16).collect();
+        Surface::from_level_set(grid, geometry, &tags)
+    }
+
+    pub fn num_triangles(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// The corners of triangle `t` taken from `positions` (reference or
+    /// current vertex positions).
+    pub fn corners(&self, positions: &[[f64; 3]], t: usize) -> [[f64; 3]; 3] {
+        self.triangles[t].vertices.map(|v| positions[v as usize])
+    }
+
+    /// The reference corners `X` of triangle `t`.
+    pub fn reference_corners(&self, t: usize) -> [[f64; 3]; 3] {
+        self.corners(&self.vertices, t)
+    }
+
+    /// The unit outward normal of triangle `t` at `positions`.
+    pub fn normal(&self, positions: &[[f64; 3]], t: usize) -> [f64; 3] {
+        normalize(triangle_normal_scaled(&self.corners(positions, t)))
+    }
+
+    /// The total area at `positions`.
+    pub fn area(&self, positions: &[[f64; 3]]) -> f64 {
+        (0..self.triangles.len())
+            .map(|t| 0.5 * norm(triangle_normal_scaled(&self.corners(positions, t))))
+            .sum()
+    }
+
+    /// Current vertex positions `x = X + u(X)`, with `displacement_at(cell, X)`
+    /// the displacement at the reference point `X` of `cell`.
+    pub fn deformed(
+        &self,
+        displacement_at: impl Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+    ) -> Vec<[f64; 3]> {
+        self.vertices
+            .par_iter()
+            .zip(&self.vertex_cell)
+            .map(|(&x, &cell)| add(x, displacement_at(cell, x)))
+            .collect()
+    }
+
+    /// Current vertex positions for a nodal displacement field `u`
+    /// (`u[3 · active + component]`, the layout of [`DofMap`]).
+    pub fn deformed_by_field(&self, grid: &Grid, dofs: &DofMap, u: &[f64]) -> Vec<[f64; 3]> {
+        self.deformed(|cell, x| value_and_gradient(grid, dofs, u, cell, x).0)
+    }
+}
+
+/// How a leaf enters the body's level set where it is the boundary.
+enum Polarity {
+    /// `φ = ψ` there: the outward normal is `∇ψ/|∇ψ|`.
+    Added,
+    /// `φ = −ψ` there (a difference's subtrahend): the outward normal is
+    /// `−∇ψ/|∇ψ|`.
+    Subtracted,
+}
+
+/// Whether the point of `leaf`'s zero set nearest `x` (one Newton step) is on
+/// the body's boundary as this leaf, and with which polarity.
+fn polarity_on_boundary(geometry: &Geometry, leaf: &Leaf, x: [f64; 3], h: f64) -> Option<Polarity> {
+    let at = |x: [f64; 3]| leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]);
+    let d = at(x);
+    let g2 = dot(d.d, d.d);
+    if g2 == 0.0 {
+        return None;
+    }
+    let p = [0, 1, 2].map(|a| x[a] - d.v * d.d[a] / g2);
+    let n = normalize(at(p).d);
+    let q = [0, 1, 2].map(|a| p[a] + 1e-6 * h * n[a]);
+    let (phi, psi) = (geometry.phi(q), leaf.eval(q));
+    if phi == psi {
+        Some(Polarity::Added)
+    } else if phi == -psi {
+        Some(Polarity::Subtracted)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Aabb;
+
+    #[test]
+    fn a_plane_is_meshed_exactly_with_its_normal() {
+        // Linear level set: marching tetrahedra is exact.
+        let n = normalize([0.3, -0.5, 0.8]);
+        let g = Geometry::half_space([0.1, 0.05, -0.02], n).unwrap();
+        let grid = Grid::new(&Aabb::new([-1.0; 3], [1.0; 3]), 3, [0.37, 0.11, 0.73]).unwrap();
+        let s = Surface::whole_boundary(&grid, &g);
+        assert!(s.num_triangles() > 50);
+        for t in 0..s.num_triangles() {
+            let nt = s.normal(&s.vertices, t);
+            assert!((0..3).all(|i| (nt[i] - n[i]).abs() < 1e-12), "{nt:?}");
+        }
+        for x in &s.vertices {
+            assert!(g.phi(*x).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn a_shell_splits_into_its_tagged_parts_oriented_outwards() {
+        let g = Geometry::shell([0.0; 3], 0.5, 1.0).unwrap();
+        let grid = Grid::new(&g.bounding_box(), 4, [0.2, 0.4, 0.1]).unwrap();
+        for (tag, r, outward) in [("inner", 0.5, -1.0), ("outer", 1.0, 1.0)] {
+            let s = Surface::from_level_set(&grid, &g, &[g.tag_id(tag).unwrap()]);
+            assert!(s.num_triangles() > 100);
+            for x in &s.vertices {
+                assert!((norm(*x) - r).abs() < 1e-12, "{tag}");
+            }
+            for t in 0..s.num_triangles() {
+                let c = s.reference_corners(t);
+                assert!(outward * dot(s.normal(&s.vertices, t), c[0]) > 0.0, "{tag}");
+            }
+            // Area within the O(h²) chord error of 4πr².
+            let exact = 4.0 * std::f64::consts::PI * r * r;
+            assert!((s.area(&s.vertices) / exact - 1.0).abs() < 0.5 * grid.h * grid.h / (r * r));
+        }
+        assert_eq!(Surface::from_level_set(&grid, &g, &[]).num_triangles(), 0);
+    }
+}
