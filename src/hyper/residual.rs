@@ -120,12 +120,13 @@ pub fn energy(p: &HyperProblem, u: &[f64], t: f64) -> Option<f64> {
     Some(cells?.iter().sum::<f64>() - t * load)
 }
 
-/// The first Piola–Kirchhoff stress at every volume point, per entry of
-/// [`HyperProblem::cells`] (for checks and output), `None` if some `det F ≤ 0`.
-pub fn point_stresses(
-    p: &HyperProblem,
-    u: &[f64],
-) -> Option<Vec<Vec<(Matrix3<f64>, Matrix3<f64>)>>> {
+/// `(F, P)` at a volume point.
+pub type PointFields = (Matrix3<f64>, Matrix3<f64>);
+
+/// The deformation gradient and first Piola–Kirchhoff stress at every volume
+/// point, per entry of [`HyperProblem::cells`] (for checks and output), or
+/// `None` if some `det F ≤ 0`.
+pub fn point_fields(p: &HyperProblem, u: &[f64]) -> Option<Vec<Vec<PointFields>>> {
     (0..p.cells.len())
         .into_par_iter()
         .map(|k| {
