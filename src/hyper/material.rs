@@ -132,6 +132,26 @@ impl Material {
         }
     }
 
+    /// The tangent in the form both models share, which the GPU kernel
+    /// evaluates from 28 numbers per point (see [`TangentCoefficients`]).
+    pub fn tangent_coefficients(&self, s: &PointState) -> TangentCoefficients {
+        let (l, m) = (self.lambda, self.mu);
+        match self.model {
+            MaterialModel::NeoHookean => TangentCoefficients {
+                sigma: Matrix3::identity() * m,
+                m: Matrix3::zeros(),
+                g: s.f_inv_t,
+                c: m - l * s.ln_j,
+            },
+            MaterialModel::StVenantKirchhoff => TangentCoefficients {
+                sigma: self.svk_second_pk(&green_lagrange(&s.f)),
+                m: s.f * s.f.transpose() * m,
+                g: s.f,
+                c: m,
+            },
+        }
+    }
+
     /// The full tangent `A[i][J][k][L]`, from the action on the nine unit
     /// increments `e_k ⊗ e_L`.
     pub fn tangent(&self, s: &PointState) -> Tangent4 {
@@ -154,6 +174,32 @@ impl Material {
     /// `S = λ tr(E) I + 2 μ E`.
     fn svk_second_pk(&self, e: &Matrix3<f64>) -> Matrix3<f64> {
         Matrix3::identity() * (self.lambda * e.trace()) + e * (2.0 * self.mu)
+    }
+}
+
+/// The tangent action written as
+/// ```text
+/// dP = dF Σ + M dF + λ (G : dF) G + c G dFᵀ G
+/// ```
+/// neo-Hookean: `Σ = μ I`, `M = 0`, `G = F⁻ᵀ`, `c = μ − λ ln J`;
+/// St Venant–Kirchhoff: `Σ = S`, `M = μ F Fᵀ`, `G = F`, `c = μ`
+/// (from `F dS = λ (F : dF) F + μ F Fᵀ dF + μ F dFᵀ F`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TangentCoefficients {
+    pub sigma: Matrix3<f64>,
+    pub m: Matrix3<f64>,
+    pub g: Matrix3<f64>,
+    pub c: f64,
+}
+
+impl TangentCoefficients {
+    /// `dP` for the material's `λ`.
+    pub fn apply(&self, lambda: f64, df: &Matrix3<f64>) -> Matrix3<f64> {
+        let g_df = self.g.component_mul(df).sum();
+        df * self.sigma
+            + self.m * df
+            + self.g * (lambda * g_df)
+            + self.g * df.transpose() * self.g * self.c
     }
 }
 

@@ -150,3 +150,18 @@ fn inverted_gradients_have_no_state() {
     assert!(PointState::new(f).is_none());
     assert!(PointState::new(Matrix3::zeros()).is_none());
 }
+
+#[test]
+fn the_shared_coefficient_form_is_the_tangent() {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    for m in materials() {
+        let s = state(random_gradient(&mut rng, 0.3));
+        let coef = m.tangent_coefficients(&s);
+        for _ in 0..3 {
+            let df = Matrix3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+            let want = m.tangent_action(&s, &df);
+            let err = (coef.apply(m.lambda, &df) - want).norm() / want.norm();
+            assert!(err < 1e-14, "{:?}: {err:e}", m.model);
+        }
+    }
+}

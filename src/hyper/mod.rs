@@ -12,6 +12,8 @@
 //! - [`tangent`]: `K_T(u) = ∂R/∂u` matrix-free (a [`crate::backend::LinearOperator`]),
 //!   its diagonal, and assembled (faer).
 //! - [`newton`]: load steps, Newton–Raphson with a line search, step cutting.
+//! - [`mirror`]: the GPU kernel of the inside-cell tangent (`shaders/hyper_tangent.wgsl`),
+//!   its data and its CPU mirror.
 //!
 //! The Dirichlet condition is the penalty part of the stabilised multiplier of
 //! DESIGN §3.1 (`β = k1 E`, the term `(β/h) ∫ N (u − g)`); at `u = 0` the
@@ -33,6 +35,7 @@
 //! # Ok(()) }
 //! ```
 pub mod material;
+pub mod mirror;
 pub mod newton;
 pub mod problem;
 pub mod residual;

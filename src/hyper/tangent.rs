@@ -115,6 +115,27 @@ impl<'p> TangentOperator<'p> {
         d
     }
 
+    /// `y += K_cut x`: the cut cells' part of the tangent (their volume points
+    /// and the Dirichlet penalty), which the GPU kernel of
+    /// [`super::mirror`] leaves to the CPU.
+    pub fn add_cut_cells(&self, x: &[f64], y: &mut [f64]) {
+        let p = self.problem;
+        let cut: Vec<usize> = (0..p.cells.len())
+            .filter(|&k| p.cut_index[k].is_some())
+            .collect();
+        let cell_vectors: Vec<(usize, CellVector)> = cut
+            .into_par_iter()
+            .map(|k| (k, self.cell_apply(k, &p.gather(k, x))))
+            .collect();
+        for (k, v) in cell_vectors {
+            for (a, &node) in p.cell_nodes[k].iter().enumerate() {
+                for i in 0..3 {
+                    y[3 * node as usize + i] += v[a][i];
+                }
+            }
+        }
+    }
+
     /// `K_T` assembled (faer, duplicates summed).
     pub fn assemble(&self) -> SparseColMat<usize, f64> {
         let p = self.problem;
