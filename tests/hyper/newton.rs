@@ -13,7 +13,7 @@ use cgfem_gpu::hyper::material::{Material, MaterialModel};
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions};
 use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, VectorField};
 use cgfem_gpu::hyper::residual::{point_fields, residual};
-use cgfem_gpu::progress::Silent;
+use cgfem_gpu::progress::{Event, Progress, Silent};
 use cgfem_gpu::solver::{KrylovMethod, KrylovOptions, Preconditioner};
 
 use super::{BETA, E, NU};
@@ -200,9 +200,22 @@ fn order(r: &[f64]) -> f64 {
 #[test]
 fn newton_converges_quadratically() {
     let p = twisted_ring(4, 0.35);
-    let (sol, r) = run(&p, &options(3));
-    r.unwrap();
-    assert_eq!(sol.converged_steps, 3);
+    for method in [KrylovMethod::Cg, KrylovMethod::BiCgStab] {
+        let mut opts = options(3);
+        opts.krylov.method = method;
+        let (sol, r) = run(&p, &opts);
+        r.unwrap();
+        assert_eq!(sol.converged_steps, 3);
+        println!(
+            "{method}: {} Newton iterations, {} Krylov iterations",
+            sol.newton_iterations(),
+            sol.krylov_iterations()
+        );
+        assert_quadratic(&sol);
+    }
+}
+
+fn assert_quadratic(sol: &HyperSolution) {
     for (k, step) in sol.attempts.iter().enumerate() {
         println!(
             "step {k}: residuals {}, Krylov iterations {:?}",
@@ -297,6 +310,20 @@ fn a_step_that_fails_after_every_cut_is_a_typed_error() {
     // The solution holds the last converged state: the undeformed start.
     assert_eq!(sol.load_factor, 0.0);
     assert!(sol.u.iter().all(|&v| v == 0.0));
+    // Stopped by the observer (Ctrl-C): the undeformed start is kept.
+    let (sol, r) = {
+        let mut solution = HyperSolution::zero(&p);
+        let r = solve_load_steps(
+            &p,
+            &options(2),
+            &mut CpuTangentSolver::default(),
+            &Stop,
+            &mut solution,
+        );
+        (solution, r)
+    };
+    assert_eq!(r.unwrap_err().exit_code(), 130);
+    assert_eq!(sol.converged_steps, 0);
     // Zero steps is bad input.
     let zero_steps = NewtonOptions {
         steps: 0,
@@ -304,6 +331,16 @@ fn a_step_that_fails_after_every_cut_is_a_typed_error() {
     };
     let e = run(&p, &zero_steps).1.unwrap_err();
     assert_eq!(e.exit_code(), 2, "{e}");
+}
+
+/// An observer that stops the run at once.
+struct Stop;
+
+impl Progress for Stop {
+    fn event(&self, _: &Event) {}
+    fn should_stop(&self) -> bool {
+        true
+    }
 }
 
 /// Residual histories printed in scientific notation.
