@@ -98,6 +98,21 @@ pub enum Error {
     /// The run was stopped (Ctrl-C) at a fixed-point iteration boundary.
     #[error("interrupted after {iterations} fixed-point iterations")]
     Interrupted { iterations: usize },
+    /// A load step of the nonlinear (Newton) solver failed after every
+    /// allowed cut of its increment; the last converged step is kept.
+    #[error(
+        "load step {step} (load factor {load_factor:.6}) failed after {cuts} cuts: \
+         {reason}; last converged: step {last_converged_step} at load factor \
+         {last_converged_load:.6}"
+    )]
+    LoadStepFailed {
+        step: usize,
+        load_factor: f64,
+        cuts: usize,
+        reason: String,
+        last_converged_step: usize,
+        last_converged_load: f64,
+    },
 }
 
 impl Error {
@@ -106,7 +121,10 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Interrupted { .. } => 130,
-            Error::MaxIterations { .. } | Error::Breakdown { .. } | Error::Recovery { .. } => 3,
+            Error::MaxIterations { .. }
+            | Error::Breakdown { .. }
+            | Error::Recovery { .. }
+            | Error::LoadStepFailed { .. } => 3,
             Error::Plot { .. } | Error::Gpu { .. } | Error::Bench { .. } => 1,
             _ => 2,
         }

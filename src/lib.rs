@@ -20,6 +20,7 @@ pub mod fem;
 pub mod geometry;
 pub mod gpu;
 pub mod grid;
+pub mod hyper;
 pub mod output;
 pub mod plot;
 pub mod progress;

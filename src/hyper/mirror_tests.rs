@@ -1,0 +1,123 @@
+//! Tests that need no GPU: the kernel validates with naga in both precisions,
+//! its params struct has the WGSL layout, and the mirror plus the CPU's cut
+//! cells is the tangent.
+
+use std::mem::size_of;
+use std::sync::Arc;
+
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::*;
+use crate::backend::LinearOperator;
+use crate::cells::{cut_rule_points, Cells};
+use crate::element::ElementOrder;
+use crate::geometry::{Aabb, Geometry};
+use crate::grid::Grid;
+use crate::hyper::material::Material;
+use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads};
+
+fn validate(precision: Precision) -> naga::Module {
+    let src = source(precision);
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("hyper_tangent: {}", e.emit_to_string(&src)));
+    let caps = match precision {
+        Precision::F64 => Capabilities::FLOAT64,
+        Precision::F32 => Capabilities::empty(),
+    };
+    Validator::new(ValidationFlags::all(), caps)
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("hyper_tangent ({precision}): {e:?}"));
+    module
+}
+
+#[test]
+fn the_kernel_validates_in_both_precisions_with_the_params_layout() {
+    assert_eq!(SOURCE_F64.matches(ALIAS_F64).count(), 1);
+    let m = validate(Precision::F64);
+    validate(Precision::F32);
+    assert_eq!(m.entry_points.len(), 1, "one kernel per file");
+    assert_eq!(m.entry_points[0].name, "main");
+    assert_eq!(m.entry_points[0].workgroup_size, [WORKGROUP, 1, 1]);
+    let (_, ty) = m
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("HyperTangentParams"))
+        .expect("the params struct");
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("HyperTangentParams is a struct");
+    };
+    assert_eq!(*span as usize, size_of::<HyperTangentParams>());
+    let names: Vec<&str> = members.iter().filter_map(|m| m.name.as_deref()).collect();
+    assert_eq!(
+        names,
+        ["n_active", "stride", "ncx", "ncy", "ncz", "pad0", "pad1", "pad2"]
+    );
+}
+
+/// The unit sphere on a shifted level-3 grid at a large smooth displacement.
+fn sphere_tangent_inputs(material: Material) -> (HyperProblem, Vec<f64>) {
+    let g = Geometry::sphere([0.0; 3], 1.0).unwrap();
+    let grid = Grid::new(&Aabb::new([-1.0; 3], [1.0; 3]), 3, [0.13, 0.29, 0.41]).unwrap();
+    let cells = Cells::classify(&grid, &g, cut_rule_points(ElementOrder::Q1)).unwrap();
+    let dirichlet = [DirichletCondition {
+        tag: 0,
+        components: [true; 3],
+        value: Arc::new(|_| [0.0; 3]),
+    }];
+    let p = HyperProblem::new(&grid, &cells, material, 3e4, &dirichlet, &Loads::default()).unwrap();
+    let mut u = vec![0.0; p.ndofs()];
+    for (a, &node) in p.dofs.active_to_node.iter().enumerate() {
+        let x = p.grid.node_position(ElementOrder::Q1, node as usize);
+        u[3 * a] = 0.15 * (x[0] + x[1]).sin();
+        u[3 * a + 1] = 0.1 * x[0] * x[2];
+        u[3 * a + 2] = 0.12 * x[1] * x[1];
+    }
+    (p, u)
+}
+
+#[test]
+fn mirror_plus_cut_cells_is_the_tangent() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    for material in [
+        Material::neo_hookean(1000.0, 0.3),
+        Material::st_venant_kirchhoff(1000.0, 0.3),
+    ] {
+        let (p, u) = sphere_tangent_inputs(material);
+        let tangent = TangentOperator::new(&p, &u).unwrap();
+        let data = InsideTangentData::new(&tangent);
+        let x: Vec<f64> = (0..p.ndofs()).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let prm = HyperTangentParams {
+            n_active: p.dofs.num_active() as u32,
+            ncx: p.grid.n[0] as u32,
+            ncy: p.grid.n[1] as u32,
+            ncz: p.grid.n[2] as u32,
+            ..Default::default()
+        };
+        let mut y = vec![f64::NAN; p.ndofs()];
+        hyper_tangent(
+            &prm,
+            &p.dofs.active_to_node,
+            &p.dofs.node_to_active,
+            &data.inside_index,
+            &data.consts,
+            &data.state,
+            &x,
+            &mut y,
+        );
+        tangent.add_cut_cells(&x, &mut y);
+        let mut want = vec![0.0; p.ndofs()];
+        tangent.apply(&x, &mut want);
+        let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let diff = y
+            .iter()
+            .zip(&want)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(
+            diff <= 1e-12 * scale,
+            "{:?}: {diff:e} of {scale:e}",
+            material.model
+        );
+    }
+}

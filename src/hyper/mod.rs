@@ -1,0 +1,42 @@
+//! Large-deformation (total Lagrangian) hyperelasticity of one immersed body
+//! (DESIGN §6, without contact): the foundation that the contact problems of
+//! the paper's Problem 2 build on.
+//!
+//! - [`material`]: compressible neo-Hookean and St Venant–Kirchhoff, `P(F)` and
+//!   the tangent `A = ∂P/∂F`.
+//! - [`problem`]: the body on its grid (Q1): quadrature points of inside and cut
+//!   cells, Dirichlet penalty points with per-component masks (rollers), dead
+//!   loads.
+//! - [`residual`]: `R(u) = Σ ∫ Bᵀ P(F(u)) dV + (β/h) ∫_ΓD Nᵀ M (u − t g) dA − t f_ext`
+//!   and the potential energy it derives from.
+//! - [`tangent`]: `K_T(u) = ∂R/∂u` matrix-free (a [`crate::backend::LinearOperator`]),
+//!   its diagonal, and assembled (faer).
+//! - [`newton`]: load steps, Newton–Raphson with a line search, step cutting.
+//! - [`mirror`]: the GPU kernel of the inside-cell tangent (`shaders/hyper_tangent.wgsl`),
+//!   its data and its CPU mirror.
+//!
+//! The Dirichlet condition is the penalty part of the stabilised multiplier of
+//! DESIGN §3.1 (`β = k1 E`, the term `(β/h) ∫ N (u − g)`); at `u = 0` the
+//! tangent is exactly the linear operator `K + K_p` of [`crate::fem::operator`]
+//! (tested). The recovered-traction term `F_T` is not included yet: it belongs
+//! with the recovery on the current configuration that the contact work adds.
+//!
+//! Typical use (what a `run` of a hyperelastic case does):
+//! ```no_run
+//! # use cgfem_gpu::hyper::{problem::*, material::Material, newton::*};
+//! # fn f(grid: &cgfem_gpu::grid::Grid, cells: &cgfem_gpu::cells::Cells,
+//! #      dirichlet: &[DirichletCondition]) -> cgfem_gpu::Result<()> {
+//! let problem = HyperProblem::new(grid, cells, Material::neo_hookean(1000.0, 0.3),
+//!                                 30.0 * 1000.0, dirichlet, &Loads::default())?;
+//! let opts = NewtonOptions { steps: 5, ..NewtonOptions::default() };
+//! let mut solution = HyperSolution::zero(&problem);
+//! solve_load_steps(&problem, &opts, &mut CpuTangentSolver::default(),
+//!                  &cgfem_gpu::progress::Silent, &mut solution)?;
+//! # Ok(()) }
+//! ```
+pub mod material;
+pub mod mirror;
+pub mod newton;
+pub mod problem;
+pub mod residual;
+pub mod tangent;

@@ -1,0 +1,374 @@
+//! The nonlinear solve: load stepping, Newton–Raphson with a backtracking line
+//! search, and automatic cutting of a failed step.
+//!
+//! # Load steps
+//! The load factor `t` runs from 0 to 1 in `steps` equal increments; it scales
+//! the prescribed displacements `g` and the dead loads `f_ext` together
+//! (see [`super::residual`]). Each step starts from the last converged `u`.
+//!
+//! # Newton–Raphson
+//! At iteration `k`: solve `K_T(u_k) Δu = −R(u_k)` with the Krylov method of the
+//! options (through [`TangentSolver`], so that any backend can run it), then
+//! backtrack `α = 1, 1/2, 1/4, …` until `‖R(u_k + α Δu)‖ ≤ (1 − 10⁻⁴ α) ‖R(u_k)‖`
+//! (Armijo on the residual norm; a trial with `det F ≤ 0` somewhere, or a
+//! non-finite residual, counts as a failed trial). The step has converged at
+//! `u_k` when both
+//! ```text
+//! ‖R(u_k)‖ ≤ residual_tol · ‖R(u_0)‖      and      |Δu_k · R(u_k)| ≤ energy_tol · |Δu_0 · R(u_0)|
+//! ```
+//! hold (`u_0`: the last converged displacement at the new load factor):
+//! the residual is small and so is the energy of the correction Newton would
+//! still make. That costs one linear solve at the converged state, but the two
+//! tests then look at the same state, and a residual already at round-off
+//! never has to pass the line search again (it could not decrease further).
+//!
+//! # Step cutting
+//! A step fails when Newton runs out of iterations, the line search finds no
+//! decrease, or the Krylov solve fails. The displacement is then reset to the
+//! last converged one and the increment halved; after a converged step at a
+//! cut increment the increment doubles again (up to the nominal one). More
+//! than `max_cuts` halvings of one increment end the solve with
+//! [`Error::LoadStepFailed`], which names the last converged step; the
+//! [`HyperSolution`] passed in then holds that step's displacement.
+
+use super::problem::HyperProblem;
+use super::residual::residual;
+use super::tangent::TangentOperator;
+use crate::backend::{CpuBackend, LinearOperator};
+use crate::error::{Error, Result};
+use crate::progress::{Event, Progress};
+use crate::solver::{solve, KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
+
+/// Solves `K_T Δu = rhs` on some backend, warm-started at `du`.
+pub trait TangentSolver {
+    fn solve(
+        &mut self,
+        tangent: &TangentOperator<'_>,
+        rhs: &[f64],
+        du: &mut Vec<f64>,
+        opts: &KrylovOptions,
+    ) -> Result<KrylovStats>;
+}
+
+/// The CPU backend with the matrix-free tangent (diagonal per tangent).
+#[derive(Clone, Debug, Default)]
+pub struct CpuTangentSolver {
+    be: CpuBackend,
+}
+
+impl TangentSolver for CpuTangentSolver {
+    fn solve(
+        &mut self,
+        tangent: &TangentOperator<'_>,
+        rhs: &[f64],
+        du: &mut Vec<f64>,
+        opts: &KrylovOptions,
+    ) -> Result<KrylovStats> {
+        let diag = (opts.preconditioner == Preconditioner::Jacobi).then(|| tangent.diagonal());
+        solve(&self.be, tangent, diag.as_ref(), &rhs.to_vec(), du, opts)
+    }
+}
+
+/// Settings of the nonlinear solve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NewtonOptions {
+    /// Number of nominal load steps (≥ 1).
+    pub steps: usize,
+    /// Newton iterations allowed per step.
+    pub max_iterations: usize,
+    /// Relative residual tolerance (see the module doc).
+    pub residual_tol: f64,
+    /// Relative energy-norm tolerance of the increment.
+    pub energy_tol: f64,
+    /// Halvings allowed per increment before the solve fails.
+    pub max_cuts: usize,
+    /// Backtracking halvings per line search.
+    pub max_backtracks: usize,
+    /// The inner linear solves.
+    pub krylov: KrylovOptions,
+}
+
+impl Default for NewtonOptions {
+    fn default() -> Self {
+        NewtonOptions {
+            steps: 1,
+            max_iterations: 25,
+            residual_tol: 1e-8,
+            energy_tol: 1e-12,
+            max_cuts: 5,
+            max_backtracks: 10,
+            krylov: KrylovOptions {
+                method: KrylovMethod::BiCgStab,
+                preconditioner: Preconditioner::Jacobi,
+                rel_tol: 1e-10,
+                max_iterations: 20_000,
+            },
+        }
+    }
+}
+
+impl NewtonOptions {
+    /// Checks the ranges (a step count of zero is bad input).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: &str, reason: String| {
+            Err(Error::InvalidSolverOptions {
+                what: what.into(),
+                reason,
+            })
+        };
+        if self.steps == 0 {
+            return bad("steps", "must be at least 1".into());
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations", "must be at least 1".into());
+        }
+        for (name, v) in [
+            ("residual_tol", self.residual_tol),
+            ("energy_tol", self.energy_tol),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(name, format!("must be finite and positive, got {v}"));
+            }
+        }
+        self.krylov.validate()
+    }
+}
+
+/// One attempt at a load step, converged or not.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Load factor at the start and at the end of the step.
+    pub from: f64,
+    pub to: f64,
+    /// Halvings of the nominal increment at this attempt.
+    pub cuts: usize,
+    pub converged: bool,
+    /// `‖R(u_k)‖ / ‖R(u_0)‖`, from `k = 0` (= 1).
+    pub residuals: Vec<f64>,
+    /// `|Δu_k · R(u_k)| / |Δu_0 · R(u_0)|` per linear solve.
+    pub energies: Vec<f64>,
+    /// Line-search step length per update `u_k → u_{k+1}`.
+    pub alphas: Vec<f64>,
+    /// Krylov iterations per linear solve.
+    pub krylov_iterations: Vec<usize>,
+    /// Why the attempt failed.
+    pub failure: Option<String>,
+}
+
+/// The state of a nonlinear solve: the last converged displacement and load
+/// factor, and every step attempt.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HyperSolution {
+    pub u: Vec<f64>,
+    pub load_factor: f64,
+    /// Converged steps so far.
+    pub converged_steps: usize,
+    pub attempts: Vec<StepReport>,
+}
+
+impl HyperSolution {
+    /// The undeformed start of `problem`.
+    pub fn zero(problem: &HyperProblem) -> HyperSolution {
+        HyperSolution {
+            u: vec![0.0; problem.ndofs()],
+            ..HyperSolution::default()
+        }
+    }
+
+    /// Newton iterations of the converged steps.
+    pub fn newton_iterations(&self) -> usize {
+        self.attempts
+            .iter()
+            .filter(|a| a.converged)
+            .map(|a| a.alphas.len())
+            .sum()
+    }
+
+    /// Krylov iterations of every attempt (failed ones included: they were spent).
+    pub fn krylov_iterations(&self) -> usize {
+        self.attempts
+            .iter()
+            .flat_map(|a| &a.krylov_iterations)
+            .sum()
+    }
+}
+
+/// Runs the load steps from `solution` (usually [`HyperSolution::zero`]) to load
+/// factor 1. On failure `solution` holds the last converged step.
+pub fn solve_load_steps(
+    problem: &HyperProblem,
+    opts: &NewtonOptions,
+    solver: &mut dyn TangentSolver,
+    progress: &dyn Progress,
+    solution: &mut HyperSolution,
+) -> Result<()> {
+    opts.validate()?;
+    let nominal = 1.0 / opts.steps as f64;
+    let mut increment = nominal;
+    let mut cuts = 0;
+    let mut solves = 0;
+    while solution.load_factor < 1.0 {
+        let from = solution.load_factor;
+        // The last increment lands exactly on 1.
+        let to = if from + increment > 1.0 - 1e-12 {
+            1.0
+        } else {
+            from + increment
+        };
+        let mut report = StepReport {
+            from,
+            to,
+            cuts,
+            ..StepReport::default()
+        };
+        let mut u = solution.u.clone();
+        let ctx = Context {
+            problem,
+            opts,
+            progress,
+        };
+        match newton_step(&ctx, to, &mut u, solver, &mut report, &mut solves) {
+            Ok(()) => {
+                report.converged = true;
+                solution.u = u;
+                solution.load_factor = to;
+                solution.converged_steps += 1;
+                solution.attempts.push(report);
+                if cuts > 0 {
+                    cuts -= 1;
+                    increment *= 2.0;
+                }
+            }
+            Err(StepFailure::Interrupted(iterations)) => {
+                solution.attempts.push(report);
+                return Err(Error::Interrupted { iterations });
+            }
+            Err(StepFailure::Diverged(reason)) => {
+                report.failure = Some(reason.clone());
+                solution.attempts.push(report);
+                if cuts == opts.max_cuts {
+                    return Err(Error::LoadStepFailed {
+                        step: solution.converged_steps + 1,
+                        load_factor: to,
+                        cuts,
+                        reason,
+                        last_converged_step: solution.converged_steps,
+                        last_converged_load: from,
+                    });
+                }
+                cuts += 1;
+                increment *= 0.5;
+            }
+        }
+    }
+    Ok(())
+}
+
+enum StepFailure {
+    /// Recoverable by a smaller increment.
+    Diverged(String),
+    /// Stopped by the observer after this many Newton iterations.
+    Interrupted(usize),
+}
+
+struct Context<'a> {
+    problem: &'a HyperProblem,
+    opts: &'a NewtonOptions,
+    progress: &'a dyn Progress,
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Newton iterations at load factor `t` from `u`; fills `report`.
+fn newton_step(
+    ctx: &Context<'_>,
+    t: f64,
+    u: &mut [f64],
+    solver: &mut dyn TangentSolver,
+    report: &mut StepReport,
+    solves: &mut usize,
+) -> std::result::Result<(), StepFailure> {
+    let (p, opts) = (ctx.problem, ctx.opts);
+    let diverged = |s: &str| StepFailure::Diverged(s.to_string());
+    let mut r = residual(p, u, t).ok_or_else(|| diverged("an element is inverted at the start"))?;
+    let r0 = norm(&r);
+    report.residuals.push(1.0);
+    if r0 == 0.0 {
+        return Ok(());
+    }
+    let mut e0 = None;
+    for k in 0..opts.max_iterations {
+        if ctx.progress.should_stop() {
+            return Err(StepFailure::Interrupted(k));
+        }
+        let tangent = TangentOperator::new(p, u)
+            .ok_or_else(|| diverged("an element is inverted at the linearisation point"))?;
+        let rhs: Vec<f64> = r.iter().map(|v| -v).collect();
+        let mut du = vec![0.0; u.len()];
+        let stats = solver
+            .solve(&tangent, &rhs, &mut du, &opts.krylov)
+            .map_err(|e| StepFailure::Diverged(format!("linear solve: {e}")))?;
+        ctx.progress.event(&Event::KrylovSolve {
+            index: *solves,
+            iterations: stats.iterations,
+            relative_residual: stats.true_relative_residual,
+        });
+        *solves += 1;
+        report.krylov_iterations.push(stats.iterations);
+        let energy = dot(&du, &r).abs();
+        let e_ref = *e0.get_or_insert(energy);
+        let rel_energy = if e_ref > 0.0 { energy / e_ref } else { 0.0 };
+        report.energies.push(rel_energy);
+        if report
+            .residuals
+            .last()
+            .is_some_and(|&rel| rel <= opts.residual_tol)
+            && rel_energy <= opts.energy_tol
+        {
+            return Ok(());
+        }
+        let (alpha, r_new) = line_search(p, t, u, &du, &r, opts.max_backtracks)
+            .ok_or_else(|| diverged("the line search found no decrease of the residual"))?;
+        for (x, d) in u.iter_mut().zip(&du) {
+            *x += alpha * d;
+        }
+        r = r_new;
+        report.residuals.push(norm(&r) / r0);
+        report.alphas.push(alpha);
+    }
+    Err(StepFailure::Diverged(format!(
+        "no convergence in {} Newton iterations (relative residual {:.3e})",
+        opts.max_iterations,
+        report.residuals.last().copied().unwrap_or(f64::NAN)
+    )))
+}
+
+/// Backtracking on `‖R‖`: the first `α = 2^-j` with
+/// `‖R(u + α du)‖ ≤ (1 − 10⁻⁴ α) ‖R(u)‖`, and the residual there.
+fn line_search(
+    p: &HyperProblem,
+    t: f64,
+    u: &[f64],
+    du: &[f64],
+    r: &[f64],
+    max_backtracks: usize,
+) -> Option<(f64, Vec<f64>)> {
+    let r_norm = norm(r);
+    let mut alpha = 1.0;
+    for _ in 0..=max_backtracks {
+        let trial: Vec<f64> = u.iter().zip(du).map(|(x, d)| x + alpha * d).collect();
+        if let Some(r_trial) = residual(p, &trial, t) {
+            if norm(&r_trial) <= (1.0 - 1e-4 * alpha) * r_norm {
+                return Some((alpha, r_trial));
+            }
+        }
+        alpha *= 0.5;
+    }
+    None
+}

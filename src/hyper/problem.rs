@@ -1,0 +1,269 @@
+//! One hyperelastic body on its grid, set up once: the dofs, the quadrature
+//! points of every non-outside cell with their shape gradients, the Dirichlet
+//! penalty points with their per-component masks, and the external load
+//! vector at load factor 1.
+//!
+//! Inside cells share one rule (2×2×2 Gauss, weights `h³ w`); cut cells carry
+//! their own points from the cut-cell quadrature of [`Cells`]. Q1 only.
+
+use std::sync::Arc;
+
+use crate::cells::{CellKind, Cells};
+use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
+use crate::error::{Error, Result};
+use crate::fem::dofs::DofMap;
+use crate::fem::rhs::add_point_load;
+use crate::grid::Grid;
+
+use super::material::Material;
+
+/// Nodes of a Q1 cell.
+pub const NODES: usize = 8;
+/// Dofs of a Q1 cell.
+pub const CELL_DOFS: usize = 3 * NODES;
+
+/// A vector field of the reference position.
+pub type VectorField = Arc<dyn Fn([f64; 3]) -> [f64; 3] + Send + Sync>;
+/// A traction of the reference position and outward normal.
+pub type TractionField = Arc<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Send + Sync>;
+
+/// A prescribed displacement on one boundary part, imposed by the penalty
+/// `(β/h) ∫ N m_i (u_i − t g_i)` on the components `i` with `m_i = 1`
+/// (all three: a fixed part; one: a roller).
+#[derive(Clone)]
+pub struct DirichletCondition {
+    pub tag: u16,
+    pub components: [bool; 3],
+    /// `g` at load factor 1.
+    pub value: VectorField,
+}
+
+/// Dead loads at load factor 1, on the reference configuration.
+#[derive(Clone, Default)]
+pub struct Loads {
+    pub body: Option<VectorField>,
+    /// Per boundary tag.
+    pub tractions: Vec<(u16, TractionField)>,
+}
+
+/// A volume quadrature point: physical shape gradients `∇_X N_a` and weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuadPoint {
+    pub grads: [[f64; 3]; NODES],
+    pub w: f64,
+}
+
+/// A Dirichlet penalty point: shape values, `w β/h`, mask and `g` at load 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PenaltyPoint {
+    pub n: [f64; NODES],
+    pub weight: f64,
+    pub mask: [f64; 3],
+    pub g: [f64; 3],
+}
+
+/// The body, its grid and its boundary conditions.
+pub struct HyperProblem {
+    pub grid: Grid,
+    pub dofs: DofMap,
+    pub material: Material,
+    /// Penalty `β` (the penalty term carries `β/h`).
+    pub beta: f64,
+    /// Non-outside cells, ascending.
+    pub cells: Vec<usize>,
+    /// Per entry of `cells`: the cell's active node indices.
+    pub cell_nodes: Vec<[u32; NODES]>,
+    /// Per entry of `cells`: `None` for an inside cell, else its cut index.
+    pub cut_index: Vec<Option<usize>>,
+    /// The shared inside-cell rule.
+    pub inside_rule: [QuadPoint; NODES],
+    cut_points: Vec<QuadPoint>,
+    cut_start: Vec<usize>,
+    penalty: Vec<PenaltyPoint>,
+    penalty_start: Vec<usize>,
+    /// `f_ext` at load factor 1.
+    pub external: Vec<f64>,
+}
+
+impl HyperProblem {
+    /// Sets up the body: `cells` must be classified with the Q1 cut rules.
+    pub fn new(
+        grid: &Grid,
+        cells: &Cells,
+        material: Material,
+        beta: f64,
+        dirichlet: &[DirichletCondition],
+        loads: &Loads,
+    ) -> Result<HyperProblem> {
+        check_parameters(&material, beta)?;
+        let dofs = DofMap::new(grid, cells, ElementOrder::Q1);
+        let inv_h = 1.0 / grid.h;
+        let vol = grid.h.powi(3);
+        let inside_rule: [QuadPoint; NODES] = tensor_gauss_rule(2)
+            .iter()
+            .map(|(xi, w)| quad_point(*xi, w * vol, inv_h))
+            .collect::<Vec<_>>()
+            .try_into()
+            .expect("2×2×2 Gauss has 8 points");
+        let mut p = HyperProblem {
+            grid: grid.clone(),
+            dofs,
+            material,
+            beta,
+            cells: Vec::new(),
+            cell_nodes: Vec::new(),
+            cut_index: Vec::new(),
+            inside_rule,
+            cut_points: Vec::new(),
+            cut_start: vec![0],
+            penalty: Vec::new(),
+            penalty_start: vec![0],
+            external: Vec::new(),
+        };
+        for (c, kind) in cells.kinds.iter().enumerate() {
+            let cut = match kind {
+                CellKind::Outside => continue,
+                CellKind::Inside => None,
+                CellKind::Cut => cells.cut_position(c),
+            };
+            let mut nodes = [0usize; NODES];
+            p.dofs.cell_active_nodes(grid, c, &mut nodes);
+            p.cells.push(c);
+            p.cell_nodes.push(nodes.map(|n| n as u32));
+            p.cut_index.push(cut);
+        }
+        for (i, &c) in cells.cut.iter().enumerate() {
+            let x0 = grid.cell_box(c).lo;
+            let xi = |x: [f64; 3]| [0, 1, 2].map(|a| (x[a] - x0[a]) * inv_h);
+            for q in cells.volume_points(i) {
+                p.cut_points.push(quad_point(xi(q.x), q.w, inv_h));
+            }
+            p.cut_start.push(p.cut_points.len());
+            for q in cells.surface_points(i) {
+                for d in dirichlet.iter().filter(|d| d.tag == q.tag) {
+                    let mut n = [0.0; NODES];
+                    shape_values(ElementOrder::Q1, xi(q.x), &mut n);
+                    p.penalty.push(PenaltyPoint {
+                        n,
+                        weight: q.w * beta * inv_h,
+                        mask: d.components.map(|m| if m { 1.0 } else { 0.0 }),
+                        g: (d.value)(q.x),
+                    });
+                }
+            }
+            p.penalty_start.push(p.penalty.len());
+        }
+        p.external = external_loads(grid, cells, &p.dofs, loads);
+        Ok(p)
+    }
+
+    /// Number of unknowns.
+    pub fn ndofs(&self) -> usize {
+        self.dofs.ndofs()
+    }
+
+    /// The volume points of the `k`-th entry of [`Self::cells`].
+    pub fn points(&self, k: usize) -> &[QuadPoint] {
+        match self.cut_index[k] {
+            None => &self.inside_rule,
+            Some(i) => &self.cut_points[self.cut_start[i]..self.cut_start[i + 1]],
+        }
+    }
+
+    /// The penalty points of the `k`-th entry of [`Self::cells`].
+    pub fn penalty_points(&self, k: usize) -> &[PenaltyPoint] {
+        match self.cut_index[k] {
+            None => &[],
+            Some(i) => &self.penalty[self.penalty_start[i]..self.penalty_start[i + 1]],
+        }
+    }
+
+    /// All penalty points (for reaction sums).
+    pub fn all_penalty_points(&self) -> &[PenaltyPoint] {
+        &self.penalty
+    }
+
+    /// The cell's nodal values of a global vector, `[node][component]`.
+    pub fn gather(&self, k: usize, x: &[f64]) -> [[f64; 3]; NODES] {
+        self.cell_nodes[k].map(|a| {
+            let a = 3 * a as usize;
+            [x[a], x[a + 1], x[a + 2]]
+        })
+    }
+
+    /// Adds cell vectors (`[node][component]`, one per entry of
+    /// [`Self::cells`]) into a global vector.
+    pub fn scatter(&self, cell_vectors: &[[[f64; 3]; NODES]], y: &mut [f64]) {
+        for (nodes, v) in self.cell_nodes.iter().zip(cell_vectors) {
+            for (a, &node) in nodes.iter().enumerate() {
+                for i in 0..3 {
+                    y[3 * node as usize + i] += v[a][i];
+                }
+            }
+        }
+    }
+}
+
+fn check_parameters(material: &Material, beta: f64) -> Result<()> {
+    let bad = |what: &str, reason: String| {
+        Err(Error::InvalidSolverOptions {
+            what: what.into(),
+            reason,
+        })
+    };
+    if !(material.mu.is_finite() && material.mu > 0.0 && material.lambda.is_finite()) {
+        return bad(
+            "material",
+            format!(
+                "needs μ > 0 and finite λ, got μ = {}, λ = {}",
+                material.mu, material.lambda
+            ),
+        );
+    }
+    if !(beta.is_finite() && beta >= 0.0) {
+        return bad("penalty", format!("β must be finite and ≥ 0, got {beta}"));
+    }
+    Ok(())
+}
+
+/// The point at reference coordinates `xi` with weight `w`.
+fn quad_point(xi: [f64; 3], w: f64, inv_h: f64) -> QuadPoint {
+    let mut grads = [[0.0; 3]; NODES];
+    shape_gradients(ElementOrder::Q1, xi, &mut grads);
+    QuadPoint {
+        grads: grads.map(|g| g.map(|v| v * inv_h)),
+        w,
+    }
+}
+
+/// `f_ext = ∫ Nᵀ b dV + ∫_ΓN Nᵀ t dA` on the reference configuration, with the
+/// same rules as the linear right-hand side (one Gauss order more inside).
+fn external_loads(grid: &Grid, cells: &Cells, dofs: &DofMap, loads: &Loads) -> Vec<f64> {
+    let mut f = vec![0.0; dofs.ndofs()];
+    if let Some(body) = &loads.body {
+        let rule = tensor_gauss_rule(3);
+        let vol = grid.h.powi(3);
+        for (c, kind) in cells.kinds.iter().enumerate() {
+            if *kind == CellKind::Inside {
+                let lo = grid.cell_box(c).lo;
+                for (xi, w) in &rule {
+                    let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
+                    add_point_load(grid, dofs, c, x, body(x).map(|v| v * w * vol), &mut f);
+                }
+            }
+        }
+        for (i, &c) in cells.cut.iter().enumerate() {
+            for q in cells.volume_points(i) {
+                add_point_load(grid, dofs, c, q.x, body(q.x).map(|v| v * q.w), &mut f);
+            }
+        }
+    }
+    for (i, &c) in cells.cut.iter().enumerate() {
+        for q in cells.surface_points(i) {
+            for (_, t) in loads.tractions.iter().filter(|(tag, _)| *tag == q.tag) {
+                add_point_load(grid, dofs, c, q.x, t(q.x, q.n).map(|v| v * q.w), &mut f);
+            }
+        }
+    }
+    f
+}
