@@ -40,17 +40,18 @@ pub struct GpuSolver<'o> {
 }
 
 impl<'o> GpuSolver<'o> {
-    /// Uploads `op` and its diagonal to the device of `ctx`.
-    pub fn new(ctx: Arc<GpuContext>, op: &'o ElasticOperator, scalars: Scalars) -> Self {
+    /// Uploads `op` and its diagonal to the device of `ctx`
+    /// ([`crate::error::Error::DeviceTooSmall`] when it does not fit).
+    pub fn new(ctx: Arc<GpuContext>, op: &'o ElasticOperator, scalars: Scalars) -> Result<Self> {
         let be = GpuBackend::new(ctx);
-        let dop = GpuOperator::new(&be, op);
+        let dop = GpuOperator::new(&be, op)?;
         let diag = be.diagonal(&dop);
-        GpuSolver {
+        Ok(GpuSolver {
             be,
             op: dop,
             diag,
             scalars,
-        }
+        })
     }
 
     /// The backend (its name and precision go into the report).
