@@ -217,15 +217,18 @@ pub struct GpuContext {
     pub(super) pipelines: Pipelines,
 }
 
-/// The adapter's binding limits, with the binding size lowered to
-/// `CGFEM_MAX_BINDING_BYTES` when that is set (never below
+/// The adapter's binding limits, with the binding size lowered to `lowered`
+/// (the value of `CGFEM_MAX_BINDING_BYTES`) when given (never below
 /// [`BindingLimits::smallest`], never above the adapter's).
-fn binding_limits(limits: &wgpu::Limits) -> Result<BindingLimits> {
+pub(super) fn binding_limits(
+    limits: &wgpu::Limits,
+    lowered: Option<&str>,
+) -> Result<BindingLimits> {
     let adapter = limits
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size);
-    let max_bytes = match std::env::var(MAX_BINDING_ENV) {
-        Ok(v) => v
+    let max_bytes = match lowered {
+        Some(v) => v
             .trim()
             .parse::<u64>()
             .map_err(|e| Error::CaseFile {
@@ -234,7 +237,7 @@ fn binding_limits(limits: &wgpu::Limits) -> Result<BindingLimits> {
                 reason: format!("'{v}' is not a number of bytes: {e}"),
             })?
             .clamp(BindingLimits::smallest(), adapter),
-        Err(_) => adapter,
+        None => adapter,
     };
     Ok(BindingLimits {
         max_bytes,
@@ -287,7 +290,7 @@ impl GpuContext {
             wgpu::Features::empty()
         };
         let limits = adapter.limits();
-        let bindings = binding_limits(&limits)?;
+        let bindings = binding_limits(&limits, std::env::var(MAX_BINDING_ENV).ok().as_deref())?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("cgfem-gpu"),
             required_features,

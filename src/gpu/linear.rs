@@ -45,13 +45,19 @@ impl<'o> GpuSolver<'o> {
     pub fn new(ctx: Arc<GpuContext>, op: &'o ElasticOperator, scalars: Scalars) -> Result<Self> {
         let be = GpuBackend::new(ctx);
         let dop = GpuOperator::new(&be, op)?;
-        let diag = be.diagonal(&dop);
-        Ok(GpuSolver {
+        Ok(Self::with_operator(be, dop, scalars))
+    }
+
+    /// The solver over an operator already uploaded to `be` (tests give
+    /// both with a lowered binding size).
+    pub fn with_operator(be: GpuBackend, op: GpuOperator<'o>, scalars: Scalars) -> Self {
+        let diag = be.diagonal(&op);
+        GpuSolver {
             be,
-            op: dop,
+            op,
             diag,
             scalars,
-        })
+        }
     }
 
     /// The backend (its name and precision go into the report).

@@ -53,9 +53,15 @@ pub struct GpuOperator<'o> {
     params: ApplyParams,
 }
 
-/// The own matrices `own` (`ne2` entries each) in chunks of at most
-/// `max_entries` entries (at least one matrix, at least one chunk).
-fn own_chunks(be: &GpuBackend, own: &[f64], ne2: usize, max_entries: u64) -> Vec<OwnChunk> {
+/// The own matrices `own` (`ne2` entries each, borrowed or owned) in chunks
+/// of at most `max_entries` entries (at least one matrix, at least one chunk).
+fn own_chunks(
+    be: &GpuBackend,
+    own: impl AsRef<[f64]>,
+    ne2: usize,
+    max_entries: u64,
+) -> Vec<OwnChunk> {
+    let own = own.as_ref();
     let per_chunk = ((max_entries as usize) / ne2).max(1);
     let count = own.len() / ne2;
     let mut chunks = Vec::new();
@@ -100,8 +106,7 @@ impl<'o> GpuOperator<'o> {
             degree: op.dofs.order.degree() as u32,
         };
         let ranges = apply_windows(a2n, lattice, be.precision().bytes(), be.bindings())?;
-        let own_all = op.own_matrices();
-        let own = own_chunks(be, &own_all[..], ne * ne, max_entries);
+        let own = own_chunks(be, op.own_matrices(), ne * ne, max_entries);
         let own_count = own.last().map_or(0, |c| c.hi);
         let windows = ranges
             .into_iter()

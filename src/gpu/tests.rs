@@ -304,7 +304,7 @@ fn apply_mirror_over_windows_equals_the_host_operator() {
     assert!(windows.len() >= 3, "{} windows", windows.len());
     let x: Vec<f64> = (0..n).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
     let mut y = vec![f64::NAN; n];
-    let own_all = op.own_matrices();
+    let own_all = op.own_matrices().to_vec();
     let mut next = 0;
     for w in &windows {
         assert_eq!(w.nodes.start, next, "windows tile the nodes");
@@ -336,7 +336,7 @@ fn apply_mirror_over_windows_equals_the_host_operator() {
             &n2a[r(&w.lattice, 1)],
             &slots[r(&w.cells, 1)],
             op.inside_matrix(),
-            &own_all[..],
+            &own_all,
             &x[r(&w.x, 3)],
             &mut y[r(&w.nodes, 3)],
         );
@@ -396,4 +396,26 @@ fn windowed_reductions_equal_the_unsplit_ones_bitwise() {
         mirror::dot2(&prm, &x[r.clone()], &y[r.clone()], &x[r], &mut split);
     }
     assert_eq!(split, unsplit);
+}
+
+/// `CGFEM_MAX_BINDING_BYTES` lowers the binding size, clamped to the
+/// smallest windows accept and to the adapter's; a non-number is a typed
+/// error naming the variable.
+#[test]
+fn the_binding_size_override_is_clamped_and_checked() {
+    use super::context::binding_limits;
+    use super::windows::BindingLimits;
+    let limits = wgpu::Limits {
+        max_storage_buffer_binding_size: 128 << 20,
+        min_storage_buffer_offset_alignment: 64,
+        ..Default::default()
+    };
+    let max = |v| binding_limits(&limits, v).unwrap().max_bytes;
+    assert_eq!(max(None), 128 << 20);
+    assert_eq!(max(Some("65536")), 65536);
+    assert_eq!(max(Some(" 1 ")), BindingLimits::smallest());
+    assert_eq!(max(Some("99999999999")), 128 << 20);
+    assert_eq!(binding_limits(&limits, None).unwrap().align, 64);
+    let e = binding_limits(&limits, Some("64k")).unwrap_err();
+    assert!(e.to_string().contains("CGFEM_MAX_BINDING_BYTES"), "{e}");
 }
