@@ -1,11 +1,11 @@
 //! Arrays over several storage bindings, and device CG's breakdown.
 //!
-//! A 32 KiB binding forced on the level-4 sphere (10 347 dofs) splits every
-//! vector into 3 windows and the apply into ≥ 3 windows with their halos:
-//! apply, dot, dot2 and a whole CGS solve then equal the unsplit GPU run
-//! bitwise (the windows keep every sum in the same order) and the CPU
-//! backend's (1e-12 relative for apply and dots, 1e-10 and ±2 iterations for
-//! the solve, as for the unsplit GPU).
+//! A binding of 4096 entries forced on the level-4 sphere (10 347 dofs)
+//! splits every vector into 3 windows and the apply into ≥ 3 windows with
+//! their halos: apply, dot, dot2 and (f64) a whole CGS solve then equal the
+//! unsplit GPU run bitwise (the windows keep every sum in the same order)
+//! and the CPU backend's (1e-12 relative for apply and dots, 1e-10 and ±2
+//! iterations for the solve, as for the unsplit GPU).
 
 use cgfem_gpu::backend::{Backend, CpuBackend, LinearOperator};
 use cgfem_gpu::error::Error;
@@ -19,7 +19,8 @@ use rand_chacha::ChaCha8Rng;
 
 use super::{assert_close, random, sphere_with};
 
-const SPLIT_BYTES: u64 = 32 * 1024;
+/// The forced binding, in entries: 32 KiB in f64, 16 KiB in f32.
+const SPLIT_ENTRIES: u64 = 4096;
 
 /// `y = A x` on `be`.
 fn apply(be: &GpuBackend, op: &GpuOperator<'_>, x: &[f64]) -> Vec<f64> {
@@ -40,6 +41,7 @@ fn upload<'o>(be: &GpuBackend, op: &'o ElasticOperator) -> GpuOperator<'o> {
     GpuOperator::with_chunk_entries(be, op, u64::MAX).unwrap()
 }
 
+/// f64: split equals unsplit bitwise and the CPU (apply, dots, a CGS solve).
 #[test]
 fn split_bindings_give_the_unsplit_results_and_the_cpus() {
     let Some(ctx) = context_or_skip(PrecisionChoice::F64) else {
@@ -49,14 +51,10 @@ fn split_bindings_give_the_unsplit_results_and_the_cpus() {
     let op = &setup.op;
     let n = op.nrows();
     let whole = GpuBackend::new(ctx.clone());
-    let split = GpuBackend::with_max_binding_bytes(ctx, SPLIT_BYTES);
-    assert!(n.div_ceil(split.bindings().vector_window(8)) >= 3);
+    let split = GpuBackend::with_max_binding_bytes(ctx, SPLIT_ENTRIES * 8);
     let (op_whole, op_split) = (upload(&whole, op), upload(&split, op));
-    assert_eq!(op_whole.windows(), 1);
-    assert!(op_split.windows() >= 3, "{} windows", op_split.windows());
+    let (x, y) = inputs(n, &split, &op_split);
 
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let (x, y) = (random(&mut rng, n), random(&mut rng, n));
     let a_split = apply(&split, &op_split, &x);
     assert_eq!(a_split, apply(&whole, &op_whole, &x), "apply: bitwise");
     let mut host = vec![0.0; n];
@@ -96,6 +94,37 @@ fn split_bindings_give_the_unsplit_results_and_the_cpus() {
     assert_eq!((&u_split, it_split), (&u_whole, it_whole), "solve: bitwise");
     assert_close("split solve vs CPU", &u_split, &u_cpu, 1e-10);
     assert!(it_split.abs_diff(it_cpu) <= 2, "{it_split} vs {it_cpu}");
+}
+
+/// f32: split apply and dots equal the unsplit ones bitwise (the unsplit f32
+/// kernels are checked against their mirrors in `tests/gpu.rs`).
+#[test]
+fn split_bindings_give_the_unsplit_results_in_f32() {
+    let Some(ctx) = context_or_skip(PrecisionChoice::F32) else {
+        return;
+    };
+    let (_, setup) = sphere_with(4, &[]);
+    let n = setup.op.nrows();
+    let whole = GpuBackend::new(ctx.clone());
+    let split = GpuBackend::with_max_binding_bytes(ctx, SPLIT_ENTRIES * 4);
+    let (op_whole, op_split) = (upload(&whole, &setup.op), upload(&split, &setup.op));
+    let (x, y) = inputs(n, &split, &op_split);
+    let a_whole = apply(&whole, &op_whole, &x);
+    assert_eq!(apply(&split, &op_split, &x), a_whole, "apply: bitwise");
+    assert_eq!(dots(&split, &x, &y), dots(&whole, &x, &y), "dots: bitwise");
+}
+
+/// Seeded inputs, after checking that `be` splits vectors and `op` into at
+/// least three windows each.
+fn inputs(n: usize, be: &GpuBackend, op: &GpuOperator<'_>) -> (Vec<f64>, Vec<f64>) {
+    let entries = be.bindings().vector_window(be.precision().bytes());
+    assert!(
+        n.div_ceil(entries) >= 3,
+        "{n} entries in windows of {entries}"
+    );
+    assert!(op.windows() >= 3, "{} apply windows", op.windows());
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    (random(&mut rng, n), random(&mut rng, n))
 }
 
 /// The level-3 sphere's operator with a cut cell's matrix shifted by
