@@ -19,7 +19,7 @@
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::solver::{drive, Cycles, Precond};
+use crate::solver::{breakdown, drive, Cycles, Precond};
 use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
 use super::backend::{GpuBackend, GpuVector};
@@ -124,14 +124,6 @@ pub fn run_iterations(
     stats.relative_residual
 }
 
-fn breakdown(opts: &KrylovOptions, iterations: usize, what: String) -> Error {
-    Error::Breakdown {
-        method: opts.method.name().into(),
-        iterations,
-        what,
-    }
-}
-
 /// `name = v` as a breakdown: not finite, or (`positive`) not positive
 /// (worded like the host path's).
 fn describe(name: &str, v: f64, positive: Option<&str>) -> String {
@@ -196,7 +188,7 @@ impl Cycle<'_, '_> {
         } else {
             describe("ρ = r̃·r", num, None)
         };
-        breakdown(self.opts, iterations, what)
+        breakdown(self.opts.method, iterations, what)
     }
 
     /// Records `z = M⁻¹ v` and returns the buffer holding `M⁻¹ v`.
@@ -262,7 +254,7 @@ impl Cycle<'_, '_> {
             }
             if !rr.is_finite() {
                 let what = format!("‖r‖² is not finite ({rr})");
-                return Err(breakdown(self.opts, stats.iterations, what));
+                return Err(breakdown(self.opts.method, stats.iterations, what));
             }
             if s[0] != 0.0 || stats.iterations >= self.opts.max_iterations {
                 return Ok(());

@@ -23,7 +23,7 @@ pub(super) struct Problem<'a, 'o, B: Backend> {
 }
 
 /// The breakdown error of `method` at `iterations`.
-pub(super) fn breakdown(method: KrylovMethod, iterations: usize, what: String) -> Error {
+pub(crate) fn breakdown(method: KrylovMethod, iterations: usize, what: String) -> Error {
     Error::Breakdown {
         method: method.name().into(),
         iterations,

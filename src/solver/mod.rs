@@ -38,6 +38,7 @@ use crate::error::{Error, Result};
 
 pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 
+pub(crate) use krylov::breakdown;
 use krylov::Problem;
 pub(crate) use precond::Precond;
 
