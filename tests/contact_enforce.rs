@@ -1,0 +1,312 @@
+//! Contact enforcement (issue 8, DESIGN §6): the tangent is the derivative of
+//! the residual (central differences), the forces on slave and master
+//! balance, points apart contribute nothing, a rigid translation of both
+//! bodies changes nothing, and a flat block pressed into a flat block carries
+//! exactly `κ δ A`.
+
+use cgfem_gpu::cells::{cut_rule_points, Cells};
+use cgfem_gpu::contact::{
+    contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
+    Enforcement, SlaveQuadraturePoint, Surface,
+};
+use cgfem_gpu::element::ElementOrder;
+use cgfem_gpu::fem::dofs::DofMap;
+use cgfem_gpu::geometry::Geometry;
+use cgfem_gpu::grid::Grid;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const YOUNG: f64 = 1000.0;
+const PENALTY: f64 = 30.0;
+
+/// One body: grid, dofs and its boundary parts.
+struct BodyMesh {
+    grid: Grid,
+    cells: Cells,
+    dofs: DofMap,
+    geometry: Geometry,
+}
+
+impl BodyMesh {
+    fn new(geometry: Geometry, level: u32, offset: [f64; 3], order: ElementOrder) -> BodyMesh {
+        let grid = Grid::new(&geometry.bounding_box(), level, offset).unwrap();
+        let cells = Cells::classify(&grid, &geometry, cut_rule_points(order)).unwrap();
+        let dofs = DofMap::new(&grid, &cells, order);
+        BodyMesh {
+            grid,
+            cells,
+            dofs,
+            geometry,
+        }
+    }
+
+    fn tag(&self, name: &str) -> u16 {
+        self.geometry.tag_id(name).unwrap()
+    }
+}
+
+/// A slave body, a master body and their pair data (slave dofs first).
+struct TwoBodies {
+    slave: BodyMesh,
+    master: BodyMesh,
+    points: Vec<SlaveQuadraturePoint>,
+    surface: Surface,
+}
+
+impl TwoBodies {
+    fn new(slave: BodyMesh, slave_tag: &str, master: BodyMesh, master_tag: &str) -> TwoBodies {
+        let points = slave_points(&slave.cells, slave.tag(slave_tag));
+        let surface =
+            Surface::from_level_set(&master.grid, &master.geometry, &[master.tag(master_tag)]);
+        TwoBodies {
+            slave,
+            master,
+            points,
+            surface,
+        }
+    }
+
+    fn slave_dofs(&self) -> usize {
+        self.slave.dofs.ndofs()
+    }
+
+    fn ndofs(&self) -> usize {
+        self.slave_dofs() + self.master.dofs.ndofs()
+    }
+
+    fn pair(&self) -> ContactPairData<'_> {
+        ContactPairData {
+            slave: ContactBody {
+                grid: &self.slave.grid,
+                dofs: &self.slave.dofs,
+                offset: 0,
+            },
+            master: ContactBody {
+                grid: &self.master.grid,
+                dofs: &self.master.dofs,
+                offset: self.slave_dofs(),
+            },
+            slave_points: &self.points,
+            master_surface: &self.surface,
+            penalty: PENALTY,
+            young: YOUNG,
+            search_radius: 0.1,
+        }
+    }
+
+    /// Total residual per component on the slave and on the master.
+    fn resultants(&self, e: &Enforcement) -> ([f64; 3], [f64; 3]) {
+        let mut s = [0.0; 3];
+        let mut m = [0.0; 3];
+        let ns = self.slave_dofs();
+        for (d, r) in e.residual.iter().enumerate() {
+            if d < ns {
+                s[d % 3] += r;
+            } else {
+                m[(d - ns) % 3] += r;
+            }
+        }
+        (s, m)
+    }
+}
+
+/// A sphere of radius 0.5 with its lowest point `depth` below the top
+/// (`zmax`, z = 0) of the block [−1, 1]² × [−0.5, 0].
+fn sphere_on_block(depth: f64, level: u32, order: ElementOrder) -> TwoBodies {
+    let sphere = Geometry::sphere([0.03, -0.02, 0.5 - depth], 0.5).unwrap();
+    let block = Geometry::cuboid([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]).unwrap();
+    let slave = BodyMesh::new(sphere, level, [0.31, 0.17, 0.59], order);
+    let master = BodyMesh::new(block, level, [0.13, 0.37, 0.29], order);
+    TwoBodies::new(slave, "surface", master, "zmax")
+}
+
+fn random_field(n: usize, amplitude: f64, seed: u64) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|_| amplitude * rng.gen_range(-1.0..1.0))
+        .collect()
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// `K v` from the triplets.
+fn apply(e: &Enforcement, v: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; v.len()];
+    for t in &e.tangent {
+        out[t.row] += t.val * v[t.col];
+    }
+    out
+}
+
+/// Hit triangles and activity of every point.
+fn active_set(e: &Enforcement) -> Vec<(Option<usize>, bool)> {
+    e.points
+        .iter()
+        .map(|p| (p.hit.map(|h| h.0), p.pressure > 0.0))
+        .collect()
+}
+
+fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: f64) -> f64 {
+    let bodies = sphere_on_block(0.04, level, order);
+    let pair = bodies.pair();
+    let n = bodies.ndofs();
+    let u = random_field(n, 3e-3, 7);
+    let kappa = pair.stiffness();
+    let traction = random_field(bodies.points.len(), traction_scale * kappa * 1e-3, 11);
+    let e = contact_residual_and_tangent(&pair, &u, &traction);
+    let active = e.points.iter().filter(|p| p.pressure > 0.0).count();
+    let hits = e.points.iter().filter(|p| p.hit.is_some()).count();
+    assert!(
+        active >= 10 && hits > active,
+        "{active} active of {hits} hits"
+    );
+    let eps = 1e-6;
+    let mut worst: f64 = 0.0;
+    for seed in 0..4 {
+        let v = random_field(n, 1.0, 100 + seed);
+        let shifted = |s: f64| -> Vec<f64> { (0..n).map(|i| u[i] + s * eps * v[i]).collect() };
+        let (ep, em) = (
+            contact_residual(&pair, &shifted(1.0), &traction),
+            contact_residual(&pair, &shifted(-1.0), &traction),
+        );
+        assert_eq!(
+            active_set(&ep),
+            active_set(&e),
+            "the + step switched the active set"
+        );
+        assert_eq!(
+            active_set(&em),
+            active_set(&e),
+            "the − step switched the active set"
+        );
+        let fd: Vec<f64> = (0..n)
+            .map(|i| (ep.residual[i] - em.residual[i]) / (2.0 * eps))
+            .collect();
+        let kv = apply(&e, &v);
+        let diff: Vec<f64> = (0..n).map(|i| fd[i] - kv[i]).collect();
+        let rel = norm(&diff) / norm(&kv);
+        eprintln!(
+            "{order:?} level {level}, T̂ scale {traction_scale}: {active} active of {hits} hits, \
+             direction {seed}: |Kv| = {:.3e}, |FD − Kv|/|Kv| = {rel:.2e}",
+            norm(&kv)
+        );
+        worst = worst.max(rel);
+    }
+    worst
+}
+
+#[test]
+fn the_tangent_is_the_derivative_of_the_residual() {
+    for (order, level) in [(ElementOrder::Q1, 3), (ElementOrder::Q2, 2)] {
+        for traction_scale in [0.0, 1.0] {
+            let rel = tangent_against_differences(order, level, traction_scale);
+            assert!(rel < 1e-6, "{order:?}: relative error {rel:e}");
+        }
+    }
+}
+
+#[test]
+fn forces_on_slave_and_master_balance_and_survive_a_rigid_translation() {
+    let bodies = sphere_on_block(0.04, 3, ElementOrder::Q1);
+    let pair = bodies.pair();
+    let n = bodies.ndofs();
+    let u = random_field(n, 3e-3, 3);
+    let traction = vec![0.0; bodies.points.len()];
+    let e = contact_residual(&pair, &u, &traction);
+    let (s, m) = bodies.resultants(&e);
+    let scale = norm(&s);
+    let imbalance = norm(&[s[0] + m[0], s[1] + m[1], s[2] + m[2]]) / scale;
+    eprintln!("slave {s:?}, master {m:?}, imbalance {imbalance:.2e}");
+    assert!(scale > 0.0 && imbalance < 1e-12, "{imbalance:e}");
+    // The force on the slave points up (−R is the force), the row agrees.
+    let row = e.contact_row("sphere", 1);
+    assert!(s[2] < 0.0);
+    assert!(
+        (row.normal_force + s[2]).abs() < 0.05 * row.normal_force,
+        "{row:?}"
+    );
+    // Rigid translation of both bodies.
+    let d = [0.011, -0.023, 0.017];
+    let moved: Vec<f64> = (0..n)
+        .map(|i| {
+            let c = if i < bodies.slave_dofs() {
+                i % 3
+            } else {
+                (i - bodies.slave_dofs()) % 3
+            };
+            u[i] + d[c]
+        })
+        .collect();
+    let em = contact_residual(&pair, &moved, &traction);
+    assert_eq!(active_set(&em), active_set(&e));
+    let diff: Vec<f64> = (0..n).map(|i| em.residual[i] - e.residual[i]).collect();
+    let rel = norm(&diff) / norm(&e.residual);
+    eprintln!("rigid translation: |ΔR|/|R| = {rel:.2e}");
+    assert!(rel < 1e-10, "{rel:e}");
+}
+
+#[test]
+fn points_apart_contribute_nothing_unless_the_recovered_traction_holds_them() {
+    // The sphere hovers 0.03 above the block: every hit has a positive gap.
+    let bodies = sphere_on_block(-0.03, 3, ElementOrder::Q1);
+    let pair = bodies.pair();
+    let u = vec![0.0; bodies.ndofs()];
+    let zero = vec![0.0; bodies.points.len()];
+    let e = contact_residual_and_tangent(&pair, &u, &zero);
+    let gaps: Vec<f64> = e.points.iter().filter_map(|p| p.hit.map(|h| h.1)).collect();
+    assert!(
+        gaps.len() > 10 && gaps.iter().all(|&g| g > 0.029),
+        "{gaps:?}"
+    );
+    assert!(e.residual.iter().all(|&r| r == 0.0));
+    assert!(e.tangent.is_empty());
+    let row = e.contact_row("sphere", 1);
+    assert_eq!(
+        (row.normal_force, row.contact_area, row.max_penetration),
+        (0.0, 0.0, 0.0)
+    );
+    // A compressive recovered traction T̂ = −0.05 κ keeps points with
+    // g < 0.05 active (λ = T̂ + κ g < 0): the augmented Lagrangian.
+    let kappa = pair.stiffness();
+    let held = vec![-0.05 * kappa; bodies.points.len()];
+    let e = contact_residual_and_tangent(&pair, &u, &held);
+    let active: Vec<_> = e.points.iter().filter(|p| p.pressure > 0.0).collect();
+    assert!(!active.is_empty() && !e.tangent.is_empty());
+    for p in &active {
+        let g = p.hit.unwrap().1;
+        assert!(g < 0.05 && (p.pressure - kappa * (0.05 - g)).abs() < 1e-9 * kappa);
+    }
+}
+
+#[test]
+fn a_flat_block_pressed_into_a_flat_block_carries_kappa_delta_area() {
+    let delta = 0.01;
+    let upper = Geometry::cuboid([-0.3, -0.3, -delta], [0.3, 0.3, 0.4]).unwrap();
+    let lower = Geometry::cuboid([-1.0, -1.0, -0.5], [1.0, 1.0, 0.0]).unwrap();
+    let order = ElementOrder::Q1;
+    let slave = BodyMesh::new(upper, 3, [0.21, 0.43, 0.37], order);
+    let master = BodyMesh::new(lower, 3, [0.13, 0.37, 0.29], order);
+    let bodies = TwoBodies::new(slave, "zmin", master, "zmax");
+    let pair = bodies.pair();
+    let kappa = pair.stiffness();
+    let area: f64 = bodies.points.iter().map(|p| p.weight).sum();
+    assert!((area - 0.36).abs() < 1e-12, "{area}");
+    let u = vec![0.0; bodies.ndofs()];
+    for recovered in [0.0, -0.5 * kappa * delta] {
+        let traction = vec![recovered; bodies.points.len()];
+        let e = contact_residual(&pair, &u, &traction);
+        let pressure = kappa * delta - recovered;
+        let (s, m) = bodies.resultants(&e);
+        let force = pressure * area;
+        eprintln!("flat: κ = {kappa}, slave resultant {s:?}, master {m:?}, expected ∓{force}");
+        assert!((s[2] + force).abs() < 1e-12 * force && (m[2] - force).abs() < 1e-12 * force);
+        assert!(s[0].abs() + s[1].abs() < 1e-12 * force);
+        let row = e.contact_row("flat", 2);
+        assert!((row.normal_force - force).abs() < 1e-12 * force);
+        assert!((row.contact_area - area).abs() < 1e-12);
+        assert!((row.peak_pressure - pressure).abs() < 1e-12 * pressure);
+        assert!((row.max_penetration - delta).abs() < 1e-14);
+    }
+}
