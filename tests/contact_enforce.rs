@@ -1,13 +1,13 @@
 //! Contact enforcement (issue 8, DESIGN §6): the tangent is the derivative of
-//! the residual (central differences), the forces on slave and master
-//! balance, points apart contribute nothing, a rigid translation of both
-//! bodies changes nothing, and a flat block pressed into a flat block carries
-//! exactly `κ δ A`.
+//! the residual (central differences; frictionless, in stick and in slip),
+//! the forces on slave and master balance, points apart contribute nothing, a
+//! rigid translation of both bodies changes nothing, and a flat block pressed
+//! into a flat block carries exactly `κ δ A`.
 
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::contact::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
-    Enforcement, SlaveQuadraturePoint, Surface,
+    Enforcement, PointHistory, SlaveQuadraturePoint, Surface,
 };
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::fem::dofs::DofMap;
@@ -75,6 +75,10 @@ impl TwoBodies {
     }
 
     fn pair(&self) -> ContactPairData<'_> {
+        self.pair_with_friction(0.0)
+    }
+
+    fn pair_with_friction(&self, friction: f64) -> ContactPairData<'_> {
         ContactPairData {
             slave: ContactBody {
                 grid: &self.slave.grid,
@@ -91,6 +95,7 @@ impl TwoBodies {
             penalty: PENALTY,
             young: YOUNG,
             search_radius: 0.1,
+            friction,
         }
     }
 
@@ -140,46 +145,47 @@ fn apply(e: &Enforcement, v: &[f64]) -> Vec<f64> {
     out
 }
 
-/// Hit triangles and activity of every point.
-fn active_set(e: &Enforcement) -> Vec<(Option<usize>, bool)> {
+/// Hit triangles, activity and slip of every point.
+fn active_set(e: &Enforcement) -> Vec<(Option<usize>, bool, bool)> {
     e.points
         .iter()
-        .map(|p| (p.hit.map(|h| h.0), p.pressure > 0.0))
+        .map(|p| (p.hit.map(|h| h.0), p.pressure > 0.0, p.slipping))
         .collect()
 }
 
-fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: f64) -> f64 {
-    let bodies = sphere_on_block(0.04, level, order);
-    let pair = bodies.pair();
-    let n = bodies.ndofs();
-    let u = random_field(n, 3e-3, 7);
-    let kappa = pair.stiffness();
-    let traction = random_field(bodies.points.len(), traction_scale * kappa * 1e-3, 11);
-    let e = contact_residual_and_tangent(&pair, &u, &traction);
-    let active = e.points.iter().filter(|p| p.pressure > 0.0).count();
-    let hits = e.points.iter().filter(|p| p.hit.is_some()).count();
-    assert!(
-        active >= 10 && hits > active,
-        "{active} active of {hits} hits"
-    );
+fn fresh(recovered: &[f64]) -> Vec<PointHistory> {
+    recovered.iter().map(|&r| PointHistory::fresh(r)).collect()
+}
+
+/// The largest `|FD − K v| / |K v|` over four random directions `v`, with
+/// central differences of step `1e-6`, checking that no step switches a
+/// point's triangle, activity or slip.
+fn worst_directional_error(
+    pair: &ContactPairData,
+    u: &[f64],
+    history: &[PointHistory],
+    what: &str,
+) -> f64 {
+    let n = u.len();
+    let e = contact_residual_and_tangent(pair, u, history);
     let eps = 1e-6;
     let mut worst: f64 = 0.0;
     for seed in 0..4 {
         let v = random_field(n, 1.0, 100 + seed);
         let shifted = |s: f64| -> Vec<f64> { (0..n).map(|i| u[i] + s * eps * v[i]).collect() };
         let (ep, em) = (
-            contact_residual(&pair, &shifted(1.0), &traction),
-            contact_residual(&pair, &shifted(-1.0), &traction),
+            contact_residual(pair, &shifted(1.0), history),
+            contact_residual(pair, &shifted(-1.0), history),
         );
         assert_eq!(
             active_set(&ep),
             active_set(&e),
-            "the + step switched the active set"
+            "{what}: the + step switched the active set"
         );
         assert_eq!(
             active_set(&em),
             active_set(&e),
-            "the − step switched the active set"
+            "{what}: the − step switched the active set"
         );
         let fd: Vec<f64> = (0..n)
             .map(|i| (ep.residual[i] - em.residual[i]) / (2.0 * eps))
@@ -188,13 +194,35 @@ fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: 
         let diff: Vec<f64> = (0..n).map(|i| fd[i] - kv[i]).collect();
         let rel = norm(&diff) / norm(&kv);
         eprintln!(
-            "{order:?} level {level}, T̂ scale {traction_scale}: {active} active of {hits} hits, \
-             direction {seed}: |Kv| = {:.3e}, |FD − Kv|/|Kv| = {rel:.2e}",
+            "{what}, direction {seed}: |Kv| = {:.3e}, |FD − Kv|/|Kv| = {rel:.2e}",
             norm(&kv)
         );
         worst = worst.max(rel);
     }
     worst
+}
+
+fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: f64) -> f64 {
+    let bodies = sphere_on_block(0.04, level, order);
+    let pair = bodies.pair();
+    let u = random_field(bodies.ndofs(), 3e-3, 7);
+    let kappa = pair.stiffness();
+    let history = fresh(&random_field(
+        bodies.points.len(),
+        traction_scale * kappa * 1e-3,
+        11,
+    ));
+    let e = contact_residual(&pair, &u, &history);
+    let active = e.points.iter().filter(|p| p.pressure > 0.0).count();
+    let hits = e.points.iter().filter(|p| p.hit.is_some()).count();
+    assert!(
+        active >= 10 && hits > active,
+        "{active} active of {hits} hits"
+    );
+    let what = format!(
+        "{order:?} level {level}, T̂ scale {traction_scale}, {active} active of {hits} hits"
+    );
+    worst_directional_error(&pair, &u, &history, &what)
 }
 
 #[test]
@@ -213,7 +241,7 @@ fn forces_on_slave_and_master_balance_and_survive_a_rigid_translation() {
     let pair = bodies.pair();
     let n = bodies.ndofs();
     let u = random_field(n, 3e-3, 3);
-    let traction = vec![0.0; bodies.points.len()];
+    let traction = fresh(&vec![0.0; bodies.points.len()]);
     let e = contact_residual(&pair, &u, &traction);
     let (s, m) = bodies.resultants(&e);
     let scale = norm(&s);
@@ -253,7 +281,7 @@ fn points_apart_contribute_nothing_unless_the_recovered_traction_holds_them() {
     let bodies = sphere_on_block(-0.03, 3, ElementOrder::Q1);
     let pair = bodies.pair();
     let u = vec![0.0; bodies.ndofs()];
-    let zero = vec![0.0; bodies.points.len()];
+    let zero = fresh(&vec![0.0; bodies.points.len()]);
     let e = contact_residual_and_tangent(&pair, &u, &zero);
     let gaps: Vec<f64> = e.points.iter().filter_map(|p| p.hit.map(|h| h.1)).collect();
     assert!(
@@ -270,7 +298,7 @@ fn points_apart_contribute_nothing_unless_the_recovered_traction_holds_them() {
     // A compressive recovered traction T̂ = −0.05 κ keeps points with
     // g < 0.05 active (λ = T̂ + κ g < 0): the augmented Lagrangian.
     let kappa = pair.stiffness();
-    let held = vec![-0.05 * kappa; bodies.points.len()];
+    let held = fresh(&vec![-0.05 * kappa; bodies.points.len()]);
     let e = contact_residual_and_tangent(&pair, &u, &held);
     let active: Vec<_> = e.points.iter().filter(|p| p.pressure > 0.0).collect();
     assert!(!active.is_empty() && !e.tangent.is_empty());
@@ -295,7 +323,7 @@ fn a_flat_block_pressed_into_a_flat_block_carries_kappa_delta_area() {
     assert!((area - 0.36).abs() < 1e-12, "{area}");
     let u = vec![0.0; bodies.ndofs()];
     for recovered in [0.0, -0.5 * kappa * delta] {
-        let traction = vec![recovered; bodies.points.len()];
+        let traction = fresh(&vec![recovered; bodies.points.len()]);
         let e = contact_residual(&pair, &u, &traction);
         let pressure = kappa * delta - recovered;
         let (s, m) = bodies.resultants(&e);

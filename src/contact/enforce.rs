@@ -1,6 +1,6 @@
-//! Frictionless contact enforcement (DESIGN §6, issue 8): the contact
-//! residual and its exact tangent for one slave/master pair, by the
-//! stabilised augmented Lagrangian.
+//! Contact enforcement (DESIGN §6, issue 8): the contact residual and its
+//! exact tangent for one slave/master pair, by the stabilised augmented
+//! Lagrangian, frictionless or with Coulomb friction.
 //!
 //! **Unknowns.** The two bodies' nodal displacements form one vector
 //! `u = […, u_s, …, u_m, …]`: each body's [`DofMap`] layout
@@ -35,17 +35,26 @@
 //! `J_s`), on active points (`T̂_N + κ g_N < 0`):
 //! `K_c = Σ w [J_s κ ∇g ⊗ ∇g + J_s λ_N ∇²g + λ_N ∇g ⊗ ∇J_s]`
 //! (row index first). Inactive points contribute nothing to either.
+//!
+//! **Friction** (μ > 0, see [`super::enforce_law`]): a point active at the
+//! last converged step carries a [`PointHistory`]: the master point it
+//! touched (the anchor) and its tangential traction then. The trial
+//! traction `(I − n1⊗n1) t_old + κ g_T`, with the slip
+//! `g_T = (I − n1⊗n1)(x1 − a)` from the anchor's current position `a`, is
+//! returned onto the Coulomb cone `|t_T| ≤ μ |λ_N|`; the conjugate
+//! `w J_s t_T · ∇g_T` joins the residual and its exact derivative the
+//! tangent (non-symmetric in slip). A point without an anchor (first touch in
+//! this step) is frictionless until the step converges.
+//! [`Enforcement::converged_history`] gives the next step's histories.
 
 use faer::sparse::Triplet;
 use rayon::prelude::*;
 
-use super::enforce_gap::{local_gap, LocalGap, F, NVAR, P, X1};
+use super::enforce_local::{point_contact, Local};
 use super::report::{ContactRow, SlaveSample};
-use super::search::{current_normal, MasterSurface};
+use super::search::MasterSurface;
 use super::surface::Surface;
-use super::vec3::dot;
 use crate::cells::Cells;
-use crate::element::{shape_gradients, shape_values};
 use crate::fem::dofs::DofMap;
 use crate::grid::Grid;
 
@@ -101,12 +110,42 @@ pub struct ContactPairData<'a> {
     pub young: f64,
     /// Largest `|g_N|` searched for, in length units.
     pub search_radius: f64,
+    /// Coulomb coefficient `μ` (0: frictionless).
+    pub friction: f64,
 }
 
 impl ContactPairData<'_> {
     /// `κ = k E / h_slave`.
     pub fn stiffness(&self) -> f64 {
         self.penalty * self.young / self.slave.grid.h
+    }
+}
+
+/// A point of the master body's reference configuration and its cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MasterPoint {
+    pub cell: usize,
+    pub x: [f64; 3],
+}
+
+/// What a slave point carries between evaluations.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointHistory {
+    /// The recovered normal traction `T̂_N` (0: pure penalty).
+    pub recovered: f64,
+    /// The master point touched at the last converged step (friction only).
+    pub anchor: Option<MasterPoint>,
+    /// The tangential traction `t_T` at the last converged step.
+    pub tangential: [f64; 3],
+}
+
+impl PointHistory {
+    /// No anchor, no tangential traction, `T̂_N = recovered`.
+    pub fn fresh(recovered: f64) -> PointHistory {
+        PointHistory {
+            recovered,
+            ..PointHistory::default()
+        }
     }
 }
 
@@ -121,8 +160,14 @@ pub struct PointState {
     pub weight: f64,
     /// The master triangle hit and `g_N`, when the search found a contact.
     pub hit: Option<(usize, f64)>,
+    /// The master point hit (the next anchor), when there is a hit.
+    pub master_point: Option<MasterPoint>,
     /// `−λ_N ≥ 0` (compression positive).
     pub pressure: f64,
+    /// `t_T` (zero without friction).
+    pub tangential: [f64; 3],
+    /// Whether `t_T` lies on the Coulomb cone.
+    pub slipping: bool,
 }
 
 /// The contact residual, optionally its tangent, and the points' states.
@@ -154,40 +199,67 @@ impl Enforcement {
             .collect();
         ContactRow::from_samples(pair, step, &samples)
     }
+
+    /// The histories for the next step once this state has converged:
+    /// active points are anchored at their master point with their
+    /// tangential traction; `recovered` gives the next `T̂_N` per point.
+    pub fn converged_history(&self, recovered: &[f64]) -> Vec<PointHistory> {
+        assert_eq!(recovered.len(), self.points.len(), "one T̂_N per point");
+        self.points
+            .iter()
+            .zip(recovered)
+            .map(
+                |(p, &r)| match p.master_point.filter(|_| p.pressure > 0.0) {
+                    Some(anchor) => PointHistory {
+                        recovered: r,
+                        anchor: Some(anchor),
+                        tangential: p.tangential,
+                    },
+                    None => PointHistory::fresh(r),
+                },
+            )
+            .collect()
+    }
 }
 
-/// `R_c` at the global displacement `u` with recovered normal tractions
-/// `traction` (one per slave point).
-pub fn contact_residual(pair: &ContactPairData, u: &[f64], traction: &[f64]) -> Enforcement {
-    enforce(pair, u, traction, false)
+/// `R_c` at the global displacement `u` with the points' histories (one
+/// per slave point).
+pub fn contact_residual(
+    pair: &ContactPairData,
+    u: &[f64],
+    history: &[PointHistory],
+) -> Enforcement {
+    enforce(pair, u, history, false)
 }
 
 /// `R_c` and `K_c` at `u` (see [`contact_residual`]).
 pub fn contact_residual_and_tangent(
     pair: &ContactPairData,
     u: &[f64],
-    traction: &[f64],
+    history: &[PointHistory],
 ) -> Enforcement {
-    enforce(pair, u, traction, true)
+    enforce(pair, u, history, true)
 }
 
-/// Local contributions of one point: global dofs, `R` and row-major `K`.
-struct Local {
-    dofs: Vec<usize>,
-    residual: Vec<f64>,
-    tangent: Vec<f64>,
-}
-
-fn enforce(pair: &ContactPairData, u: &[f64], traction: &[f64], tangent: bool) -> Enforcement {
-    assert_eq!(traction.len(), pair.slave_points.len(), "one T̂_N per point");
+fn enforce(
+    pair: &ContactPairData,
+    u: &[f64],
+    history: &[PointHistory],
+    tangent: bool,
+) -> Enforcement {
+    assert_eq!(
+        history.len(),
+        pair.slave_points.len(),
+        "one history per point"
+    );
     let (master, m) = (pair.master, pair.master_surface);
     let um = &u[master.offset..master.offset + master.dofs.ndofs()];
     let surface = MasterSurface::new(m, m.deformed_by_field(master.grid, master.dofs, um));
     let results: Vec<(PointState, Option<Local>)> = pair
         .slave_points
         .par_iter()
-        .zip(traction)
-        .map(|(p, &t)| point_contact(pair, &surface, u, p, t, tangent))
+        .zip(history)
+        .map(|(p, h)| point_contact(pair, &surface, u, p, h, tangent))
         .collect();
     let mut residual = vec![0.0; u.len()];
     let mut triplets = Vec::new();
@@ -210,193 +282,4 @@ fn enforce(pair: &ContactPairData, u: &[f64], traction: &[f64], tangent: bool) -
         tangent: triplets,
         points,
     }
-}
-
-/// `∂y/∂u` for one point: the global dofs and, per dof, its column of `A`.
-struct Jacobian {
-    dofs: Vec<usize>,
-    columns: Vec<[f64; NVAR]>,
-}
-
-impl Jacobian {
-    /// `y = y0 + A u_local`.
-    fn state(&self, y0: [f64; NVAR], u: &[f64]) -> [f64; NVAR] {
-        let mut y = y0;
-        for (col, &d) in self.columns.iter().zip(&self.dofs) {
-            (0..NVAR).for_each(|r| y[r] += col[r] * u[d]);
-        }
-        y
-    }
-}
-
-/// The active global dofs of `cell` (node-major, three components each) and
-/// the shape values and physical gradients at the reference point `x`.
-fn cell_shape(
-    body: &ContactBody,
-    cell: usize,
-    x: [f64; 3],
-) -> (Vec<usize>, Vec<f64>, Vec<[f64; 3]>) {
-    let npc = body.dofs.order.nodes_per_cell();
-    let mut nodes = vec![0usize; npc];
-    body.grid.cell_nodes(body.dofs.order, cell, &mut nodes);
-    let active = nodes.iter().map(|&n| {
-        let a = body.dofs.node_to_active[n];
-        assert!(
-            a != u32::MAX,
-            "contact point in cell {cell} with an inactive node"
-        );
-        a as usize
-    });
-    let dofs = active
-        .flat_map(|a| (0..3).map(move |i| body.offset + 3 * a + i))
-        .collect();
-    let lo = body.grid.cell_box(cell).lo;
-    let xi = [0, 1, 2].map(|k| (x[k] - lo[k]) / body.grid.h);
-    let mut n = vec![0.0; npc];
-    let mut dn = vec![[0.0; 3]; npc];
-    shape_values(body.dofs.order, xi, &mut n);
-    shape_gradients(body.dofs.order, xi, &mut dn);
-    dn.iter_mut().flatten().for_each(|d| *d /= body.grid.h);
-    (dofs, n, dn)
-}
-
-/// Columns of `A` for the slave dofs: `x1_i` and `F_ij` depend on `u_{a,i}`
-/// through `N_a(X)` and `∂N_a/∂X_j`.
-fn slave_jacobian(body: &ContactBody, p: &SlaveQuadraturePoint) -> Jacobian {
-    let (dofs, n, dn) = cell_shape(body, p.cell, p.x);
-    let columns = (0..dofs.len())
-        .map(|d| {
-            let (a, i) = (d / 3, d % 3);
-            let mut col = [0.0; NVAR];
-            col[X1 + i] = n[a];
-            (0..3).for_each(|j| col[F + 3 * i + j] = dn[a][j]);
-            col
-        })
-        .collect();
-    Jacobian { dofs, columns }
-}
-
-/// Adds the master dofs of triangle `t`'s cell: corner `k`'s component `i`
-/// depends on `u_{b,i}` through `N_b(X_k)`.
-fn add_master_jacobian(jac: &mut Jacobian, body: &ContactBody, surface: &Surface, t: usize) {
-    let cell = surface.triangles[t].cell;
-    let corners = surface.reference_corners(t);
-    let shapes: Vec<(Vec<usize>, Vec<f64>)> = corners
-        .iter()
-        .map(|&x| {
-            let (dofs, n, _) = cell_shape(body, cell, x);
-            (dofs, n)
-        })
-        .collect();
-    for (d, &dof) in shapes[0].0.iter().enumerate() {
-        let (b, i) = (d / 3, d % 3);
-        let mut col = [0.0; NVAR];
-        (0..3).for_each(|k| col[P + 3 * k + i] = shapes[k].1[b]);
-        jac.dofs.push(dof);
-        jac.columns.push(col);
-    }
-}
-
-/// `y0`: the kinematic state at `u = 0`.
-fn reference_state(x: [f64; 3], corners: &[[f64; 3]; 3]) -> [f64; NVAR] {
-    let mut y = [0.0; NVAR];
-    y[X1..X1 + 3].copy_from_slice(&x);
-    (0..3).for_each(|i| y[F + 4 * i] = 1.0);
-    (0..3).for_each(|k| y[P + 3 * k..P + 3 * k + 3].copy_from_slice(&corners[k]));
-    y
-}
-
-fn point_contact(
-    pair: &ContactPairData,
-    surface: &MasterSurface,
-    u: &[f64],
-    p: &SlaveQuadraturePoint,
-    traction: f64,
-    tangent: bool,
-) -> (PointState, Option<Local>) {
-    let mut jac = slave_jacobian(&pair.slave, p);
-    let y_slave = jac.state(reference_state(p.x, &[[0.0; 3]; 3]), u);
-    let f = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y_slave[F + 3 * i + j]));
-    let normal = current_normal(&f, p.normal);
-    let mut state = PointState {
-        x: [y_slave[0], y_slave[1], y_slave[2]],
-        normal,
-        weight: p.weight * super::search::area_ratio(&f, p.normal),
-        hit: None,
-        pressure: 0.0,
-    };
-    let hit = surface
-        .search(state.x, normal, pair.search_radius)
-        .filter(|h| dot(h.master_normal, normal) < 0.0);
-    let Some(hit) = hit else {
-        return (state, None);
-    };
-    add_master_jacobian(&mut jac, &pair.master, pair.master_surface, hit.triangle);
-    let corners = pair.master_surface.reference_corners(hit.triangle);
-    let y = jac.state(reference_state(p.x, &corners), u);
-    let lg = local_gap(&y, p.normal);
-    let kappa = pair.stiffness();
-    let lambda = (traction + kappa * lg.gap.v).min(0.0);
-    state.hit = Some((hit.triangle, lg.gap.v));
-    state.pressure = -lambda;
-    if lambda == 0.0 {
-        return (state, None);
-    }
-    let (w, j) = (p.weight, lg.area_ratio.v);
-    let r_y: Vec<f64> = lg.gap.g.iter().map(|g| w * j * lambda * g).collect();
-    let residual = jac.columns.iter().map(|c| dot_n(c, &r_y)).collect();
-    let tangent = if tangent {
-        local_tangent(&jac.columns, &tangent_in_y(&lg, w, kappa, lambda))
-    } else {
-        Vec::new()
-    };
-    let local = Local {
-        dofs: jac.dofs,
-        residual,
-        tangent,
-    };
-    (state, Some(local))
-}
-
-/// `∂(w J_s λ_N ∇_y g)/∂y = w [J_s κ ∇g ⊗ ∇g + J_s λ_N ∇²g + λ_N ∇g ⊗ ∇J_s]`
-/// on an active point.
-fn tangent_in_y(lg: &LocalGap, w: f64, kappa: f64, lambda: f64) -> Vec<[f64; NVAR]> {
-    let (g, dj, j) = (&lg.gap.g, &lg.area_ratio.g, lg.area_ratio.v);
-    (0..NVAR)
-        .map(|a| {
-            let mut row = [0.0; NVAR];
-            for (b, r) in row.iter_mut().enumerate() {
-                *r = w
-                    * (j * kappa * g[a] * g[b]
-                        + j * lambda * lg.gap.h[a][b]
-                        + lambda * g[a] * dj[b]);
-            }
-            row
-        })
-        .collect()
-}
-
-fn dot_n(a: &[f64; NVAR], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// `Aᵀ K_y A`, row-major over the local dofs.
-fn local_tangent(columns: &[[f64; NVAR]], k_y: &[[f64; NVAR]]) -> Vec<f64> {
-    // (K_y A)_{r, d} for every local dof d.
-    let ka: Vec<[f64; NVAR]> = columns
-        .iter()
-        .map(|c| {
-            let mut out = [0.0; NVAR];
-            (0..NVAR).for_each(|r| out[r] = dot_n(&k_y[r], c));
-            out
-        })
-        .collect();
-    let n = columns.len();
-    let mut k = vec![0.0; n * n];
-    for (a, ca) in columns.iter().enumerate() {
-        for (b, kb) in ka.iter().enumerate() {
-            k[a * n + b] = dot_n(ca, kb);
-        }
-    }
-    k
 }

@@ -1,11 +1,15 @@
-//! The normal gap of one slave point and its area ratio as functions of 21
-//! kinematic quantities, with exact gradients and Hessians.
+//! The normal gap of one slave point, its area ratio, current normal and
+//! tangential slip as functions of 24 kinematic quantities, with exact
+//! gradients and Hessians.
 //!
-//! **Variables** `y = [x1, F, p0, p1, p2]` (indices 0–2, 3–11 row-major
-//! `F_ij` at `3 + 3i + j`, 12–14, 15–17, 18–20): the current slave point
-//! `x1 = X + u_s(X)`, the slave deformation gradient `F = I + ∇_X u_s` there,
-//! and the current corners `p_k = X_k + u_m(X_k)` of the master triangle the
-//! ray hit. Every one of them is *linear* in the nodal displacements, so the
+//! **Variables** `y = [x1, F, p0, p1, p2, a]` (indices 0–2, 3–11 row-major
+//! `F_ij` at `3 + 3i + j`, 12–14, 15–17, 18–20, 21–23): the current slave
+//! point `x1 = X + u_s(X)`, the slave deformation gradient `F = I + ∇_X u_s`
+//! there, the current corners `p_k = X_k + u_m(X_k)` of the master triangle
+//! the ray hit, and the current position `a = Â + u_m(Â)` of the friction
+//! anchor `Â` (the master point touched at the last converged step; unused
+//! without friction). Every one of them is *linear* in the nodal
+//! displacements, so the
 //! chain rule to the dofs needs no second derivative of `y`:
 //! `∇_u g = Aᵀ ∇_y g`, `∇²_u g = Aᵀ ∇²_y g A` with `A = ∂y/∂u` constant.
 //!
@@ -18,11 +22,14 @@
 //! (the barycentric coordinates of `x2`, and their variation, are
 //! eliminated by projecting on `ν`). The area ratio is
 //! `J_s = da/dA = |c|`.
+//!
+//! **Slip.** The tangential relative displacement from the anchor,
+//! `g_T = (I − n1 ⊗ n1)(x1 − a)`.
 
 use super::enforce_dual::HyperDual;
 
 /// Number of kinematic variables.
-pub const NVAR: usize = 21;
+pub const NVAR: usize = 24;
 
 /// Offset of `x1` in `y`.
 pub const X1: usize = 0;
@@ -30,15 +37,24 @@ pub const X1: usize = 0;
 pub const F: usize = 3;
 /// Offset of master corner `k` in `y` is `P + 3k`.
 pub const P: usize = 12;
+/// Offset of the anchor `a` in `y`.
+pub const A: usize = 21;
 
-type D = HyperDual<NVAR>;
+/// A scalar with derivatives in `y`.
+pub type D = HyperDual<NVAR>;
 type V = [D; 3];
 
-/// The gap and the area ratio, each with derivatives in `y`.
+/// The point's kinematics, each with derivatives in `y`.
 #[derive(Clone, Debug)]
 pub struct LocalGap {
+    /// `g_N`.
     pub gap: D,
+    /// `J_s`.
     pub area_ratio: D,
+    /// `n1`.
+    pub normal: [D; 3],
+    /// `g_T`.
+    pub slip: [D; 3],
 }
 
 fn vector(y: &[f64; NVAR], at: usize) -> V {
@@ -81,7 +97,17 @@ pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3]) -> LocalGap {
     let nu = cross(&sub(&p[1], &p[0]), &sub(&p[2], &p[0]));
     let area_ratio = dot(&c, &c).sqrt();
     let gap = area_ratio * dot(&sub(&p[0], &x1), &nu) * dot(&c, &nu).recip();
-    LocalGap { gap, area_ratio }
+    let inverse_norm = area_ratio.recip();
+    let n1 = c.map(|ci| ci * inverse_norm);
+    let d = sub(&x1, &vector(y, A));
+    let normal_part = dot(&n1, &d);
+    let slip = [0, 1, 2].map(|i| d[i] - n1[i] * normal_part);
+    LocalGap {
+        gap,
+        area_ratio,
+        normal: n1,
+        slip,
+    }
 }
 
 #[cfg(test)]
@@ -100,6 +126,7 @@ mod tests {
         for k in 0..3 {
             y[P + 3 * k..P + 3 * k + 3].copy_from_slice(&p[k]);
         }
+        y[A..A + 3].copy_from_slice(&[0.13, -0.01, -0.04]);
         y
     }
 
@@ -119,6 +146,9 @@ mod tests {
         let off: f64 = (0..3).map(|i| (x2[i] - p[0][i]) * nu[i]).sum();
         assert!(off.abs() < 1e-14, "{off}");
         assert!((lg.area_ratio.v - crate::contact::area_ratio(&fm, n_ref)).abs() < 1e-14);
+        // The slip is tangential.
+        let along: f64 = (0..3).map(|i| lg.slip[i].v * n1[i]).sum();
+        assert!(along.abs() < 1e-15, "{along}");
         // Hessian columns against central differences of the gradient.
         let eps = 1e-6;
         for b in 0..NVAR {
@@ -136,6 +166,16 @@ mod tests {
             }
             let fd = (gp.v - gm.v) / (2.0 * eps);
             assert!((fd - lg.gap.g[b]).abs() < 1e-8, "{b}");
+            let (sp, sm) = (local_gap(&yp, n_ref).slip, local_gap(&ym, n_ref).slip);
+            for i in 0..3 {
+                for a in 0..NVAR {
+                    let fd = (sp[i].g[a] - sm[i].g[a]) / (2.0 * eps);
+                    assert!(
+                        (fd - lg.slip[i].h[a][b]).abs() < 1e-7,
+                        "slip {i} ({a}, {b})"
+                    );
+                }
+            }
         }
     }
 }

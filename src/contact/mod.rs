@@ -11,14 +11,17 @@
 //!   point `x1` along the current slave normal `n1` to the current master
 //!   surface, the normal gap `g_N = (x2 − x1)·n1` — and the current normal by
 //!   Nanson's formula.
-//! - [`enforce`]: the frictionless contact residual and its exact tangent
-//!   by the stabilised augmented Lagrangian, on the two bodies' dofs.
+//! - [`enforce`]: the contact residual and its exact tangent by the
+//!   stabilised augmented Lagrangian, frictionless or with Coulomb friction,
+//!   on the two bodies' dofs.
 //! - [`report`]: the per-pair, per-step `contact` row of the report.
 
 pub mod bvh;
 pub mod enforce;
 mod enforce_dual;
 mod enforce_gap;
+mod enforce_law;
+mod enforce_local;
 mod marching;
 pub mod report;
 pub mod search;
@@ -28,7 +31,7 @@ mod vec3;
 pub use bvh::{Bvh, Hit};
 pub use enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
-    Enforcement, PointState, SlaveQuadraturePoint,
+    Enforcement, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,
 };
 pub use report::{ContactRow, SlaveSample};
 pub use search::{
