@@ -255,23 +255,32 @@ fn forces_on_slave_and_master_balance_and_survive_a_rigid_translation() {
         (row.normal_force + s[2]).abs() < 0.05 * row.normal_force,
         "{row:?}"
     );
-    // Rigid translation of both bodies.
+    assert_translation_invariant(&bodies, &pair, &u, &traction);
+}
+
+/// `R_c` is unchanged when both bodies translate rigidly.
+fn assert_translation_invariant(
+    bodies: &TwoBodies,
+    pair: &ContactPairData,
+    u: &[f64],
+    history: &[PointHistory],
+) {
     let d = [0.011, -0.023, 0.017];
-    let moved: Vec<f64> = (0..n)
-        .map(|i| {
-            let c = if i < bodies.slave_dofs() {
-                i % 3
-            } else {
-                (i - bodies.slave_dofs()) % 3
-            };
-            u[i] + d[c]
-        })
+    let ns = bodies.slave_dofs();
+    let moved: Vec<f64> = (0..u.len())
+        .map(|i| u[i] + d[if i < ns { i % 3 } else { (i - ns) % 3 }])
         .collect();
-    let em = contact_residual(&pair, &moved, &traction);
+    let e = contact_residual(pair, u, history);
+    let em = contact_residual(pair, &moved, history);
     assert_eq!(active_set(&em), active_set(&e));
-    let diff: Vec<f64> = (0..n).map(|i| em.residual[i] - e.residual[i]).collect();
+    let diff: Vec<f64> = (0..u.len())
+        .map(|i| em.residual[i] - e.residual[i])
+        .collect();
     let rel = norm(&diff) / norm(&e.residual);
-    eprintln!("rigid translation: |ΔR|/|R| = {rel:.2e}");
+    eprintln!(
+        "rigid translation (μ = {}): |ΔR|/|R| = {rel:.2e}",
+        pair.friction
+    );
     assert!(rel < 1e-10, "{rel:e}");
 }
 
@@ -336,5 +345,96 @@ fn a_flat_block_pressed_into_a_flat_block_carries_kappa_delta_area() {
         assert!((row.contact_area - area).abs() < 1e-12);
         assert!((row.peak_pressure - pressure).abs() < 1e-12 * pressure);
         assert!((row.max_penetration - delta).abs() < 1e-14);
+    }
+}
+
+/// The sphere pressed 0.04 into the block at a random `u_prev`, anchored
+/// there (frictionless step) with tangential tractions `5% · p` along x
+/// set by hand, then slid by `slide` along x plus random noise.
+fn slid_sphere(slide: f64) -> (TwoBodies, Vec<f64>, Vec<PointHistory>) {
+    let bodies = sphere_on_block(0.04, 3, ElementOrder::Q1);
+    let n = bodies.ndofs();
+    let u_prev = random_field(n, 1e-3, 5);
+    let zeros = vec![0.0; bodies.points.len()];
+    let previous = contact_residual(&bodies.pair(), &u_prev, &fresh(&zeros));
+    let mut history = previous.converged_history(&zeros);
+    for (h, p) in history.iter_mut().zip(&previous.points) {
+        h.tangential = [0.05 * p.pressure, 0.02 * p.pressure, 0.0];
+    }
+    let noise = random_field(n, 1e-4, 9);
+    let ns = bodies.slave_dofs();
+    let u = (0..n)
+        .map(|i| u_prev[i] + noise[i] + if i < ns && i % 3 == 0 { slide } else { 0.0 })
+        .collect();
+    (bodies, u, history)
+}
+
+#[test]
+fn the_friction_tangent_is_the_derivative_of_the_residual_in_stick_and_slip() {
+    for (mu, slide, regime) in [(10.0, 1e-3, "stick"), (0.2, 0.06, "slip")] {
+        let (bodies, u, history) = slid_sphere(slide);
+        let pair = bodies.pair_with_friction(mu);
+        let e = contact_residual(&pair, &u, &history);
+        let anchored = |i: usize| history[i].anchor.is_some();
+        let active: Vec<usize> = (0..e.points.len())
+            .filter(|&i| e.points[i].pressure > 0.0 && anchored(i))
+            .collect();
+        let slipping = active.iter().filter(|&&i| e.points[i].slipping).count();
+        let sticking = active.len() - slipping;
+        let other_cell = active
+            .iter()
+            .filter(|&&i| {
+                history[i].anchor.map(|a| a.cell) != e.points[i].master_point.map(|m| m.cell)
+            })
+            .count();
+        let what = format!(
+            "μ = {mu}, slide {slide}: {sticking} stick, {slipping} slip, \
+             {other_cell} anchored in another master cell than the hit"
+        );
+        let main = if regime == "stick" {
+            sticking
+        } else {
+            slipping
+        };
+        assert!(main >= 10 && 2 * main > active.len(), "{what}");
+        for &i in &active {
+            let p = &e.points[i];
+            let t = p.tangential;
+            let size = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            let along = t[0] * p.normal[0] + t[1] * p.normal[1] + t[2] * p.normal[2];
+            assert!(
+                along.abs() < 1e-9 * (size + p.pressure),
+                "{what}: t_T·n1 = {along}"
+            );
+            assert!(
+                size <= mu * p.pressure * (1.0 + 1e-12),
+                "{what}: outside the cone"
+            );
+            if p.slipping {
+                assert!(
+                    (size - mu * p.pressure).abs() < 1e-9 * size,
+                    "{what}: not on the cone"
+                );
+            }
+        }
+        let rel = worst_directional_error(&pair, &u, &history, &what);
+        assert!(rel < 1e-6, "{what}: relative error {rel:e}");
+        // Friction forces balance too.
+        let (s, m) = bodies.resultants(&e);
+        let imbalance = norm(&[s[0] + m[0], s[1] + m[1], s[2] + m[2]]) / norm(&s);
+        eprintln!("{what}: slave resultant {s:?}, imbalance {imbalance:.2e}");
+        assert!(imbalance < 1e-12 && s[0] > 0.0, "{imbalance:e}, {s:?}");
+        // On the flat master the tangential resultant is friction alone,
+        // at most μ × the normal force, and all of it when everything slips.
+        let friction = (s[0] * s[0] + s[1] * s[1]).sqrt();
+        let normal_force = e.contact_row("sphere", 1).normal_force;
+        assert!(friction <= mu * normal_force * (1.0 + 1e-12));
+        if regime == "slip" {
+            assert!(
+                other_cell > 0 && friction > 0.9 * mu * normal_force,
+                "{what}"
+            );
+        }
+        assert_translation_invariant(&bodies, &pair, &u, &history);
     }
 }

@@ -10,14 +10,15 @@
 //! with the pair's slave tag ([`slave_points`]): reference position `X`,
 //! reference unit outward normal `N`, weight `w = dΓ_0`.
 //!
-//! **Kinematics** (see [`super::enforce_gap`]). `x1 = X + u_s(X)`, current
+//! **Kinematics** (module `enforce_gap`). `x1 = X + u_s(X)`, current
 //! normal `n1` by Nanson, area ratio `J_s = |cof(F) N|`; the ray search on
 //! the current master surface (built from `u_m` at every call) gives the
 //! master triangle, whose current corners `p_k = X_k + u_m(X_k)` are
 //! evaluated with the shape functions of the triangle's master cell; then
 //! `g_N = |c| (p0 − x1)·ν / (c·ν)`, exactly the search's `(x2 − x1)·n1`.
-//! A hit whose master normal does not oppose `n1` (`n1·m ≥ 0`: the far side
-//! of the master, or a point behind the slave's own front) is no contact.
+//! A hit whose master normal `m` does not oppose `n1` (`n1·m ≥ 0`, e.g. a
+//! backward ray from a slave point beside the contact zone reaching the
+//! master's surface under it, or the master's far side) is no contact.
 //!
 //! **Multiplier.** `λ_N = min(0, T̂_N + κ g_N)` with `T̂_N` the given
 //! recovered normal traction of the point (held fixed in the linearisation;
@@ -36,7 +37,7 @@
 //! `K_c = Σ w [J_s κ ∇g ⊗ ∇g + J_s λ_N ∇²g + λ_N ∇g ⊗ ∇J_s]`
 //! (row index first). Inactive points contribute nothing to either.
 //!
-//! **Friction** (μ > 0, see [`super::enforce_law`]): a point active at the
+//! **Friction** (μ > 0, module `enforce_law`): a point active at the
 //! last converged step carries a [`PointHistory`]: the master point it
 //! touched (the anchor) and its tangential traction then. The trial
 //! traction `(I − n1⊗n1) t_old + κ g_T`, with the slip
