@@ -157,6 +157,12 @@ pub fn point_contact(
         cell: hit.cell,
         x: hit.reference_x2,
     });
+    state.hit = Some((hit.triangle, hit.gap));
+    // Clearly inactive points skip the derivatives (the search's gap equals
+    // the closed form to round-off; the law decides on the latter).
+    if history.recovered + pair.stiffness() * hit.gap > 0.0 {
+        return (state, None);
+    }
     let corners = pair.master_surface.reference_corners(hit.triangle);
     let anchor = history.anchor.filter(|_| pair.friction > 0.0);
     let mut in_hit_cell: Vec<(usize, [f64; 3])> = (0..3).map(|k| (P + 3 * k, corners[k])).collect();
