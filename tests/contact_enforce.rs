@@ -482,3 +482,30 @@ fn a_rigid_sphere_on_a_flat_block_converges_to_the_penalty_integrals() {
         assert!(errors[3][k] < 1e-3 && rate > 1.0, "{errors:?}");
     }
 }
+
+#[test]
+fn the_tangent_holds_between_plane_strain_slabs() {
+    // Issue 8's annuli: rings one cell thick (caps on node planes), 0.03
+    // apart between centres 1.97 apart, so their outer circles overlap.
+    let h = 2.0 / 16.0;
+    let ring =
+        |cx: f64| Geometry::annulus([cx, 0.0, -h / 2.0], [cx, 0.0, h / 2.0], 0.6, 1.0).unwrap();
+    let order = ElementOrder::Q1;
+    let slave = BodyMesh::new(ring(-0.97), 4, [0.3, 0.6, 0.0], order);
+    let master = BodyMesh::new(ring(1.0), 4, [0.7, 0.1, 0.0], order);
+    assert_eq!((slave.grid.n[2], master.grid.n[2]), (1, 1));
+    let bodies = TwoBodies::new(slave, "outer", master, "outer");
+    let pair = bodies.pair_with_friction(0.0);
+    let u = random_field(bodies.ndofs(), 1e-3, 21);
+    let history = fresh(&vec![0.0; bodies.points.len()]);
+    let e = contact_residual(&pair, &u, &history);
+    let active = e.points.iter().filter(|p| p.pressure > 0.0).count();
+    assert!(active >= 4, "{active} active");
+    let what = format!("slabs, {active} active");
+    let rel = worst_directional_error(&pair, &u, &history, &what);
+    assert!(rel < 1e-6, "{what}: relative error {rel:e}");
+    let (s, m) = bodies.resultants(&e);
+    let imbalance = norm(&[s[0] + m[0], s[1] + m[1], s[2] + m[2]]) / norm(&s);
+    eprintln!("{what}: slave resultant {s:?}, imbalance {imbalance:.2e}");
+    assert!(imbalance < 1e-12 && s[0] > 0.0);
+}

@@ -32,7 +32,7 @@
 //! **Residual** (virtual work on the current surface, `da = J_s dA`):
 //! `R_c = Σ_points w J_s λ_N ∇_u g_N`, `λ_N` being the Cauchy normal
 //! traction (negative in compression); `−R_c` is the contact force on the
-//! dofs. **Tangent** (exact derivative of `R_c`, non-symmetric through
+//! dofs, so `R_c` (and `K_c`) add to the bodies' `R = f_int − f_ext`. **Tangent** (exact derivative of `R_c`, non-symmetric through
 //! `J_s`), on active points (`T̂_N + κ g_N < 0`):
 //! `K_c = Σ w [J_s κ ∇g ⊗ ∇g + J_s λ_N ∇²g + λ_N ∇g ⊗ ∇J_s]`
 //! (row index first). Inactive points contribute nothing to either.
