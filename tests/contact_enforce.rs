@@ -136,12 +136,10 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// `K v` from the triplets.
+/// `K v`, matrix-free.
 fn apply(e: &Enforcement, v: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; v.len()];
-    for t in &e.tangent {
-        out[t.row] += t.val * v[t.col];
-    }
+    e.tangent.apply_add(v, &mut out);
     out
 }
 
@@ -419,6 +417,7 @@ fn the_friction_tangent_is_the_derivative_of_the_residual_in_stick_and_slip() {
         }
         let rel = worst_directional_error(&pair, &u, &history, &what);
         assert!(rel < 1e-6, "{what}: relative error {rel:e}");
+        assert_assembled_equals_factored(&contact_residual_and_tangent(&pair, &u, &history));
         // Friction forces balance too.
         let (s, m) = bodies.resultants(&e);
         let imbalance = norm(&[s[0] + m[0], s[1] + m[1], s[2] + m[2]]) / norm(&s);
@@ -508,4 +507,29 @@ fn the_tangent_holds_between_plane_strain_slabs() {
     let imbalance = norm(&[s[0] + m[0], s[1] + m[1], s[2] + m[2]]) / norm(&s);
     eprintln!("{what}: slave resultant {s:?}, imbalance {imbalance:.2e}");
     assert!(imbalance < 1e-12 && s[0] > 0.0);
+}
+
+/// The assembled triplets give the same `K v` and diagonal as the factored
+/// tangent.
+fn assert_assembled_equals_factored(e: &Enforcement) {
+    let n = e.residual.len();
+    let v = random_field(n, 1.0, 77);
+    let mut kv = vec![0.0; n];
+    let mut diagonal = vec![0.0; n];
+    for t in e.tangent.triplets() {
+        kv[t.row] += t.val * v[t.col];
+        if t.row == t.col {
+            diagonal[t.row] += t.val;
+        }
+    }
+    let factored = apply(e, &v);
+    let mut factored_diagonal = vec![0.0; n];
+    e.tangent.add_diagonal(&mut factored_diagonal);
+    let rel = |a: &[f64], b: &[f64]| {
+        let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+        norm(&d) / norm(b)
+    };
+    let (r1, r2) = (rel(&factored, &kv), rel(&factored_diagonal, &diagonal));
+    eprintln!("assembled vs factored: K v {r1:.1e}, diagonal {r2:.1e}");
+    assert!(r1 < 1e-13 && r2 < 1e-13, "{r1:e} {r2:e}");
 }

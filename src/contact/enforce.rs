@@ -48,10 +48,10 @@
 //! this step) is frictionless until the step converges.
 //! [`Enforcement::converged_history`] gives the next step's histories.
 
-use faer::sparse::Triplet;
 use rayon::prelude::*;
 
 use super::enforce_local::{point_contact, Local};
+use super::enforce_tangent::ContactTangent;
 use super::report::{ContactRow, SlaveSample};
 use super::search::MasterSurface;
 use super::surface::Surface;
@@ -176,9 +176,9 @@ pub struct PointState {
 pub struct Enforcement {
     /// `R_c`, as long as the global vector.
     pub residual: Vec<f64>,
-    /// `K_c` as (row, column, value) triplets with repeats (to be summed);
-    /// empty when only the residual was asked for.
-    pub tangent: Vec<Triplet<usize, usize, f64>>,
+    /// `K_c`, factored per point (apply it, take its diagonal or assemble
+    /// it); empty when only the residual was asked for.
+    pub tangent: ContactTangent,
     /// One per slave point, in the order of [`ContactPairData::slave_points`].
     pub points: Vec<PointState>,
 }
@@ -263,24 +263,19 @@ fn enforce(
         .map(|(p, h)| point_contact(pair, &surface, u, p, h, tangent))
         .collect();
     let mut residual = vec![0.0; u.len()];
-    let mut triplets = Vec::new();
+    let mut factors = ContactTangent::default();
     let mut points = Vec::with_capacity(results.len());
     for (state, local) in results {
         points.push(state);
         let Some(local) = local else { continue };
-        let n = local.dofs.len();
-        for (a, &da) in local.dofs.iter().enumerate() {
-            residual[da] += local.residual[a];
-            if tangent {
-                for (b, &db) in local.dofs.iter().enumerate() {
-                    triplets.push(Triplet::new(da, db, local.tangent[a * n + b]));
-                }
-            }
+        for (&d, r) in local.dofs.iter().zip(&local.residual) {
+            residual[d] += r;
         }
+        factors.points.extend(local.tangent);
     }
     Enforcement {
         residual,
-        tangent: triplets,
+        tangent: factors,
         points,
     }
 }

@@ -6,21 +6,23 @@
 //! from the shape functions: the slave cell's `N_a(X)` and `∂N_a/∂X` for
 //! `x1` and `F`, the hit triangle's master cell's `N_b(X_k)` for the corners
 //! `p_k`, and the anchor cell's `N_b(Â)` for `a`. So `R_local = Aᵀ R_y` and
-//! `K_local = Aᵀ K_y A` exactly.
+//! `K_local = Aᵀ K_y A` exactly (kept factored, see `enforce_tangent`).
 
 use super::enforce::SlaveQuadraturePoint;
 use super::enforce::{ContactBody, ContactPairData, MasterPoint, PointHistory, PointState};
 use super::enforce_gap::{local_gap, A, F, NVAR, P, X1};
 use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
+use super::enforce_tangent::PointTangent;
 use super::search::{area_ratio, current_normal, MasterSurface};
 use super::vec3::dot;
 use crate::element::{shape_gradients, shape_values};
 
-/// Local contributions of one point: global dofs, `R` and row-major `K`.
+/// Local contributions of one point: global dofs, `R` and, when asked
+/// for, the factored tangent.
 pub struct Local {
     pub dofs: Vec<usize>,
     pub residual: Vec<f64>,
-    pub tangent: Vec<f64>,
+    pub tangent: Option<PointTangent>,
 }
 
 /// `∂y/∂u` for one point: the global dofs and, per dof, its column of `A`.
@@ -194,11 +196,11 @@ pub fn point_contact(
     }
     let r_y = residual_in_y(&lg, &tr, p.weight);
     let residual = jac.columns.iter().map(|c| dot_n(c, &r_y)).collect();
-    let tangent = if tangent {
-        local_tangent(&jac.columns, &tangent_in_y(&lg, &tr, p.weight))
-    } else {
-        Vec::new()
-    };
+    let tangent = tangent.then(|| PointTangent {
+        dofs: jac.dofs.clone(),
+        columns: jac.columns,
+        k_y: tangent_in_y(&lg, &tr, p.weight),
+    });
     let local = Local {
         dofs: jac.dofs,
         residual,
@@ -209,25 +211,4 @@ pub fn point_contact(
 
 fn dot_n(a: &[f64; NVAR], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// `Aᵀ K_y A`, row-major over the local dofs.
-fn local_tangent(columns: &[[f64; NVAR]], k_y: &[[f64; NVAR]]) -> Vec<f64> {
-    // (K_y A)_{r, d} for every local dof d.
-    let ka: Vec<[f64; NVAR]> = columns
-        .iter()
-        .map(|c| {
-            let mut out = [0.0; NVAR];
-            (0..NVAR).for_each(|r| out[r] = dot_n(&k_y[r], c));
-            out
-        })
-        .collect();
-    let n = columns.len();
-    let mut k = vec![0.0; n * n];
-    for (a, ca) in columns.iter().enumerate() {
-        for (b, kb) in ka.iter().enumerate() {
-            k[a * n + b] = dot_n(ca, kb);
-        }
-    }
-    k
 }

@@ -22,6 +22,7 @@ mod enforce_dual;
 mod enforce_gap;
 mod enforce_law;
 mod enforce_local;
+mod enforce_tangent;
 mod marching;
 pub mod report;
 pub mod search;
@@ -33,6 +34,7 @@ pub use enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
     Enforcement, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,
 };
+pub use enforce_tangent::ContactTangent;
 pub use report::{ContactRow, SlaveSample};
 pub use search::{
     area_ratio, current_normal, slave_point, ContactPoint, MasterSurface, SlavePoint,
