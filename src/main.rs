@@ -93,6 +93,11 @@ enum Command {
         /// cut-sweep: skip the condition numbers (iterations only).
         #[arg(long)]
         no_condition: bool,
+        /// Element order: q1, q2 or all (default: fig3 all, the others q1;
+        /// table1 and cut-sweep run the first element of all).
+        /// Q2 runs cases/sphere_q2.toml (its own S-term and CG).
+        #[arg(long)]
+        element: Option<String>,
     },
     /// Measure operator and solver throughput on the paper's sphere (Q1, f64):
     /// prints a table and writes DIR/bench.json.
@@ -182,6 +187,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             seed,
             max_iterations,
             no_condition,
+            element,
         } => {
             let sweep = CutSweepOptions {
                 levels: if levels.is_empty() {
@@ -195,7 +201,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 condition: !no_condition,
                 ..CutSweepOptions::default()
             };
-            reproduce(&what, &levels, &sweep, out)
+            reproduce(&what, &levels, &sweep, element.as_deref(), out)
         }
         Command::Bench {
             levels,
@@ -265,15 +271,36 @@ fn bench(
 
 /// The paper's Problem 1 as shipped in `cases/sphere.toml`.
 const SPHERE_CASE: &str = include_str!("../cases/sphere.toml");
+/// The same with Q2 elements, `cases/sphere_q2.toml`.
+const SPHERE_Q2_CASE: &str = include_str!("../cases/sphere_q2.toml");
+
+/// The sphere cases of `--element` (q1, q2 or all; `default` when absent).
+fn sphere_cases(element: Option<&str>, default: &str) -> anyhow::Result<Vec<Case>> {
+    let q1 = || Case::from_str("cases/sphere.toml", SPHERE_CASE);
+    let q2 = || Case::from_str("cases/sphere_q2.toml", SPHERE_Q2_CASE);
+    Ok(match element.unwrap_or(default) {
+        "q1" => vec![q1()?],
+        "q2" => vec![q2()?],
+        "all" => vec![q1()?, q2()?],
+        other => {
+            return Err(cgfem_gpu::Error::CaseFile {
+                file: "(command line)".into(),
+                key: "element".into(),
+                reason: format!("unknown element '{other}'; available: q1, q2, all"),
+            }
+            .into())
+        }
+    })
+}
 
 fn reproduce(
     what: &str,
     levels: &[u32],
     sweep: &CutSweepOptions,
+    element: Option<&str>,
     out: Option<PathBuf>,
 ) -> anyhow::Result<()> {
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("reproduce"));
-    let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
     let or = |default: &[u32]| {
         if levels.is_empty() {
             default.to_vec()
@@ -291,7 +318,8 @@ fn reproduce(
         .into());
     }
     if what == "table1" || what == "all" {
-        let rows = reproduce::table1(&case, &or(&[4, 5]), &dir)?;
+        let case = &sphere_cases(element, "q1")?[0];
+        let rows = reproduce::table1(case, &or(&[4, 5]), &dir)?;
         println!(
             "table1: {} rows; wrote {}/table1.{{json,md,svg}}",
             rows.len(),
@@ -299,7 +327,13 @@ fn reproduce(
         );
     }
     if what == "fig3" || what == "all" {
-        let rows = reproduce::fig3(&case, &or(&[2, 3, 4, 5]), &dir)?;
+        let cases = sphere_cases(element, "all")?;
+        let levels = or(&[2, 3, 4, 5]);
+        let curves: Vec<_> = cases
+            .iter()
+            .map(|c| reproduce::Fig3Curves::for_case(c, &levels))
+            .collect();
+        let rows = reproduce::fig3(&curves, &dir)?;
         println!(
             "fig3: {} rows; wrote {}/fig3.{{json,md,svg}}",
             rows.len(),
@@ -307,7 +341,9 @@ fn reproduce(
         );
     }
     if what == "cut-sweep" || what == "all" {
-        let rows = reproduce::cut_sweep(&case, sweep, &dir)?;
+        let case = &sphere_cases(element, "q1")?[0];
+        let sweep = sweep.clone().with_case_stabilisation(case);
+        let rows = reproduce::cut_sweep(case, &sweep, &dir)?;
         println!(
             "cut-sweep: {} rows; wrote {}/cut-sweep.{{json,md,svg}}",
             rows.len(),

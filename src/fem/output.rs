@@ -1,8 +1,12 @@
 //! `solution.vtu`: the cells of the body (inside and cut) as hexahedra on
-//! their vertex nodes, with the displacement, the SPR-recovered stress and its
-//! von Mises value at the vertices (plus the exact displacement when the case
-//! has one), and the cell class and volume fraction per cell.
+//! their element nodes (Q1: `VTK_HEXAHEDRON` on the vertices; Q2:
+//! `VTK_TRIQUADRATIC_HEXAHEDRON` on the 27 nodes, so ParaView interpolates
+//! the quadratic field), with the displacement, the SPR-recovered stress (the
+//! CPE blend `σ̂` at the node) and its von Mises value at the nodes (plus the
+//! exact displacement when the case has one), and the cell class and volume
+//! fraction per cell.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use super::recovery::{recover_stress, vertex_nodes_of};
@@ -18,48 +22,73 @@ pub fn von_mises(s: &[f64; 6]) -> f64 {
     (0.5 * d + 3.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5])).sqrt()
 }
 
+/// The element nodes of the body cells, as VTU points: each node once (in
+/// order of first appearance), with one cell holding it, and the cells on
+/// those points.
+struct BodyMesh {
+    nodes: Vec<usize>,
+    node_cell: Vec<usize>,
+    cells: Vec<VtuCell>,
+}
+
+fn body_mesh(setup: &Setup, body: &[usize]) -> BodyMesh {
+    let order = setup.op.dofs.order;
+    let npe = order.nodes_per_cell();
+    let mut point_of: HashMap<usize, usize> = HashMap::with_capacity(npe * body.len());
+    let (mut nodes, mut node_cell) = (Vec::new(), Vec::new());
+    let mut local = vec![0usize; npe];
+    let mut cells = Vec::with_capacity(body.len());
+    for &c in body {
+        setup.grid.cell_nodes(order, c, &mut local);
+        for n in local.iter_mut() {
+            *n = *point_of.entry(*n).or_insert_with(|| {
+                nodes.push(*n);
+                node_cell.push(c);
+                nodes.len() - 1
+            });
+        }
+        cells.push(match order {
+            ElementOrder::Q1 => VtuCell::hex8_from_lexicographic(std::array::from_fn(|i| local[i])),
+            ElementOrder::Q2 => {
+                VtuCell::hex27_from_lexicographic(std::array::from_fn(|i| local[i]))
+            }
+        });
+    }
+    BodyMesh {
+        nodes,
+        node_cell,
+        cells,
+    }
+}
+
 /// Writes the solution `u` of `setup` to `path`.
 pub fn write_solution(setup: &Setup, u: &[f64], path: &Path) -> Result<()> {
     let grid = &setup.grid;
+    let dofs = &setup.op.dofs;
     let body: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| setup.cells.kinds[c] != CellKind::Outside)
         .collect();
-    let vertices = vertex_nodes_of(setup, &body);
-    let mut point_of = std::collections::HashMap::with_capacity(vertices.len());
-    for (i, &v) in vertices.iter().enumerate() {
-        point_of.insert(v, i);
-    }
-    let points: Vec<[f64; 3]> = vertices
+    let mesh = body_mesh(setup, &body);
+    let points: Vec<[f64; 3]> = mesh
+        .nodes
         .iter()
-        .map(|&v| grid.node_position(ElementOrder::Q1, v))
+        .map(|&n| grid.node_position(dofs.order, n))
         .collect();
-    let mut lex = [0usize; 8];
-    let cells: Vec<VtuCell> = body
+    // Every node of a body cell is active, so u there is a nodal value.
+    let displacement: Vec<[f64; 3]> = mesh
+        .nodes
         .iter()
-        .map(|&c| {
-            grid.cell_nodes(ElementOrder::Q1, c, &mut lex);
-            VtuCell::hex8_from_lexicographic(lex.map(|v| point_of[&v]))
-        })
-        .collect();
-    // Vertex values: a Q1 vertex is also a Q2 node, so u there is a nodal value.
-    let dofs = &setup.op.dofs;
-    let p = dofs.order.degree();
-    let m1 = grid.nodes_per_axis(ElementOrder::Q1);
-    let mp = grid.nodes_per_axis(dofs.order);
-    let displacement: Vec<[f64; 3]> = vertices
-        .iter()
-        .map(|&v| {
-            let ijk = [v % m1[0], (v / m1[0]) % m1[1], v / (m1[0] * m1[1])];
-            let node = p * ijk[0] + mp[0] * (p * ijk[1] + mp[1] * p * ijk[2]);
-            let a = dofs.node_to_active[node] as usize;
+        .map(|&n| {
+            let a = dofs.node_to_active[n] as usize;
             [u[3 * a], u[3 * a + 1], u[3 * a + 2]]
         })
         .collect();
-    let sigma = recover_stress(setup, u, &vertices)?;
-    let stress: Vec<[f64; 6]> = vertices
+    let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &body))?;
+    let stress: Vec<[f64; 6]> = mesh
+        .node_cell
         .iter()
         .zip(&points)
-        .map(|(&v, &x)| sigma.eval_node_polynomial(v, x))
+        .map(|(&c, &x)| sigma.eval(c, x))
         .collect::<Result<_>>()?;
     let mises: Vec<f64> = stress.iter().map(von_mises).collect();
     let mut point_data = vec![
@@ -82,6 +111,9 @@ pub fn write_solution(setup: &Setup, u: &[f64], path: &Path) -> Result<()> {
         DataArray::scalars_u8("cell_class", class),
         DataArray::scalars_f64("volume_fraction", fraction),
     ];
-    let mesh = VtuMesh { points, cells };
+    let mesh = VtuMesh {
+        points,
+        cells: mesh.cells,
+    };
     write_vtu(path, &mesh, &point_data, &cell_data, VtuEncoding::Binary)
 }

@@ -1,6 +1,8 @@
 //! Stress recovery (DESIGN §5.1) for the fixed-point loop and the output: SPR
 //! of degree p of the FE stress on the patches of Q1 vertex nodes, sampled at
-//! [`sample_positions`], blended by CPE; the recovered traction `t̂ = σ̂ n` at the Dirichlet points, and the
+//! [`sample_positions`], blended by CPE (both orders use the vertex patches of
+//! the cell grid: Q1 fits {1, x, y, z} to the 2×2×2 Gauss points of the
+//! patch's cells, Q2 the complete quadratic, 10 terms, to the 3×3×3 ones); the recovered traction `t̂ = σ̂ n` at the Dirichlet points, and the
 //! reactions `λ_q = t̂_q − (β/h)(u_h(x_q) − g_q)`.
 
 use super::field::{stress_voigt, value_and_gradient};

@@ -8,8 +8,9 @@
 //! F_S = Σ_{c ∈ Ω*} (k2 E / h²) ∫_c Nᵀ S(û) dV   (Gauss rule over the whole cell),
 //! ```
 //! where `S` is the recovered displacement: on the patch of each vertex node
-//! a complete polynomial `û` of degree p+1 is fitted to `u_h` by least squares
-//! (SPR), with internal equilibrium `∇·σ(û) + b = 0` imposed by collocation at
+//! a complete polynomial `û` of degree p+1 (Q1: 2, 10 terms; Q2: 3, 20
+//! terms, sampled at the element's Gauss points) is fitted to `u_h` by least
+//! squares (SPR), with internal equilibrium `∇·σ(û) + b = 0` imposed by collocation at
 //! the patch node as Lagrange-multiplier constraints, and the patch
 //! polynomials are blended by CPE, `S(x) = Σ_i N_i^lin(x) û_i(x)`. `S` is a
 //! polynomial in each cell, so it is defined on the part of the cell outside

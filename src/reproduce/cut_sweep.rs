@@ -42,6 +42,26 @@ pub struct CutSweepOptions {
     pub method: KrylovMethod,
 }
 
+impl CutSweepOptions {
+    /// The S-term and Krylov method of `case` where the case turns the S-term
+    /// on (the Q2 sphere: k2 = 0.01, A = 20%, CG); else these options as
+    /// they are (the Q1 sphere runs without it and sweeps the paper's k2 =
+    /// 0.01, A = 1% with CGS).
+    pub fn with_case_stabilisation(self, case: &Case) -> Self {
+        let st = &case.spec.stabilisation;
+        if st.k2 > 0.0 {
+            CutSweepOptions {
+                k2: st.k2,
+                a: st.a,
+                method: case.spec.solver.method,
+                ..self
+            }
+        } else {
+            self
+        }
+    }
+}
+
 impl Default for CutSweepOptions {
     fn default() -> Self {
         CutSweepOptions {
@@ -61,6 +81,7 @@ impl Default for CutSweepOptions {
 #[derive(Clone, Debug, Serialize)]
 pub struct SweepRun {
     pub level: u32,
+    pub element: String,
     pub offset: [f64; 3],
     pub stabilised: bool,
     pub pathological: usize,
@@ -136,7 +157,7 @@ pub fn cut_sweep(case: &Case, opts: &CutSweepOptions, out: &Path) -> Result<Vec<
             for (i, &offset) in offsets.iter().enumerate() {
                 let run = sweep_run(case, opts, level, k2, offset)?;
                 eprintln!(
-                    "  level {level}, {} S, offset {i} {:?}: κ = {}, first solve {} (plain{}), {} (Jacobi{})",
+                    "  {element} level {level}, {} S, offset {i} {:?}: κ = {}, first solve {} (plain{}), {} (Jacobi{})",
                     if stabilised { "with" } else { "without" },
                     offset.map(|v| (v * 1000.0).round() / 1000.0),
                     run.kappa.map_or("–".into(), |k| format!("{k:.3e}")),
@@ -193,6 +214,7 @@ fn sweep_run(
     )?;
     Ok(SweepRun {
         level,
+        element: format!("{:?}", case.spec.element).to_lowercase(),
         offset,
         stabilised: k2 > 0.0,
         pathological: plain.pathological,
@@ -304,11 +326,12 @@ fn markdown(rows: &[SweepRow], opts: &CutSweepOptions) -> String {
 fn chart(runs: &[SweepRun]) -> Chart {
     let mut keys: Vec<(u32, bool)> = runs.iter().map(|r| (r.level, r.stabilised)).collect();
     keys.dedup();
+    let element = runs.first().map_or(String::new(), |r| r.element.clone());
     let series = keys
         .into_iter()
         .map(|(level, stabilised)| Series {
             label: format!(
-                "level {level}, {} S",
+                "{element} level {level}, {} S",
                 if stabilised { "with" } else { "without" }
             ),
             points: runs

@@ -26,7 +26,7 @@ use crate::output::write_atomic;
 use crate::solver::{solve as krylov_solve, KrylovMethod, Preconditioner};
 
 pub use cut_sweep::{cut_sweep, CutSweepOptions};
-pub use fig3::fig3;
+pub use fig3::{fig3, Fig3Curves};
 pub use table1::table1;
 
 /// One run of the sphere: the stabilisation, the grid, the solver variant.
