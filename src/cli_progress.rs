@@ -63,7 +63,7 @@ impl Terminal {
     }
 
     /// Installs the Ctrl-C handler: the first press asks the run to stop at
-    /// the next fixed-point iteration boundary, a second one exits at once
+    /// the next fixed-point (or Newton) iteration boundary, a second one exits at once
     /// (code 130).
     pub fn catch_ctrl_c(&self) -> anyhow::Result<()> {
         let flag = self.interrupt.clone();
@@ -74,7 +74,7 @@ impl Terminal {
             }
             if !quiet {
                 eprintln!(
-                    "interrupt: stopping at the next fixed-point iteration \
+                    "interrupt: stopping at the next fixed-point or Newton iteration \
                      (Ctrl-C again to abort at once)"
                 );
             }

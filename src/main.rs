@@ -171,6 +171,9 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             let outputs = Outputs { dir: out, plots };
             let text = std::fs::read_to_string(&case).unwrap_or_default();
             if cgfem_gpu::case::bodies::is_bodies_case(&text) {
+                if condition || device.backend == Some(BackendChoice::Gpu) {
+                    println!("note: multi-body cases solve on the CPU, without --condition");
+                }
                 return cli_bodies::run_bodies_case(&case, level, &set, &outputs, progress);
             }
             run_case(&case, level, &set, &outputs, condition, &device, progress)
