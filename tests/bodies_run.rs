@@ -474,3 +474,46 @@ fn the_stacked_tangent_with_coupling_and_held_dofs_is_the_derivative_of_the_resi
         );
     }
 }
+
+/// SIGINT after the first converged load step (of 1000): the run stops at a
+/// Newton iteration boundary with code 130, the report marked interrupted and
+/// every converged step's files in the series.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_at_a_newton_boundary_with_code_130() {
+    use std::io::{BufRead, BufReader, Read};
+    use std::process::Stdio;
+    let (dir, case) = scratch("sigint", &case_text("0.5"));
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .arg("run")
+        .arg(&case)
+        .arg("--out")
+        .arg(&out)
+        .args(["--set", "load.steps=1000"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    while !seen.contains("load step 1 converged") {
+        assert!(stderr.read_line(&mut seen).unwrap() > 0, "{seen}");
+    }
+    let pid = child.id().to_string();
+    assert!(Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .unwrap()
+        .success());
+    stderr.read_to_string(&mut seen).unwrap();
+    assert_eq!(child.wait().unwrap().code(), Some(130), "{seen}");
+    let r = report(&out);
+    assert_eq!(r["status"], "interrupted");
+    let converged = r["converged_steps"].as_u64().unwrap() as usize;
+    assert!((1..1000).contains(&converged), "{converged}");
+    let pvd = std::fs::read_to_string(out.join("solution.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet ").count(), 2 * converged);
+    let last = r["load_steps"].as_array().unwrap().last().unwrap().clone();
+    assert_eq!(last["converged"], false, "{last}");
+}

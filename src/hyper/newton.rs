@@ -278,14 +278,16 @@ pub fn solve_load_steps_with(
             step: solution.converged_steps + 1,
         };
         let outcome = newton_step(&ctx, to, &mut u, solver, &mut report, &mut solves);
-        progress.event(&Event::LoadStep {
-            step: solution.converged_steps + 1,
-            steps: opts.steps,
-            load_factor: to,
-            cuts,
-            newton_iterations: report.alphas.len(),
-            converged: outcome.is_ok(),
-        });
+        if !matches!(outcome, Err(StepFailure::Interrupted(_))) {
+            progress.event(&Event::LoadStep {
+                step: solution.converged_steps + 1,
+                steps: opts.steps,
+                load_factor: to,
+                cuts,
+                newton_iterations: report.alphas.len(),
+                converged: outcome.is_ok(),
+            });
+        }
         match outcome {
             Ok(()) => {
                 report.converged = true;
