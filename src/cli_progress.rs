@@ -29,6 +29,8 @@ struct State {
     fixed_point: Option<ProgressBar>,
     /// Load steps of a nonlinear run, and its Newton spinner.
     load_steps: Option<(ProgressBar, ProgressBar)>,
+    /// The Newton spinner's text of the current iteration.
+    newton: String,
     /// The true relative residual of the last Krylov solve.
     residual: f64,
 }
@@ -126,7 +128,10 @@ impl Terminal {
     fn newton_iteration(&self, s: &mut State, steps: usize, t: f64, iteration: usize, rel: f64) {
         let text = format!("t = {t:.4}, iteration {iteration}: ‖R‖/‖R0‖ = {rel:.2e}");
         match self.mode {
-            Mode::Bars => self.load_step_bars(s, steps).1.set_message(text),
+            Mode::Bars => {
+                self.load_step_bars(s, steps).1.set_message(text.clone());
+                s.newton = text;
+            }
             _ => eprintln!("  newton {text}"),
         }
     }
@@ -259,7 +264,12 @@ impl Progress for Terminal {
                     "solve {index}: {iterations} Krylov iterations, residual {relative_residual:.2e}"
                 );
                 match self.mode {
-                    Mode::Bars => self.fixed_point_bar(&mut s).set_message(text),
+                    Mode::Bars => match &s.load_steps {
+                        // A nonlinear run: the solve joins the Newton line.
+                        Some((_, spinner)) => spinner
+                            .set_message(format!("{}; {iterations} Krylov iterations", s.newton)),
+                        None => self.fixed_point_bar(&mut s).set_message(text),
+                    },
                     // The later solves are told with their iteration.
                     _ if index == 0 => eprintln!("{text}"),
                     _ => {}

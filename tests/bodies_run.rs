@@ -119,6 +119,13 @@ fn two_bodies_apart_run_from_the_command_line() {
         assert_eq!(newton["energy_history"].as_array().unwrap().len(), n + 1);
         assert_eq!(s["krylov_iterations"].as_array().unwrap().len(), n + 1);
     }
+    // Without line search every update is a full step.
+    let o = cli(&case, &out, &["--set", "newton.line_search=false"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for s in report(&out)["load_steps"].as_array().unwrap() {
+        let alphas = s["newton"]["line_search"].as_array().unwrap();
+        assert!(!alphas.is_empty() && alphas.iter().all(|a| a == 1.0), "{s}");
+    }
     // --level 1 changes every body's grid.
     let o = cli(&case, &out, &["--level", "1"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -252,6 +259,10 @@ fn bad_multi_body_inputs_exit_2_naming_the_key() {
         "min = [1, 0, 0], max = [3, 1, 1]",
     );
     refused("overlap", &overlapping, &[], "body[1].geometry");
+    let offset = SLAB.replace("level = 3 }", "level = 3, offset = [0, 0, 0.5] }");
+    refused("slab-offset", &offset, &[], "body[0].grid.offset");
+    let thin = SLAB.replace("min = [0, 0, -1]", "min = [0, 0, 0.5]");
+    refused("slab-thin", &thin, &[], "body[0].plane_strain");
 }
 
 #[test]

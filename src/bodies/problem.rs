@@ -9,6 +9,8 @@
 //! A held dof `d` has `R_d = 0` and the row and column of the identity in
 //! `K`, so every Newton correction leaves it at its start value 0.
 
+use std::borrow::Cow;
+
 use crate::backend::LinearOperator;
 use crate::hyper::newton::NonlinearProblem;
 use crate::hyper::problem::HyperProblem;
@@ -132,8 +134,14 @@ impl LinearOperator for BodiesTangent<'_> {
 
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         let p = self.problem;
-        let mut free = x.to_vec();
-        p.zero_held(&mut free);
+        let free: Cow<[f64]> = match p.held.iter().any(|&h| h) {
+            true => {
+                let mut v = x.to_vec();
+                p.zero_held(&mut v);
+                Cow::Owned(v)
+            }
+            false => Cow::Borrowed(x),
+        };
         for (b, k) in self.blocks.iter().enumerate() {
             let range = p.offsets[b]..p.offsets[b + 1];
             k.apply(&free[range.clone()], &mut y[range]);
