@@ -20,6 +20,9 @@ use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Region,
 use cgfem_gpu::progress::Silent;
 use serde_json::Value;
 
+#[path = "bodies_run/coupling.rs"]
+mod coupling;
+
 /// Two boxes 1 apart: `left` stretched by 0.5 along x (neo-Hookean), `right`
 /// pushed by −0.3 on the lower half of its xmax face (St Venant–Kirchhoff);
 /// rollers on the min faces. `XMAX` is replaced by left's prescribed value.
@@ -368,122 +371,6 @@ fn a_plane_strain_slab_is_one_cell_thick_with_uz_held() {
     println!("plane strain: λ1 = {l1:.6}, λ2 = {l2:.6}, max |F − F_exact| = {worst:.1e}");
     assert!(l1 > 1.15 && l1 < 1.2, "{l1}");
     assert!(worst < 1e-6, "{worst:e}");
-}
-
-/// A nonlinear spring `k (a − b)³` between dof `a` of body 0 and dof `b`
-/// of body 1, standing in for the contact coupling.
-struct Spring {
-    a: usize,
-    b: usize,
-    k: f64,
-}
-
-impl cgfem_gpu::bodies::problem::Coupling for Spring {
-    fn residual_add(&self, u: &[f64], t: f64, r: &mut [f64]) -> Option<()> {
-        let f = t * self.k * (u[self.a] - u[self.b]).powi(3);
-        r[self.a] += f;
-        r[self.b] -= f;
-        Some(())
-    }
-
-    fn tangent_triplets(&self, u: &[f64], t: f64) -> Option<Vec<(usize, usize, f64)>> {
-        let d = 3.0 * t * self.k * (u[self.a] - u[self.b]).powi(2);
-        Some(vec![
-            (self.a, self.a, d),
-            (self.a, self.b, -d),
-            (self.b, self.a, -d),
-            (self.b, self.b, d),
-        ])
-    }
-}
-
-#[test]
-fn the_stacked_tangent_with_coupling_and_held_dofs_is_the_derivative_of_the_residual() {
-    use cgfem_gpu::bodies::problem::BodiesProblem;
-    use cgfem_gpu::hyper::newton::NonlinearProblem;
-    let left = alone(
-        [0.0; 3],
-        Material::neo_hookean(1000.0, 0.3),
-        1000.0,
-        0.5,
-        None,
-    );
-    let right = alone(
-        [3.0, 0.0, 0.0],
-        Material::st_venant_kirchhoff(500.0, 0.25),
-        500.0,
-        -0.3,
-        None,
-    );
-    let n0 = left.ndofs();
-    let mut p = BodiesProblem::new(vec![left, right]);
-    p.set_coupling(Box::new(Spring {
-        a: 4,
-        b: n0 + 7,
-        k: 1e5,
-    }));
-    p.hold(1, 2);
-    p.hold(0, 5);
-    let n = p.ndofs();
-    let pseudo = |i: usize, s: f64| (i as f64 * s).sin() * 0.02;
-    let mut u: Vec<f64> = (0..n).map(|i| pseudo(i, 1.3)).collect();
-    u[5] = 0.0;
-    u[n0 + 2] = 0.0;
-    let v: Vec<f64> = (0..n).map(|i| pseudo(i, 0.7) * 50.0).collect();
-    let t = 0.7;
-    let k = p.tangent(&u, t).unwrap();
-    let mut kv = vec![0.0; n];
-    k.apply(&v, &mut kv);
-    let eps = 1e-6;
-    let shifted = |s: f64| {
-        let mut w: Vec<f64> = u.iter().zip(&v).map(|(x, d)| x + s * d).collect();
-        w[5] = 0.0;
-        w[n0 + 2] = 0.0;
-        p.residual(&w, t).unwrap()
-    };
-    let (plus, minus) = (shifted(eps), shifted(-eps));
-    let fd: Vec<f64> = plus
-        .iter()
-        .zip(&minus)
-        .map(|(a, b)| (a - b) / (2.0 * eps))
-        .collect();
-    // Held rows: the identity, and no residual.
-    assert_eq!((kv[5], kv[n0 + 2]), (v[5], v[n0 + 2]));
-    assert_eq!((fd[5], fd[n0 + 2]), (0.0, 0.0));
-    let free = |x: &[f64]| -> Vec<f64> {
-        x.iter()
-            .enumerate()
-            .filter(|(i, _)| *i != 5 && *i != n0 + 2)
-            .map(|(_, v)| *v)
-            .collect()
-    };
-    let (a, b) = (free(&kv), free(&fd));
-    let diff = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (x - y).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let norm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
-    println!(
-        "stacked tangent vs central differences: {:.2e}",
-        diff / norm
-    );
-    assert!(diff < 1e-6 * norm, "{diff:e} of {norm:e}");
-    // The diagonal is the apply of unit vectors, coupling and held dofs included.
-    let d = k.diagonal();
-    for i in [4, 5, n0 + 2, n0 + 7, n - 1] {
-        let mut e = vec![0.0; n];
-        e[i] = 1.0;
-        let mut ke = vec![0.0; n];
-        k.apply(&e, &mut ke);
-        assert!(
-            (ke[i] - d[i]).abs() <= 1e-12 * d[i].abs(),
-            "dof {i}: {} vs {}",
-            ke[i],
-            d[i]
-        );
-    }
 }
 
 /// SIGINT after the first converged load step (of 1000): the run stops at a
