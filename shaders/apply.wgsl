@@ -6,6 +6,10 @@
 // (cut cells, S-penalty folded in). Own matrices may not fit one storage binding:
 // the host dispatches once per chunk of slots [own_lo, own_hi); the first pass
 // (first = 1) also adds the inside cells and overwrites y, later passes add to it.
+// Arrays beyond one binding are bound as windows (src/gpu/windows.rs): y and
+// active_to_node from the window's first active node, x from active node
+// x_base, node_to_active from lattice node lattice_base, slots from cell
+// cell_base; indices are global, less the base.
 // CPU mirror: `cgfem_gpu::gpu::mirror::apply` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
@@ -14,7 +18,8 @@ alias real = f64;
 struct ApplyParams {
     n_active: u32, stride: u32, ncx: u32, ncy: u32,
     ncz: u32, degree: u32, ne: u32, own_lo: u32,
-    own_hi: u32, first: u32, pad0: u32, pad1: u32,
+    own_hi: u32, first: u32, x_base: u32, lattice_base: u32,
+    cell_base: u32, pad0: u32, pad1: u32, pad2: u32,
 }
 // Keep in sync with `OUTSIDE`, `INSIDE` in src/fem/operator.rs.
 const OUTSIDE: u32 = 0xffffffffu;
@@ -69,7 +74,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
                 let ck = cell_of[2][cz];
                 let cell = ci + prm.ncx * (cj + prm.ncy * ck);
                 let l = local_of[0][cx] + np * (local_of[1][cy] + np * local_of[2][cz]);
-                let s = slots[cell];
+                let s = slots[cell - prm.cell_base];
                 var inside = false;
                 var base = 0u;
                 if (s == OUTSIDE) {
@@ -86,7 +91,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
                     for (var b = 0u; b < np; b++) {
                         for (var aa = 0u; aa < np; aa++) {
                             let nn = (p * ci + aa) + m0 * ((p * cj + b) + m1 * (p * ck + c));
-                            let act = node_to_active[nn];
+                            let act = node_to_active[nn - prm.lattice_base] - prm.x_base;
                             for (var j = 0u; j < 3u; j++) {
                                 let xj = x[3u * act + j];
                                 let col = base + 3u * l * ne + 3u * m + j;

@@ -1,10 +1,11 @@
-// dot: first pass of x · y. Workgroup g owns the chunk [g·WG·PER, (g+1)·WG·PER); thread t sums entries t, t + WG, … of it in order, then a fixed binary tree over the threads gives partials[g]. `reduce` finishes. The tree depends on n only: reproducible.
+// dot: first pass of x · y. Workgroup g owns the chunk [g·WG·PER, (g+1)·WG·PER); thread t sums entries t, t + WG, … of it in order, then a fixed binary tree over the threads gives partials[base + g]. `reduce` finishes. The tree depends on n only: reproducible.
+// A vector beyond one binding runs in windows of whole chunks (src/gpu/windows.rs): x, y bound from the window's start, base = its first group, so the partials are those of one unsplit run.
 // CPU mirror: `cgfem_gpu::gpu::mirror::dot` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
 
 // Keep in sync with `RedParams` and `WG`, `PER` in src/gpu/kernels.rs.
-struct RedParams { n: u32, out: u32, groups: u32, comps: u32 }
+struct RedParams { n: u32, out: u32, groups: u32, comps: u32, base: u32, total: u32, pad0: u32, pad1: u32 }
 const WG: u32 = 256u;
 const PER: u32 = 8u;
 @group(0) @binding(0) var<uniform> prm: RedParams;
@@ -34,5 +35,5 @@ fn main(
         if (t < k) { sh[t] = sh[t] + sh[t + k]; }
         workgroupBarrier();
     }
-    if (t == 0u) { partials[group] = sh[0]; }
+    if (t == 0u) { partials[prm.base + group] = sh[0]; }
 }

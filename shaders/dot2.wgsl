@@ -1,10 +1,10 @@
-// dot2: first pass of (x · y, x · z) in one sweep over x, each reduced like `dot`; partials[g] and partials[groups + g].
+// dot2: first pass of (x · y, x · z) in one sweep over x, each reduced like `dot`; partials[base + g] and partials[total + base + g] (total: the groups of all windows, see dot.wgsl).
 // CPU mirror: `cgfem_gpu::gpu::mirror::dot2` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
 
 // Keep in sync with `RedParams` and `WG`, `PER` in src/gpu/kernels.rs.
-struct RedParams { n: u32, out: u32, groups: u32, comps: u32 }
+struct RedParams { n: u32, out: u32, groups: u32, comps: u32, base: u32, total: u32, pad0: u32, pad1: u32 }
 const WG: u32 = 256u;
 const PER: u32 = 8u;
 @group(0) @binding(0) var<uniform> prm: RedParams;
@@ -45,7 +45,7 @@ fn main(
         workgroupBarrier();
     }
     if (t == 0u) {
-        partials[group] = sy[0];
-        partials[prm.groups + group] = sz[0];
+        partials[prm.base + group] = sy[0];
+        partials[prm.total + prm.base + group] = sz[0];
     }
 }

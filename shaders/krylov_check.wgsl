@@ -7,8 +7,11 @@
 alias real = f64;
 
 // Keep in sync with `ScalParams` in src/gpu/kernels.rs. Fields are slot
-// indices into `scal` (the device scalars of a solve), `roll` a flag.
-struct ScalParams { num: u32, den: u32, out: u32, roll: u32, done: u32, iters: u32, tol2: u32, pad: u32 }
+// indices into `scal` (the device scalars of a solve), `roll` and `positive` flags.
+struct ScalParams {
+    num: u32, den: u32, out: u32, roll: u32, done: u32, iters: u32, tol2: u32, positive: u32,
+    bad: u32, pad0: u32, pad1: u32, pad2: u32,
+}
 @group(0) @binding(0) var<uniform> prm: ScalParams;
 @group(0) @binding(1) var<storage, read_write> scal: array<real>;
 

@@ -4,7 +4,7 @@
 alias real = f64;
 
 // Keep in sync with `RedParams` and `WG`, `PER` in src/gpu/kernels.rs.
-struct RedParams { n: u32, out: u32, groups: u32, comps: u32 }
+struct RedParams { n: u32, out: u32, groups: u32, comps: u32, base: u32, total: u32, pad0: u32, pad1: u32 }
 const WG: u32 = 256u;
 const PER: u32 = 8u;
 @group(0) @binding(0) var<uniform> prm: RedParams;

@@ -185,7 +185,7 @@ pub fn run_case(
     };
     let solver: &mut dyn LinearSolver = match &gpu {
         Some(ctx) => {
-            gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device);
+            gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device)?;
             report.backend = "gpu".into();
             report.adapter = Some(ctx.adapter.name.clone());
             report.precision = ctx.precision.name().into();

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use super::{peak_resident_bytes, seconds_per_call, BenchOptions, Row};
 use crate::backend::Backend;
-use crate::error::Error;
+use crate::error::{Error, Result};
 use crate::fem::setup::Setup;
 use crate::gpu::device_krylov::run_iterations;
 use crate::gpu::{GpuBackend, GpuContext, GpuOperator, Precision, PrecisionChoice};
@@ -91,9 +91,9 @@ pub fn bandwidth(be: &GpuBackend, budget: f64) -> Row {
 }
 
 /// Apply and iteration rows of `be` on the set-up sphere.
-pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Vec<Row> {
+pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
     let level = setup.grid.level;
-    let op = GpuOperator::new(be, &setup.op);
+    let op = GpuOperator::new(be, &setup.op)?;
     let n = be.nrows(&op);
     let host: Vec<f64> = (0..n)
         .map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0)
@@ -130,5 +130,5 @@ pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Vec<Ro
             ..row(be, what, level, n, seconds)
         });
     }
-    rows
+    Ok(rows)
 }

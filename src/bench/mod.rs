@@ -130,7 +130,7 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
                 emit(r);
             }
             for be in &gpus {
-                for r in gpu::throughput(be, &setup, opts) {
+                for r in gpu::throughput(be, &setup, opts)? {
                     emit(r);
                 }
             }

@@ -11,9 +11,18 @@
 //!   point `x1` along the current slave normal `n1` to the current master
 //!   surface, the normal gap `g_N = (x2 − x1)·n1` — and the current normal by
 //!   Nanson's formula.
+//! - [`enforce`]: the contact residual and its exact tangent by the
+//!   stabilised augmented Lagrangian, frictionless or with Coulomb friction,
+//!   on the two bodies' dofs.
 //! - [`report`]: the per-pair, per-step `contact` row of the report.
 
 pub mod bvh;
+pub mod enforce;
+mod enforce_dual;
+mod enforce_gap;
+mod enforce_law;
+mod enforce_local;
+mod enforce_tangent;
 mod marching;
 pub mod report;
 pub mod search;
@@ -21,6 +30,11 @@ pub mod surface;
 mod vec3;
 
 pub use bvh::{Bvh, Hit};
+pub use enforce::{
+    contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
+    Enforcement, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,
+};
+pub use enforce_tangent::ContactTangent;
 pub use report::{ContactRow, SlaveSample};
 pub use search::{
     area_ratio, current_normal, slave_point, ContactPoint, MasterSurface, SlavePoint,

@@ -1,5 +1,7 @@
 //! [`GpuBackend`]: the [`Backend`] trait on a wgpu device. Vectors are device
-//! buffers for the whole solve; each trait call records its kernel(s) and
+//! buffers for the whole solve (each up to `max_buffer_size`; kernels bind
+//! them in windows of at most one storage binding, [`super::windows`],
+//! recorded by [`super::record`]); each trait call records its kernel(s) and
 //! submits; only `dot`, `dot2` and `download` wait for the device.
 //!
 //! # Scalars
@@ -18,8 +20,9 @@ use wgpu::util::DeviceExt;
 use crate::backend::Backend;
 
 use super::context::{GpuContext, Precision};
-use super::kernels::{grid_2d, reduction_groups, Kernel, RedParams, ScalParams, VecParams, WG};
+use super::kernels::Kernel;
 use super::operator::GpuOperator;
+use super::windows::BindingLimits;
 
 /// Entries of the device-scalar buffer.
 pub const SLOTS: u32 = 32;
@@ -39,7 +42,9 @@ pub struct GpuVector {
 pub struct GpuBackend {
     pub(super) ctx: Arc<GpuContext>,
     pub(super) scal: wgpu::Buffer,
-    partials: RefCell<Option<wgpu::Buffer>>,
+    pub(super) partials: RefCell<Option<wgpu::Buffer>>,
+    /// The windows' binding size ([`super::windows`]).
+    pub(super) bindings: BindingLimits,
 }
 
 fn check_len(kernel: &str, n: usize, others: &[usize]) {
@@ -51,6 +56,18 @@ fn check_len(kernel: &str, n: usize, others: &[usize]) {
 impl GpuBackend {
     /// The backend on `ctx`.
     pub fn new(ctx: Arc<GpuContext>) -> Self {
+        let bytes = ctx.bindings.max_bytes;
+        Self::with_max_binding_bytes(ctx, bytes)
+    }
+
+    /// The backend on `ctx`, splitting arrays into windows of at most
+    /// `bytes` bytes (clamped to `[BindingLimits::smallest(), the
+    /// context's]`): tests split small problems with it.
+    pub fn with_max_binding_bytes(ctx: Arc<GpuContext>, bytes: u64) -> Self {
+        let bindings = BindingLimits {
+            max_bytes: bytes.clamp(BindingLimits::smallest(), ctx.bindings.max_bytes),
+            ..ctx.bindings
+        };
         let scal = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("scal"),
             size: SLOTS as u64 * ctx.precision.bytes(),
@@ -61,12 +78,18 @@ impl GpuBackend {
             ctx,
             scal,
             partials: RefCell::new(None),
+            bindings,
         }
     }
 
     /// The context (device, adapter, precision).
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// The binding size and alignment its windows use.
+    pub fn bindings(&self) -> BindingLimits {
+        self.bindings
     }
 
     /// The device precision.
@@ -156,20 +179,6 @@ impl GpuBackend {
         out
     }
 
-    /// Runs a one-invocation kernel (`scalar_ratio`, `krylov_check`) on the
-    /// device scalars, submitted.
-    pub fn scalar_kernel(&self, kernel: Kernel, p: &ScalParams) {
-        let mut enc = self.encoder();
-        self.record(
-            &mut enc,
-            kernel,
-            bytemuck::bytes_of(p),
-            &[&self.scal],
-            (1, 1),
-        );
-        self.submit(enc);
-    }
-
     pub(super) fn encoder(&self) -> wgpu::CommandEncoder {
         self.ctx
             .device
@@ -178,140 +187,6 @@ impl GpuBackend {
 
     pub(super) fn submit(&self, enc: wgpu::CommandEncoder) {
         self.ctx.queue.submit([enc.finish()]);
-    }
-
-    /// Records `kernel` with `params` at binding 0 and `bufs` at 1, 2, … over
-    /// `groups` workgroups.
-    pub(super) fn record(
-        &self,
-        enc: &mut wgpu::CommandEncoder,
-        kernel: Kernel,
-        params: &[u8],
-        bufs: &[&wgpu::Buffer],
-        groups: (u32, u32),
-    ) {
-        let dev = &self.ctx.device;
-        let uniform = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("params"),
-            contents: params,
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let (pipeline, layout) = self.ctx.pipelines.get(kernel);
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: uniform.as_entire_binding(),
-        }];
-        for (i, b) in bufs.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: i as u32 + 1,
-                resource: b.as_entire_binding(),
-            });
-        }
-        let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(kernel.name()),
-            layout,
-            entries: &entries,
-        });
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(kernel.name()),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups(groups.0, groups.1, 1);
-    }
-
-    fn max_dim(&self) -> u32 {
-        self.ctx.limits.max_compute_workgroups_per_dimension
-    }
-
-    /// Records an element-wise kernel over `n` entries with scalar slots
-    /// `ia`, `ib` (nothing for `n = 0`).
-    pub(super) fn record_vec(
-        &self,
-        enc: &mut wgpu::CommandEncoder,
-        kernel: Kernel,
-        n: usize,
-        (ia, ib): (u32, u32),
-        bufs: &[&wgpu::Buffer],
-    ) {
-        if n == 0 {
-            return;
-        }
-        let (x, y, stride) = grid_2d(n as u32, WG, self.max_dim());
-        let p = VecParams {
-            n: n as u32,
-            ia,
-            ib,
-            stride,
-        };
-        self.record(enc, kernel, bytemuck::bytes_of(&p), bufs, (x, y));
-    }
-
-    /// Records `dot` (`vecs = [x, y]`) or `dot2` (`[x, y, z]`) over `n`
-    /// entries and the second pass into slots `out..out + comps`.
-    pub(super) fn record_dot(
-        &self,
-        enc: &mut wgpu::CommandEncoder,
-        n: usize,
-        vecs: &[&wgpu::Buffer],
-        out: u32,
-    ) {
-        let comps = vecs.len() as u32 - 1;
-        let groups = reduction_groups(n as u32);
-        if groups == 0 {
-            self.write_slots(out, &vec![0.0; comps as usize]);
-            return;
-        }
-        let partials = self.partials(groups * comps);
-        let (x, y, _) = grid_2d(groups, 1, self.max_dim());
-        let first = RedParams {
-            n: n as u32,
-            out,
-            groups,
-            comps,
-        };
-        let mut bufs = vecs.to_vec();
-        bufs.push(&partials);
-        let kernel = if comps == 1 {
-            Kernel::Dot
-        } else {
-            Kernel::Dot2
-        };
-        self.record(enc, kernel, bytemuck::bytes_of(&first), &bufs, (x, y));
-        let second = RedParams {
-            n: groups,
-            out,
-            groups: 1,
-            comps,
-        };
-        let bufs = [&partials, &self.scal];
-        self.record(
-            enc,
-            Kernel::Reduce,
-            bytemuck::bytes_of(&second),
-            &bufs,
-            (1, 1),
-        );
-    }
-
-    /// The partial-sums buffer, grown to at least `entries`.
-    fn partials(&self, entries: u32) -> wgpu::Buffer {
-        let bytes = entries as u64 * self.ctx.precision.bytes();
-        let mut cache = self.partials.borrow_mut();
-        match &*cache {
-            Some(b) if b.size() >= bytes => b.clone(),
-            _ => {
-                let b = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("partials"),
-                    size: bytes.next_power_of_two(),
-                    usage: storage_usage(),
-                    mapped_at_creation: false,
-                });
-                *cache = Some(b.clone());
-                b
-            }
-        }
     }
 
     /// One element-wise kernel with host scalars `a`, `b`, submitted.

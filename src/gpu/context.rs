@@ -2,7 +2,10 @@
 //! uses (`auto | cpu | gpu`, `CGFEM_BACKEND`), which adapter (a name filter,
 //! `CGFEM_ADAPTER`), at which precision (f64 where the adapter has
 //! `SHADER_F64`, else f32 inside defect correction), and the device opened
-//! with the adapter's own limits (storage binding and buffer sizes).
+//! with the adapter's own limits (storage binding and buffer sizes). The
+//! binding size that kernels split their arrays by ([`super::windows`]) may
+//! be lowered with `CGFEM_MAX_BINDING_BYTES` (to exercise the splitting on
+//! small problems).
 
 use std::fmt;
 use std::str::FromStr;
@@ -10,6 +13,10 @@ use std::str::FromStr;
 use crate::error::{Error, Result};
 
 use super::kernels::Pipelines;
+use super::windows::BindingLimits;
+
+/// Environment variable lowering the storage binding size the kernels assume.
+pub const MAX_BINDING_ENV: &str = "CGFEM_MAX_BINDING_BYTES";
 
 /// Which backend a run asks for.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -205,7 +212,37 @@ pub struct GpuContext {
     pub adapter: AdapterSummary,
     pub precision: Precision,
     pub limits: wgpu::Limits,
+    /// The binding size and offset alignment the kernels' windows use.
+    pub bindings: BindingLimits,
     pub(super) pipelines: Pipelines,
+}
+
+/// The adapter's binding limits, with the binding size lowered to `lowered`
+/// (the value of `CGFEM_MAX_BINDING_BYTES`) when given (never below
+/// [`BindingLimits::smallest`], never above the adapter's).
+pub(super) fn binding_limits(
+    limits: &wgpu::Limits,
+    lowered: Option<&str>,
+) -> Result<BindingLimits> {
+    let adapter = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let max_bytes = match lowered {
+        Some(v) => v
+            .trim()
+            .parse::<u64>()
+            .map_err(|e| Error::CaseFile {
+                file: "(environment)".into(),
+                key: MAX_BINDING_ENV.into(),
+                reason: format!("'{v}' is not a number of bytes: {e}"),
+            })?
+            .clamp(BindingLimits::smallest(), adapter),
+        None => adapter,
+    };
+    Ok(BindingLimits {
+        max_bytes,
+        align: limits.min_storage_buffer_offset_alignment as u64,
+    })
 }
 
 impl GpuContext {
@@ -253,6 +290,7 @@ impl GpuContext {
             wgpu::Features::empty()
         };
         let limits = adapter.limits();
+        let bindings = binding_limits(&limits, std::env::var(MAX_BINDING_ENV).ok().as_deref())?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("cgfem-gpu"),
             required_features,
@@ -269,35 +307,37 @@ impl GpuContext {
             adapter: summary,
             precision,
             limits,
+            bindings,
             pipelines,
         })
     }
 
-    /// Can vectors of `n` entries live on this device? Each vector is one
-    /// storage binding (the operator's matrices are split across bindings,
-    /// vectors are not yet): [`Error::DeviceTooSmall`] (exit code 2) naming
-    /// both sizes when not.
-    pub fn check_vector_len(&self, n: usize) -> Result<()> {
-        let max = self.max_binding_entries();
-        if n as u64 > max {
+    /// Can a buffer of `bytes` bytes (`what`) live on this device? Arrays
+    /// beyond one storage binding are bound in windows, but one buffer holds
+    /// at most `max_buffer_size` bytes: [`Error::DeviceTooSmall`] (exit code
+    /// 2) naming both sizes when not.
+    pub fn check_buffer(&self, what: &str, bytes: u64) -> Result<()> {
+        let max = self.limits.max_buffer_size;
+        if bytes > max {
             return Err(Error::DeviceTooSmall {
                 what: format!(
-                    "{n} dofs exceed one storage binding of {} ({max} entries at {}); \
+                    "{what} of {bytes} bytes exceeds the largest buffer of {} ({max} bytes); \
                      use a lower level or --backend cpu",
-                    self.adapter.name,
-                    self.precision.name()
+                    self.adapter.name
                 ),
             });
         }
         Ok(())
     }
 
-    /// Largest storage binding, in entries of the context's precision.
+    /// [`GpuContext::check_buffer`] for a vector of `n` entries.
+    pub fn check_vector_len(&self, n: usize) -> Result<()> {
+        let what = format!("a vector of {n} dofs at {}", self.precision.name());
+        self.check_buffer(&what, n as u64 * self.precision.bytes())
+    }
+
+    /// Entries of the context's precision in one storage binding.
     pub fn max_binding_entries(&self) -> u64 {
-        let bytes = self
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size);
-        bytes / self.precision.bytes()
+        self.bindings.max_bytes / self.precision.bytes()
     }
 }

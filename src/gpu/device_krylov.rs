@@ -9,14 +9,17 @@
 //!
 //! The algorithms are those of `crate::solver` (same formulas, same order of
 //! operations, Jacobi right preconditioning for CGS, the `r`/`z` split for CG),
-//! and [`solve_device`] checks the true residual around the cycles and
-//! restarts like [`crate::solver::solve`]. Not kept: the per-iteration residual
-//! history (one entry per batch) and the Lanczos coefficients of CG. A
-//! non-positive `p·Ap` is not detected by the device (CG then fails to
-//! converge instead of reporting a breakdown).
+//! and [`solve_device`] runs them under the same driver
+//! ([`crate::solver::drive`]: true residual around the cycles, restarts). A
+//! breakdown is detected on the device by `scalar_ratio` (a zero `ρ` or `σ`;
+//! for CG a `p·Ap` or `r·M⁻¹r` that is not positive), which records the
+//! culprit for the host's [`Error::Breakdown`]; non-finite values show in the
+//! `‖r‖²` read back. Not kept: the per-iteration residual history (one entry
+//! per batch) and the Lanczos coefficients of CG.
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
+use crate::solver::{breakdown, drive, Cycles, Precond};
 use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
 use super::backend::{GpuBackend, GpuVector};
@@ -37,6 +40,8 @@ const BETA: u32 = 15;
 /// `dot2` lands (‖r‖², ρ') here.
 const RR: u32 = 17;
 const RHO_NEXT: u32 = 18;
+/// `scalar_ratio` records a breakdown's (num, den, out) here.
+const BAD: u32 = 19;
 
 /// How often the host looks.
 #[derive(Clone, Copy, Debug)]
@@ -63,73 +68,22 @@ pub fn solve_device(
     opts: &KrylovOptions,
     dev: &DeviceOptions,
 ) -> Result<KrylovStats> {
-    opts.validate()?;
     if opts.method == KrylovMethod::BiCgStab {
         return Err(Error::InvalidSolverOptions {
             what: "method".into(),
             reason: "device-scalar solves are CG or CGS".into(),
         });
     }
-    let n = be.nrows(op);
-    assert!(be.len(b) == n && be.len(x) == n, "solve_device: sizes");
-    let b_norm = be.dot(b, b).sqrt();
-    let mut stats = KrylovStats::default();
-    if !b_norm.is_finite() {
-        return Err(breakdown(opts, 0, format!("‖b‖ = {b_norm} is not finite")));
-    }
-    if b_norm == 0.0 {
-        be.copy(b, x);
-        stats.residual_history.push(0.0);
-        return Ok(stats);
-    }
-    let inv_diag = match opts.preconditioner {
-        Preconditioner::None => None,
-        Preconditioner::Jacobi => Some(inverse_diagonal(be, op, diag, opts)?),
-    };
-    let cx = Cycle {
-        be,
-        op,
-        inv_diag: inv_diag.as_ref(),
-        n,
-        b_norm,
-        opts,
-        every: dev.check_every.max(1),
-    };
-    let mut r = be.zeros(n);
-    for cycle in 0.. {
-        be.apply(op, x, &mut r);
-        be.xpay(b, -1.0, &mut r);
-        let rel = be.dot(&r, &r).sqrt() / b_norm;
-        if !rel.is_finite() {
-            return Err(breakdown(opts, stats.iterations, "true residual".into()));
-        }
-        stats.true_relative_residual = rel;
-        if cycle == 0 {
-            stats.relative_residual = rel;
-        }
-        if rel <= opts.rel_tol {
-            return Ok(stats);
-        }
-        if stats.iterations >= opts.max_iterations {
-            break;
-        }
-        stats.restarts = cycle;
-        stats.residual_history.push(rel);
-        let started = stats.iterations;
-        let done = cx.run(x, &mut r, &mut stats);
-        if done == 2.0 {
-            // A zero divisor or a non-finite value: restart from the true
-            // residual if the cycle got anywhere, like the host path.
-            if opts.method == KrylovMethod::Cg || stats.iterations == started {
-                let what = "a zero divisor or a non-finite scalar".into();
-                return Err(breakdown(opts, stats.iterations, what));
-            }
-        }
-    }
-    Err(Error::MaxIterations {
-        method: opts.method.name().into(),
-        iterations: stats.iterations,
-        residual: stats.true_relative_residual,
+    drive(be, op, b, x, opts, |b_norm| {
+        Ok(Cycle {
+            be,
+            op,
+            pre: Precond::new(be, op, diag, opts)?,
+            n: be.nrows(op),
+            b_norm,
+            opts,
+            every: dev.check_every.max(1),
+        })
     })
 }
 
@@ -155,7 +109,7 @@ pub fn run_iterations(
     let cx = Cycle {
         be,
         op,
-        inv_diag: None,
+        pre: Precond::new(be, op, None, &opts).expect("no preconditioner"),
         n,
         b_norm,
         opts: &opts,
@@ -166,56 +120,33 @@ pub fn run_iterations(
     be.xpay(b, -1.0, &mut r);
     let mut stats = KrylovStats::default();
     // A breakdown shows as a non-finite or stalled residual in the result.
-    cx.run(x, &mut r, &mut stats);
+    let _ = cx.cycle(x, &mut r, &mut stats);
     stats.relative_residual
 }
 
-fn breakdown(opts: &KrylovOptions, iterations: usize, what: String) -> Error {
-    Error::Breakdown {
-        method: opts.method.name().into(),
-        iterations,
-        what,
+/// `name = v` as a breakdown: not finite, or (`positive`) not positive
+/// (worded like the host path's).
+fn describe(name: &str, v: f64, positive: Option<&str>) -> String {
+    match positive {
+        _ if !v.is_finite() => format!("{name} is not finite ({v})"),
+        Some(culprit) => format!("{name} = {v:e} ≤ 0: {culprit} is not positive definite"),
+        None => format!("{name} = 0"),
     }
-}
-
-/// `D⁻¹` on the device, from `diag` or the operator's diagonal (checked like
-/// the host path's Jacobi preconditioner).
-fn inverse_diagonal(
-    be: &GpuBackend,
-    op: &GpuOperator<'_>,
-    diag: Option<&GpuVector>,
-    opts: &KrylovOptions,
-) -> Result<GpuVector> {
-    let d = match diag {
-        Some(d) => be.download(d),
-        None => op.host_diagonal(),
-    };
-    let spd = opts.method == KrylovMethod::Cg;
-    if let Some((i, v)) = d
-        .iter()
-        .enumerate()
-        .find(|&(_, &v)| !v.is_finite() || v == 0.0 || (spd && v < 0.0))
-    {
-        let what = format!("Jacobi preconditioner: diagonal entry {i} of A is {v:e}");
-        return Err(breakdown(opts, 0, what));
-    }
-    let inv: Vec<f64> = d.iter().map(|v| 1.0 / v).collect();
-    Ok(be.upload(&inv))
 }
 
 /// What one cycle needs.
 struct Cycle<'a, 'o> {
     be: &'a GpuBackend,
     op: &'a GpuOperator<'o>,
-    inv_diag: Option<&'a GpuVector>,
+    pre: Precond<GpuBackend>,
     n: usize,
     b_norm: f64,
     opts: &'a KrylovOptions,
     every: usize,
 }
 
-/// The params of `scalar_ratio` / `krylov_check`.
-fn scal_params(num: u32, den: u32, out: u32, roll: bool) -> ScalParams {
+/// The params of `scalar_ratio` / `krylov_check`; `positive` for CG.
+fn scal_params(num: u32, den: u32, out: u32, roll: bool, positive: bool) -> ScalParams {
     ScalParams {
         num,
         den,
@@ -224,15 +155,40 @@ fn scal_params(num: u32, den: u32, out: u32, roll: bool) -> ScalParams {
         done: DONE,
         iters: ITERS,
         tol2: TOL2,
-        pad: 0,
+        positive: u32::from(positive),
+        bad: BAD,
+        ..Default::default()
+    }
+}
+
+impl Cycles<GpuBackend> for Cycle<'_, '_> {
+    fn cycle(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> Result<()> {
+        self.run(x, r, stats)
     }
 }
 
 impl Cycle<'_, '_> {
     fn scalar(&self, enc: &mut wgpu::CommandEncoder, kernel: Kernel, p: ScalParams) {
-        let bufs = [&self.be.scal];
-        self.be
-            .record(enc, kernel, bytemuck::bytes_of(&p), &bufs, (1, 1));
+        self.be.record_scalar(enc, kernel, &p);
+    }
+
+    /// The breakdown `scalar_ratio` recorded (its num, den, out).
+    fn device_breakdown(&self, iterations: usize) -> Error {
+        let s = self.be.read_slots(BAD, 3);
+        let (num, den, alpha) = (s[0], s[1], s[2] == ALPHA as f64);
+        let what = if self.opts.method == KrylovMethod::Cg {
+            let (pre, op) = (Some("the preconditioner"), Some("the operator"));
+            if alpha && (num > 0.0) {
+                describe("p·Ap", den, op)
+            } else {
+                describe("r·M⁻¹r", num, pre)
+            }
+        } else if alpha && num != 0.0 {
+            describe("σ = r̃·v", den, None)
+        } else {
+            describe("ρ = r̃·r", num, None)
+        };
+        breakdown(self.opts.method, iterations, what)
     }
 
     /// Records `z = M⁻¹ v` and returns the buffer holding `M⁻¹ v`.
@@ -242,7 +198,7 @@ impl Cycle<'_, '_> {
         v: &'b wgpu::Buffer,
         z: &'b wgpu::Buffer,
     ) -> &'b wgpu::Buffer {
-        match self.inv_diag {
+        match self.pre.inverse_diagonal() {
             None => v,
             Some(inv) => {
                 let bufs = [&inv.buf, v, z];
@@ -253,15 +209,15 @@ impl Cycle<'_, '_> {
         }
     }
 
-    /// Runs one cycle from the true residual `r`; returns the done flag
-    /// (1 converged, 2 breakdown: a zero divisor on the device or a
-    /// non-finite ‖r‖² seen here, 0 out of iterations).
-    fn run(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> f64 {
+    /// Runs one cycle from the true residual `r`: `Ok` when converged or
+    /// out of iterations, the breakdown the device marked or a non-finite
+    /// `‖r‖²`.
+    fn run(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> Result<()> {
         let (be, n) = (self.be, self.n);
         let tol2 = (self.opts.rel_tol * self.b_norm).powi(2);
         be.write_slots(TOL2, &[tol2, 0.0, 0.0]);
         be.write_slots(BETA, &[0.0, 0.0]);
-        let z = be.zeros(if self.inv_diag.is_some() { n } else { 0 });
+        let z = self.pre.scratch(be, n);
         let (p, q, v) = (be.zeros(n), be.zeros(n), be.zeros(n));
         let cgs = self.opts.method == KrylovMethod::Cgs;
         let rt = be.zeros(if cgs { n } else { 0 });
@@ -293,11 +249,15 @@ impl Cycle<'_, '_> {
             stats.iterations = start + s[1] as usize;
             stats.relative_residual = rr.sqrt() / self.b_norm;
             stats.residual_history.push(stats.relative_residual);
+            if s[0] == 2.0 {
+                return Err(self.device_breakdown(stats.iterations));
+            }
             if !rr.is_finite() {
-                return 2.0;
+                let what = format!("‖r‖² is not finite ({rr})");
+                return Err(breakdown(self.opts.method, stats.iterations, what));
             }
             if s[0] != 0.0 || stats.iterations >= self.opts.max_iterations {
-                return s[0];
+                return Ok(());
             }
         }
     }
@@ -316,7 +276,7 @@ impl Cycle<'_, '_> {
         self.scalar(
             enc,
             Kernel::ScalarRatio,
-            scal_params(RHO, SIGMA, ALPHA, false),
+            scal_params(RHO, SIGMA, ALPHA, false, true),
         );
         be.record_vec(
             enc,
@@ -334,11 +294,15 @@ impl Cycle<'_, '_> {
         );
         let zr = self.precond(enc, &r.buf, &z.buf);
         be.record_dot(enc, n, &[&r.buf, &r.buf, zr], RR);
-        self.scalar(enc, Kernel::KrylovCheck, scal_params(RR, 0, 0, false));
+        self.scalar(
+            enc,
+            Kernel::KrylovCheck,
+            scal_params(RR, 0, 0, false, false),
+        );
         self.scalar(
             enc,
             Kernel::ScalarRatio,
-            scal_params(RHO_NEXT, RHO, BETA, true),
+            scal_params(RHO_NEXT, RHO, BETA, true, true),
         );
         be.record_vec(enc, Kernel::Xpay, n, (BETA, 0), &[&be.scal, zr, &p.buf]);
     }
@@ -360,7 +324,7 @@ impl Cycle<'_, '_> {
         self.scalar(
             enc,
             Kernel::ScalarRatio,
-            scal_params(RHO, SIGMA, ALPHA, false),
+            scal_params(RHO, SIGMA, ALPHA, false, false),
         );
         let bufs = [s, &v.buf, &q.buf, &u.buf];
         be.record_vec(enc, Kernel::CgsUpdateQu, n, (ALPHA, 0), &bufs);
@@ -369,11 +333,15 @@ impl Cycle<'_, '_> {
         self.op.record_apply(be, enc, uh, &v.buf);
         be.record_vec(enc, Kernel::Axpy, n, (NALPHA, 0), &[s, &v.buf, &r.buf]);
         be.record_dot(enc, n, &[&r.buf, &r.buf, &rt.buf], RR);
-        self.scalar(enc, Kernel::KrylovCheck, scal_params(RR, 0, 0, false));
+        self.scalar(
+            enc,
+            Kernel::KrylovCheck,
+            scal_params(RR, 0, 0, false, false),
+        );
         self.scalar(
             enc,
             Kernel::ScalarRatio,
-            scal_params(RHO_NEXT, RHO, BETA, true),
+            scal_params(RHO_NEXT, RHO, BETA, true, false),
         );
     }
 }

@@ -32,9 +32,10 @@ pub struct VecParams {
     pub stride: u32,
 }
 
-/// Params of `dot`, `dot2` (`n` entries in `groups` workgroups) and `reduce`
-/// (`n` partials per component, `comps` components into slots `out..`).
-/// Keep in sync with `RedParams` in dot.wgsl, dot2.wgsl, reduce.wgsl.
+/// Params of `dot`, `dot2` (`n` entries of one window in `groups`
+/// workgroups, writing partials `base + g` of each component, `total` apart)
+/// and `reduce` (`n` partials per component, `comps` components into slots
+/// `out..`). Keep in sync with `RedParams` in dot.wgsl, dot2.wgsl, reduce.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RedParams {
@@ -42,11 +43,17 @@ pub struct RedParams {
     pub out: u32,
     pub groups: u32,
     pub comps: u32,
+    pub base: u32,
+    pub total: u32,
+    pub pad0: u32,
+    pub pad1: u32,
 }
 
-/// Params of `apply`: grid cells per axis, element degree and dofs per cell,
-/// the own-matrix slots `[own_lo, own_hi)` of this pass, and `first` (1: the
-/// pass that overwrites `y` and adds the inside cells).
+/// Params of `apply`: the window's active nodes, grid cells per axis, element
+/// degree and dofs per cell, the own-matrix slots `[own_lo, own_hi)` of this
+/// pass, `first` (1: the pass that overwrites `y` and adds the inside cells),
+/// and the bases of the `x`, `node_to_active` and `slots` windows
+/// ([`super::windows`]).
 /// Keep in sync with `ApplyParams` in apply.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -61,11 +68,16 @@ pub struct ApplyParams {
     pub own_lo: u32,
     pub own_hi: u32,
     pub first: u32,
+    pub x_base: u32,
+    pub lattice_base: u32,
+    pub cell_base: u32,
     pub pad0: u32,
     pub pad1: u32,
+    pub pad2: u32,
 }
 
-/// Params of the one-invocation kernels `scalar_ratio`, `krylov_check`: slots.
+/// Params of the one-invocation kernels `scalar_ratio`, `krylov_check`: slots
+/// and the flags `roll` and `positive` (see scalar_ratio.wgsl).
 /// Keep in sync with `ScalParams` in scalar_ratio.wgsl, krylov_check.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -77,7 +89,11 @@ pub struct ScalParams {
     pub done: u32,
     pub iters: u32,
     pub tol2: u32,
-    pub pad: u32,
+    pub positive: u32,
+    pub bad: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// The kernels, one per file of `shaders/`.
@@ -139,6 +155,21 @@ impl Kernel {
             Kernel::ScalarRatio => "scalar_ratio",
             Kernel::KrylovCheck => "krylov_check",
         }
+    }
+
+    /// Element-wise kernels whose binding 1 is the device scalars `scal`
+    /// (bound whole; the vectors after it are bound as windows).
+    pub fn scalars_first(self) -> bool {
+        matches!(
+            self,
+            Kernel::Scale
+                | Kernel::Axpy
+                | Kernel::Xpay
+                | Kernel::Axpy2
+                | Kernel::CgsUpdateUp
+                | Kernel::CgsUpdateQu
+                | Kernel::BicgstabUpdateP
+        )
     }
 
     /// The WGSL source as written (f64).

@@ -40,14 +40,21 @@ pub struct GpuSolver<'o> {
 }
 
 impl<'o> GpuSolver<'o> {
-    /// Uploads `op` and its diagonal to the device of `ctx`.
-    pub fn new(ctx: Arc<GpuContext>, op: &'o ElasticOperator, scalars: Scalars) -> Self {
+    /// Uploads `op` and its diagonal to the device of `ctx`
+    /// ([`crate::error::Error::DeviceTooSmall`] when it does not fit).
+    pub fn new(ctx: Arc<GpuContext>, op: &'o ElasticOperator, scalars: Scalars) -> Result<Self> {
         let be = GpuBackend::new(ctx);
-        let dop = GpuOperator::new(&be, op);
-        let diag = be.diagonal(&dop);
+        let dop = GpuOperator::new(&be, op)?;
+        Ok(Self::with_operator(be, dop, scalars))
+    }
+
+    /// The solver over an operator already uploaded to `be` (tests give
+    /// both with a lowered binding size).
+    pub fn with_operator(be: GpuBackend, op: GpuOperator<'o>, scalars: Scalars) -> Self {
+        let diag = be.diagonal(&op);
         GpuSolver {
             be,
-            op: dop,
+            op,
             diag,
             scalars,
         }

@@ -97,7 +97,8 @@ fn tree(sh: &mut [f64]) -> f64 {
     sh[0]
 }
 
-/// First pass of `x · y`: `partials[g]` for each of the `groups` workgroups.
+/// First pass of `x · y` over one window: `partials[base + g]` for each of its
+/// `groups` workgroups.
 pub fn dot(prm: &RedParams, x: &[f64], y: &[f64], partials: &mut [f64]) {
     let (wg, per) = (WG as usize, PER as usize);
     let mut sh = vec![0.0; wg];
@@ -112,15 +113,16 @@ pub fn dot(prm: &RedParams, x: &[f64], y: &[f64], partials: &mut [f64]) {
             }
             sh[t] = s;
         }
-        partials[g] = tree(&mut sh);
+        partials[prm.base as usize + g] = tree(&mut sh);
     }
 }
 
-/// First pass of `(x · y, x · z)`: `partials[g]`, `partials[groups + g]`.
+/// First pass of `(x · y, x · z)` over one window: `partials[base + g]`,
+/// `partials[total + base + g]`.
 pub fn dot2(prm: &RedParams, x: &[f64], y: &[f64], z: &[f64], partials: &mut [f64]) {
-    let (wg, per, groups) = (WG as usize, PER as usize, prm.groups as usize);
+    let (wg, per, base) = (WG as usize, PER as usize, prm.base as usize);
     let (mut sy, mut sz) = (vec![0.0; wg], vec![0.0; wg]);
-    for g in 0..groups {
+    for g in 0..prm.groups as usize {
         for t in 0..wg {
             let (mut a, mut b) = (0.0, 0.0);
             for j in 0..per {
@@ -133,8 +135,8 @@ pub fn dot2(prm: &RedParams, x: &[f64], y: &[f64], z: &[f64], partials: &mut [f6
             sy[t] = a;
             sz[t] = b;
         }
-        partials[g] = tree(&mut sy);
-        partials[groups + g] = tree(&mut sz);
+        partials[base + g] = tree(&mut sy);
+        partials[prm.total as usize + base + g] = tree(&mut sz);
     }
 }
 
@@ -158,8 +160,11 @@ pub fn reduce(prm: &RedParams, partials: &[f64], scal: &mut [f64]) {
     }
 }
 
-/// `y = A x` (one pass over the own-matrix chunk `[own_lo, own_hi)`, see
-/// apply.wgsl): per active node, its ≤ 8 cells, their matrices' rows.
+/// `y = A x` (one pass over the own-matrix chunk `[own_lo, own_hi)` for the
+/// active nodes of one window, see apply.wgsl): per active node, its ≤ 8
+/// cells, their matrices' rows. The index arrays, `x` and `y` are the
+/// window's slices (`x` from active node `x_base`, `node_to_active` from
+/// lattice node `lattice_base`, `slots` from cell `cell_base`).
 #[allow(clippy::too_many_arguments)]
 pub fn apply(
     prm: &ApplyParams,
@@ -210,7 +215,7 @@ pub fn apply(
                     let (ci, cj, ck) = (cell_of[0][cx], cell_of[1][cy], cell_of[2][cz]);
                     let cell = ci + nc[0] * (cj + nc[1] * ck);
                     let l = local_of[0][cx] + np * (local_of[1][cy] + np * local_of[2][cz]);
-                    let s = slots[cell];
+                    let s = slots[cell - prm.cell_base as usize];
                     let (k, base): (&[f64], usize) = if s == OUTSIDE {
                         continue;
                     } else if s == INSIDE {
@@ -229,7 +234,9 @@ pub fn apply(
                         for b in 0..np {
                             for aa in 0..np {
                                 let nn = (p * ci + aa) + m0 * ((p * cj + b) + m1 * (p * ck + c));
-                                let act = node_to_active[nn] as usize;
+                                let act = (node_to_active[nn - prm.lattice_base as usize]
+                                    - prm.x_base)
+                                    as usize;
                                 for j in 0..3 {
                                     let xj = x[3 * act + j];
                                     for i in 0..3 {
@@ -247,16 +254,25 @@ pub fn apply(
     }
 }
 
-/// Unless done: `q = scal[num] / scal[den]` (zero divisor: done = 2, q = 0);
-/// `scal[out] = q`, `scal[out + 1] = −q` (0 once done); with `roll`, then
-/// `scal[den] = scal[num]`.
+/// Unless done: `q = scal[num] / scal[den]`; a breakdown (a zero num or den, or
+/// with `positive` a `num` or `den` not `> 0`) sets done = 2, q = 0 and
+/// `scal[bad..bad + 3] = (num, den, out)`. Then `scal[out] = q`,
+/// `scal[out + 1] = −q` (0 once done); with `roll`, `scal[den] = scal[num]`.
 pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
     let mut q = 0.0;
     if scal[prm.done as usize] == 0.0 {
-        if scal[prm.den as usize] == 0.0 {
-            scal[prm.done as usize] = 2.0;
+        let (num, den) = (scal[prm.num as usize], scal[prm.den as usize]);
+        let broken = if prm.positive != 0 {
+            !(num > 0.0 && den > 0.0)
         } else {
-            q = scal[prm.num as usize] / scal[prm.den as usize];
+            num == 0.0 || den == 0.0
+        };
+        if broken {
+            scal[prm.done as usize] = 2.0;
+            let bad = prm.bad as usize;
+            scal[bad..bad + 3].copy_from_slice(&[num, den, prm.out as f64]);
+        } else {
+            q = num / den;
         }
     }
     scal[prm.out as usize] = q;

@@ -3,8 +3,9 @@
 //! ([`mirror`]), the [`crate::backend::Backend`] implementation with the
 //! operator resident on the device ([`backend`], [`operator`]), the
 //! device-scalar CG/CGS ([`device_krylov`]), f32 inner solves inside f64 defect
-//! correction ([`defect`]), and the linear solver the fixed-point loop calls
-//! ([`linear`]).
+//! correction ([`defect`]), the linear solver the fixed-point loop calls
+//! ([`linear`]), and the windows that bind arrays larger than one storage
+//! binding ([`windows`]).
 
 pub mod backend;
 pub mod context;
@@ -14,8 +15,10 @@ pub mod kernels;
 pub mod linear;
 pub mod mirror;
 pub mod operator;
+mod record;
 #[cfg(test)]
 mod tests;
+pub mod windows;
 
 pub use backend::{GpuBackend, GpuVector};
 pub use context::{list_adapters, BackendChoice, GpuContext, Precision, PrecisionChoice};

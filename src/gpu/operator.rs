@@ -2,25 +2,42 @@
 //! maps (active ↔ lattice node, cell slots), the shared inside matrix and the
 //! cut cells' own matrices — applied by `apply.wgsl`.
 //!
-//! # Own matrices over several bindings
+//! # Arrays over several bindings
 //! One storage binding holds at most `max_storage_buffer_binding_size` bytes
-//! (128 MiB on lavapipe); the own matrices (`ne² · 8` bytes per cut cell,
-//! 4608 B for Q1) can exceed it at fine levels. They are uploaded in chunks
-//! of whole matrices, one buffer each, and `apply` runs once per chunk: the
-//! first pass overwrites `y` with the inside cells and chunk 0, later passes add
-//! their chunk. Each invocation still writes only its own node: no atomics.
+//! (128 MiB on lavapipe).
+//! - The own matrices (`ne² · 8` bytes per cut cell, 4608 B for Q1) are
+//!   uploaded in chunks of whole matrices, one buffer each; `apply` runs once
+//!   per chunk: the first pass overwrites `y` with the inside cells and its
+//!   chunk, later passes add theirs.
+//! - The vectors and index maps are bound in apply windows
+//!   ([`super::windows::apply_windows`]): the active nodes a window writes,
+//!   with the cell layers and nodes (a halo of one cell layer) it reads. A
+//!   window runs the passes of the chunks its cells refer to.
+//!
+//! Each invocation still writes only its own node: no atomics, and split or
+//! not, every entry of `y` is summed in the same order.
 
 use crate::backend::LinearOperator;
+use crate::error::Result;
 use crate::fem::operator::ElasticOperator;
 
 use super::backend::GpuBackend;
 use super::kernels::{grid_2d, ApplyParams, Kernel, APPLY_WG};
+use super::record::{whole, window};
+use super::windows::{apply_windows, own_slots, ApplyWindow, Lattice};
 
 /// One buffer of own matrices: slots `[lo, hi)`.
 struct OwnChunk {
     buf: wgpu::Buffer,
     lo: u32,
     hi: u32,
+}
+
+/// An apply window and the own-matrix chunks its cells refer to (at least
+/// one: the first pass also adds the inside cells).
+struct Window {
+    ranges: ApplyWindow,
+    chunks: Vec<usize>,
 }
 
 /// The elasticity operator on the device; borrows the host operator for its
@@ -32,60 +49,97 @@ pub struct GpuOperator<'o> {
     slots: wgpu::Buffer,
     k_inside: wgpu::Buffer,
     own: Vec<OwnChunk>,
+    windows: Vec<Window>,
     params: ApplyParams,
 }
 
+/// The own matrices `own` (`ne2` entries each, borrowed or owned) in chunks
+/// of at most `max_entries` entries (at least one matrix, at least one chunk).
+fn own_chunks(
+    be: &GpuBackend,
+    own: impl AsRef<[f64]>,
+    ne2: usize,
+    max_entries: u64,
+) -> Vec<OwnChunk> {
+    let own = own.as_ref();
+    let per_chunk = ((max_entries as usize) / ne2).max(1);
+    let count = own.len() / ne2;
+    let mut chunks = Vec::new();
+    let mut lo = 0;
+    while lo < count || chunks.is_empty() {
+        let hi = (lo + per_chunk).min(count);
+        let bytes = be.to_bytes(&own[lo * ne2..hi * ne2]);
+        chunks.push(OwnChunk {
+            buf: be.buffer_init("own matrices", &bytes),
+            lo: lo as u32,
+            hi: hi as u32,
+        });
+        lo = hi.max(lo + 1);
+    }
+    chunks
+}
+
 impl<'o> GpuOperator<'o> {
-    /// Uploads `op` to the device of `be`.
-    pub fn new(be: &GpuBackend, op: &'o ElasticOperator) -> Self {
-        Self::with_chunk_entries(be, op, be.context().max_binding_entries())
+    /// Uploads `op` to the device of `be`. [`crate::error::Error::DeviceTooSmall`]
+    /// when an array exceeds the largest buffer or an apply window's halo
+    /// exceeds one binding.
+    pub fn new(be: &GpuBackend, op: &'o ElasticOperator) -> Result<Self> {
+        let entries = be.bindings().max_bytes / be.precision().bytes();
+        Self::with_chunk_entries(be, op, entries)
     }
 
     /// Like [`GpuOperator::new`] with own-matrix chunks of at most
     /// `max_entries` entries (tests force several chunks with it).
-    pub fn with_chunk_entries(be: &GpuBackend, op: &'o ElasticOperator, max_entries: u64) -> Self {
+    pub fn with_chunk_entries(
+        be: &GpuBackend,
+        op: &'o ElasticOperator,
+        max_entries: u64,
+    ) -> Result<Self> {
+        let ctx = be.context();
         let ne = op.dofs_per_cell();
-        let ne2 = ne * ne;
-        let per_chunk = ((max_entries as usize) / ne2).max(1);
-        let own_all = op.own_matrices();
-        let count = own_all.len() / ne2;
-        let mut own = Vec::new();
-        let mut lo = 0;
-        while lo < count || own.is_empty() {
-            let hi = (lo + per_chunk).min(count);
-            let bytes = be.to_bytes(&own_all[lo * ne2..hi * ne2]);
-            own.push(OwnChunk {
-                buf: be.buffer_init("own matrices", &bytes),
-                lo: lo as u32,
-                hi: hi as u32,
-            });
-            lo = hi.max(lo + 1);
-        }
-        let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
+        let (a2n, n2a) = (&op.dofs.active_to_node, &op.dofs.node_to_active);
+        ctx.check_vector_len(op.nrows())?;
+        ctx.check_buffer("the lattice node map", 4 * n2a.len() as u64)?;
         let n = op.grid.n;
+        let lattice = Lattice {
+            cells: n.map(|c| c as u32),
+            degree: op.dofs.order.degree() as u32,
+        };
+        let ranges = apply_windows(a2n, lattice, be.precision().bytes(), be.bindings())?;
+        let own = own_chunks(be, op.own_matrices(), ne * ne, max_entries);
+        let own_count = own.last().map_or(0, |c| c.hi);
+        let windows = ranges
+            .into_iter()
+            .map(|ranges| {
+                let used = own_slots(op.cell_slots(), &ranges.cells, own_count);
+                let mut chunks: Vec<usize> = (0..own.len())
+                    .filter(|&c| own[c].lo < used.end && used.start < own[c].hi)
+                    .collect();
+                if chunks.is_empty() {
+                    chunks.push(0);
+                }
+                Window { ranges, chunks }
+            })
+            .collect();
+        let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
         let params = ApplyParams {
-            n_active: op.dofs.num_active() as u32,
-            stride: 0,
             ncx: n[0] as u32,
             ncy: n[1] as u32,
             ncz: n[2] as u32,
-            degree: op.dofs.order.degree() as u32,
+            degree: lattice.degree,
             ne: ne as u32,
-            own_lo: 0,
-            own_hi: 0,
-            first: 1,
-            pad0: 0,
-            pad1: 0,
+            ..Default::default()
         };
-        GpuOperator {
+        Ok(GpuOperator {
             host: op,
-            active_to_node: u32s("active_to_node", &op.dofs.active_to_node),
-            node_to_active: u32s("node_to_active", &op.dofs.node_to_active),
+            active_to_node: u32s("active_to_node", a2n),
+            node_to_active: u32s("node_to_active", n2a),
             slots: u32s("slots", op.cell_slots()),
             k_inside: be.buffer_init("k_inside", &be.to_bytes(op.inside_matrix())),
             own,
+            windows,
             params,
-        }
+        })
     }
 
     /// Rows (= dofs).
@@ -93,9 +147,14 @@ impl<'o> GpuOperator<'o> {
         self.host.nrows()
     }
 
-    /// Number of own-matrix chunks (= `apply` passes).
+    /// Number of own-matrix chunks.
     pub fn chunks(&self) -> usize {
         self.own.len()
+    }
+
+    /// Number of apply windows.
+    pub fn windows(&self) -> usize {
+        self.windows.len()
     }
 
     /// The host operator this was uploaded from.
@@ -108,7 +167,8 @@ impl<'o> GpuOperator<'o> {
         self.host.diagonal()
     }
 
-    /// Records `y = A x`: one `apply` pass per own-matrix chunk.
+    /// Records `y = A x`: per window, one `apply` pass per own-matrix chunk
+    /// its cells refer to.
     pub(super) fn record_apply(
         &self,
         be: &GpuBackend,
@@ -116,30 +176,36 @@ impl<'o> GpuOperator<'o> {
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
     ) {
-        let n = self.params.n_active;
-        if n == 0 {
-            return;
-        }
         let max_dim = be.context().limits.max_compute_workgroups_per_dimension;
-        let (gx, gy, stride) = grid_2d(n, APPLY_WG, max_dim);
-        for (i, chunk) in self.own.iter().enumerate() {
-            let p = ApplyParams {
-                stride,
-                own_lo: chunk.lo,
-                own_hi: chunk.hi,
-                first: u32::from(i == 0),
-                ..self.params
-            };
-            let bufs = [
-                &self.active_to_node,
-                &self.node_to_active,
-                &self.slots,
-                &self.k_inside,
-                &chunk.buf,
-                x,
-                y,
-            ];
-            be.record(enc, Kernel::Apply, bytemuck::bytes_of(&p), &bufs, (gx, gy));
+        let bytes = be.precision().bytes();
+        let u64s = |r: &std::ops::Range<u32>, k: u64| k * r.start as u64..k * r.end as u64;
+        for Window { ranges: w, chunks } in &self.windows {
+            let nodes = w.nodes.end - w.nodes.start;
+            let (gx, gy, stride) = grid_2d(nodes, APPLY_WG, max_dim);
+            for (i, &c) in chunks.iter().enumerate() {
+                let chunk = &self.own[c];
+                let p = ApplyParams {
+                    n_active: nodes,
+                    stride,
+                    own_lo: chunk.lo,
+                    own_hi: chunk.hi,
+                    first: u32::from(i == 0),
+                    x_base: w.x.start,
+                    lattice_base: w.lattice.start,
+                    cell_base: w.cells.start,
+                    ..self.params
+                };
+                let binds = [
+                    window(&self.active_to_node, u64s(&w.nodes, 1), 4),
+                    window(&self.node_to_active, u64s(&w.lattice, 1), 4),
+                    window(&self.slots, u64s(&w.cells, 1), 4),
+                    whole(&self.k_inside),
+                    whole(&chunk.buf),
+                    window(x, u64s(&w.x, 3), bytes),
+                    window(y, u64s(&w.nodes, 3), bytes),
+                ];
+                be.record(enc, Kernel::Apply, bytemuck::bytes_of(&p), &binds, (gx, gy));
+            }
         }
     }
 }

@@ -78,8 +78,10 @@ macro_rules! rust_layout {
 #[test]
 fn params_structs_match_their_wgsl_twins() {
     let vec = rust_layout!(VecParams, n, ia, ib, stride);
-    let red = rust_layout!(RedParams, n, out, groups, comps);
-    let scal = rust_layout!(ScalParams, num, den, out, roll, done, iters, tol2, pad);
+    let red = rust_layout!(RedParams, n, out, groups, comps, base, total, pad0, pad1);
+    let scal = rust_layout!(
+        ScalParams, num, den, out, roll, done, iters, tol2, positive, bad, pad0, pad1, pad2
+    );
     let apply = rust_layout!(
         ApplyParams,
         n_active,
@@ -92,8 +94,12 @@ fn params_structs_match_their_wgsl_twins() {
         own_lo,
         own_hi,
         first,
+        x_base,
+        lattice_base,
+        cell_base,
         pad0,
-        pad1
+        pad1,
+        pad2
     );
     for k in Kernel::ALL {
         let m = validate(k, Precision::F64);
@@ -135,6 +141,8 @@ fn reduction_mirrors_sum_like_the_cpu_backend() {
             out: 0,
             groups,
             comps: 2,
+            total: groups,
+            ..Default::default()
         };
         let mut partials = vec![0.0; 2 * groups as usize];
         mirror::dot2(&prm, &x, &y, &x, &mut partials);
@@ -144,6 +152,7 @@ fn reduction_mirrors_sum_like_the_cpu_backend() {
             out: 0,
             groups: 1,
             comps: 2,
+            ..Default::default()
         };
         mirror::reduce(&second, &partials, &mut scal);
         let be = CpuBackend::new();
@@ -213,15 +222,28 @@ fn scalar_kernels_compute_ratios_and_mark_done() {
         done: 4,
         iters: 5,
         tol2: 6,
-        pad: 0,
+        bad: 7,
+        ..Default::default()
     };
-    let mut s = vec![6.0, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+    let mut s = vec![6.0, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
     mirror::scalar_ratio(&prm, &mut s);
     assert_eq!(&s[..5], &[6.0, 6.0, 2.0, -2.0, 0.0]);
     s[1] = 0.0;
     s[0] = 1.0;
     mirror::scalar_ratio(&prm, &mut s);
     assert_eq!((s[2], s[4]), (0.0, 2.0), "zero divisor: breakdown");
+    assert_eq!(&s[7..], &[1.0, 0.0, 2.0], "recorded (num, den, out)");
+    // CG: a negative p·Ap is a breakdown, a negative ratio otherwise is not.
+    let positive = ScalParams { positive: 1, ..prm };
+    for (flags, den, done) in [
+        (prm, -2.0, 0.0),
+        (positive, -2.0, 2.0),
+        (positive, f64::NAN, 2.0),
+    ] {
+        let mut s = vec![1.0, den, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+        mirror::scalar_ratio(&flags, &mut s);
+        assert_eq!(s[4], done, "den {den}, positive {}", flags.positive);
+    }
     let mut s = vec![0.5, 0.0, 0.0, 0.0, 0.0, 3.0, 1.0];
     mirror::krylov_check(&prm, &mut s);
     assert_eq!((s[4], s[5]), (1.0, 4.0));
@@ -229,16 +251,173 @@ fn scalar_kernels_compute_ratios_and_mark_done() {
     assert_eq!(s[5], 4.0, "done: no more counting");
 }
 
-/// A problem larger than one storage binding is refused with a typed error
-/// (exit code 2) naming both sizes, before any buffer is made.
+/// Only a buffer beyond `max_buffer_size` is refused, with a typed error
+/// (exit code 2) naming both sizes; vectors beyond one binding are not.
 #[test]
-fn vectors_beyond_one_binding_are_refused() {
+fn only_buffers_beyond_the_largest_buffer_are_refused() {
     let Some(ctx) = crate::gpu::context_or_skip(crate::gpu::PrecisionChoice::Auto) else {
         return;
     };
-    let max = ctx.max_binding_entries() as usize;
-    assert!(ctx.check_vector_len(max).is_ok());
-    let e = ctx.check_vector_len(max + 1).unwrap_err();
+    let max = ctx.limits.max_buffer_size / ctx.precision.bytes();
+    assert!(max > ctx.max_binding_entries());
+    assert!(ctx
+        .check_vector_len(ctx.max_binding_entries() as usize + 1)
+        .is_ok());
+    assert!(ctx.check_vector_len(max as usize).is_ok());
+    let e = ctx.check_vector_len(max as usize + 1).unwrap_err();
     assert_eq!(e.exit_code(), 2);
     assert!(e.to_string().contains(&format!("{}", max + 1)), "{e}");
+}
+
+/// The level-4 sphere of radius 1 (Q1).
+fn sphere_setup(level: u32) -> crate::fem::setup::Setup {
+    let text = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
+                [material]\nyoung = 1000.0\npoisson = 0.3\n";
+    let case = crate::case::Case::from_str("sphere.toml", text).unwrap();
+    crate::fem::setup::Setup::new(&case, Some(level)).unwrap()
+}
+
+/// Apply windows under a 32 KiB binding: the level-4 sphere splits into
+/// several windows that tile the active nodes, start aligned, fit the
+/// binding, and the mirror run window by window on the windows' slices
+/// equals the host operator. A binding too small for one window's halo is a
+/// typed refusal.
+#[test]
+fn apply_mirror_over_windows_equals_the_host_operator() {
+    use super::windows::{apply_windows, BindingLimits, Lattice};
+    use crate::backend::LinearOperator;
+    let setup = sphere_setup(4);
+    let op = &setup.op;
+    let n = op.nrows();
+    let (a2n, n2a, slots) = (
+        &op.dofs.active_to_node,
+        &op.dofs.node_to_active,
+        op.cell_slots(),
+    );
+    let limits = BindingLimits {
+        max_bytes: 2 * BindingLimits::smallest(),
+        align: 256,
+    };
+    let lattice = Lattice {
+        cells: op.grid.n.map(|c| c as u32),
+        degree: 1,
+    };
+    let windows = apply_windows(a2n, lattice, 8, limits).unwrap();
+    assert!(windows.len() >= 3, "{} windows", windows.len());
+    let x: Vec<f64> = (0..n).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
+    let mut y = vec![f64::NAN; n];
+    let own_all = op.own_matrices().to_vec();
+    let mut next = 0;
+    for w in &windows {
+        assert_eq!(w.nodes.start, next, "windows tile the nodes");
+        next = w.nodes.end;
+        let len = |r: &std::ops::Range<u32>| (r.end - r.start) as u64;
+        assert!(24 * len(&w.x).max(len(&w.nodes)) <= limits.max_bytes);
+        assert!(4 * len(&w.lattice).max(len(&w.cells)) <= limits.max_bytes);
+        for start in [w.nodes.start, w.x.start, w.lattice.start, w.cells.start] {
+            assert_eq!(start % 64, 0, "aligned: {w:?}");
+        }
+        let prm = ApplyParams {
+            n_active: len(&w.nodes) as u32,
+            ncx: op.grid.n[0] as u32,
+            ncy: op.grid.n[1] as u32,
+            ncz: op.grid.n[2] as u32,
+            degree: 1,
+            ne: op.dofs_per_cell() as u32,
+            own_hi: op.own_cells().len() as u32,
+            first: 1,
+            x_base: w.x.start,
+            lattice_base: w.lattice.start,
+            cell_base: w.cells.start,
+            ..Default::default()
+        };
+        let r = |r: &std::ops::Range<u32>, k: usize| k * r.start as usize..k * r.end as usize;
+        mirror::apply(
+            &prm,
+            &a2n[r(&w.nodes, 1)],
+            &n2a[r(&w.lattice, 1)],
+            &slots[r(&w.cells, 1)],
+            op.inside_matrix(),
+            &own_all,
+            &x[r(&w.x, 3)],
+            &mut y[r(&w.nodes, 3)],
+        );
+    }
+    assert_eq!(next as usize, op.dofs.num_active());
+    let mut expected = vec![0.0; n];
+    op.apply(&x, &mut expected);
+    let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (a, b) in y.iter().zip(&expected) {
+        assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
+    }
+    let tiny = BindingLimits {
+        max_bytes: 2048,
+        ..limits
+    };
+    let e = apply_windows(a2n, lattice, 8, tiny).unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
+}
+
+/// Reductions over vector windows (whole reduction chunks, partials at their
+/// group offset) give bitwise the unsplit result.
+#[test]
+fn windowed_reductions_equal_the_unsplit_ones_bitwise() {
+    use super::windows::{vector_windows, BindingLimits, REDUCTION_CHUNK};
+    let limits = BindingLimits {
+        max_bytes: BindingLimits::smallest(),
+        align: 256,
+    };
+    let w = limits.vector_window(8);
+    assert_eq!(w as u64, REDUCTION_CHUNK);
+    assert_eq!(limits.vector_window(4) as u64, 2 * REDUCTION_CHUNK);
+    let n = 3 * w + 777;
+    let x: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 113) as f64 / 17.0 - 3.0)
+        .collect();
+    let y: Vec<f64> = (0..n).map(|i| ((i * 104_729) % 97) as f64 / 13.0).collect();
+    let total = reduction_groups(n as u32);
+    let whole = RedParams {
+        n: n as u32,
+        groups: total,
+        comps: 2,
+        total,
+        ..Default::default()
+    };
+    let mut unsplit = vec![0.0; 2 * total as usize];
+    mirror::dot2(&whole, &x, &y, &x, &mut unsplit);
+    let mut split = vec![f64::NAN; 2 * total as usize];
+    let windows: Vec<_> = vector_windows(n, w).collect();
+    assert_eq!(windows.len(), 4);
+    for r in windows {
+        let prm = RedParams {
+            n: (r.end - r.start) as u32,
+            groups: reduction_groups((r.end - r.start) as u32),
+            base: (r.start as u64 / REDUCTION_CHUNK) as u32,
+            ..whole
+        };
+        mirror::dot2(&prm, &x[r.clone()], &y[r.clone()], &x[r], &mut split);
+    }
+    assert_eq!(split, unsplit);
+}
+
+/// `CGFEM_MAX_BINDING_BYTES` lowers the binding size, clamped to the
+/// smallest windows accept and to the adapter's; a non-number is a typed
+/// error naming the variable.
+#[test]
+fn the_binding_size_override_is_clamped_and_checked() {
+    use super::context::binding_limits;
+    use super::windows::BindingLimits;
+    let limits = wgpu::Limits {
+        max_storage_buffer_binding_size: 128 << 20,
+        min_storage_buffer_offset_alignment: 64,
+        ..Default::default()
+    };
+    let max = |v| binding_limits(&limits, v).unwrap().max_bytes;
+    assert_eq!(max(None), 128 << 20);
+    assert_eq!(max(Some("65536")), 65536);
+    assert_eq!(max(Some(" 1 ")), BindingLimits::smallest());
+    assert_eq!(max(Some("99999999999")), 128 << 20);
+    assert_eq!(binding_limits(&limits, None).unwrap().align, 64);
+    let e = binding_limits(&limits, Some("64k")).unwrap_err();
+    assert!(e.to_string().contains("CGFEM_MAX_BINDING_BYTES"), "{e}");
 }

@@ -264,7 +264,7 @@ fn unfittable_and_unknown_nodes_are_typed_errors() {
     nodes.push(0);
     match recover(&grid, &cells.kinds, &nodes, 1, &samples, &opts) {
         Err(e @ Error::Recovery { node: 0, .. }) => {
-            assert_eq!(e.exit_code(), 1);
+            assert_eq!(e.exit_code(), 3);
             assert!(e.to_string().contains("3 ring"), "{e}");
         }
         other => panic!("expected a recovery error at node 0, got {other:?}"),

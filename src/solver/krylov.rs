@@ -15,7 +15,7 @@ use super::{KrylovMethod, KrylovStats, Precond};
 pub(super) struct Problem<'a, 'o, B: Backend> {
     pub backend: &'a B,
     pub op: &'a B::Operator<'o>,
-    pub pre: &'a Precond<B>,
+    pub pre: Precond<B>,
     pub method: KrylovMethod,
     pub b_norm: f64,
     pub rel_tol: f64,
@@ -23,7 +23,7 @@ pub(super) struct Problem<'a, 'o, B: Backend> {
 }
 
 /// The breakdown error of `method` at `iterations`.
-pub(super) fn breakdown(method: KrylovMethod, iterations: usize, what: String) -> Error {
+pub(crate) fn breakdown(method: KrylovMethod, iterations: usize, what: String) -> Error {
     Error::Breakdown {
         method: method.name().into(),
         iterations,

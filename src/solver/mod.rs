@@ -38,8 +38,9 @@ use crate::error::{Error, Result};
 
 pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 
+pub(crate) use krylov::breakdown;
 use krylov::Problem;
-use precond::Precond;
+pub(crate) use precond::Precond;
 
 /// The Krylov method of a solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -157,6 +158,49 @@ pub fn solve<B: Backend>(
     x: &mut B::Vector,
     opts: &KrylovOptions,
 ) -> Result<KrylovStats> {
+    drive(backend, op, b, x, opts, |b_norm| {
+        Ok(Problem {
+            backend,
+            op,
+            pre: Precond::new(backend, op, diag, opts)?,
+            method: opts.method,
+            b_norm,
+            rel_tol: opts.rel_tol,
+            max_iterations: opts.max_iterations,
+        })
+    })
+}
+
+/// The cycles of one Krylov method as [`drive`] runs them.
+pub(crate) trait Cycles<B: Backend> {
+    /// One cycle from the true residual `r = b − A x`, until the recursive
+    /// residual meets the tolerance or the iteration budget is used up
+    /// (`Ok`), or a breakdown (`Err`); counts its iterations in `stats`.
+    fn cycle(&self, x: &mut B::Vector, r: &mut B::Vector, stats: &mut KrylovStats) -> Result<()>;
+}
+
+impl<B: Backend> Cycles<B> for Problem<'_, '_, B> {
+    fn cycle(&self, x: &mut B::Vector, r: &mut B::Vector, stats: &mut KrylovStats) -> Result<()> {
+        match self.method {
+            KrylovMethod::Cg => krylov::cg(self, x, r, stats),
+            KrylovMethod::Cgs => krylov::cgs(self, x, r, stats),
+            KrylovMethod::BiCgStab => krylov::bicgstab(self, x, r, stats),
+        }
+    }
+}
+
+/// The driver of every Krylov solve, host or device scalars (the module
+/// doc's stopping rules): checks the options and `b`, returns at once for
+/// `b = 0`, then runs the cycles that `setup(‖b‖)` makes, with the true
+/// residual computed around them and restarts within the iteration budget.
+pub(crate) fn drive<B: Backend, C: Cycles<B>>(
+    backend: &B,
+    op: &B::Operator<'_>,
+    b: &B::Vector,
+    x: &mut B::Vector,
+    opts: &KrylovOptions,
+    setup: impl FnOnce(f64) -> Result<C>,
+) -> Result<KrylovStats> {
     opts.validate()?;
     let n = backend.nrows(op);
     assert!(
@@ -174,19 +218,19 @@ pub fn solve<B: Backend>(
         stats.residual_history.push(0.0);
         return Ok(stats);
     }
-    let pre = Precond::new(backend, op, diag, opts)?;
-    let problem = Problem {
-        backend,
-        op,
-        pre: &pre,
-        method: opts.method,
-        b_norm,
-        rel_tol: opts.rel_tol,
-        max_iterations: opts.max_iterations,
-    };
+    let cycles = setup(b_norm)?;
     let mut r = backend.zeros(n);
     for cycle in 0.. {
-        let rel = true_residual(&problem, b, x, &mut r, stats.iterations)?;
+        let rel = true_residual(
+            backend,
+            op,
+            opts.method,
+            b,
+            x,
+            &mut r,
+            b_norm,
+            stats.iterations,
+        )?;
         stats.true_relative_residual = rel;
         if cycle == 0 {
             stats.relative_residual = rel;
@@ -200,12 +244,7 @@ pub fn solve<B: Backend>(
         stats.restarts = cycle;
         stats.residual_history.push(rel);
         let started = stats.iterations;
-        let result = match opts.method {
-            KrylovMethod::Cg => krylov::cg(&problem, x, &mut r, &mut stats),
-            KrylovMethod::Cgs => krylov::cgs(&problem, x, &mut r, &mut stats),
-            KrylovMethod::BiCgStab => krylov::bicgstab(&problem, x, &mut r, &mut stats),
-        };
-        match result {
+        match cycles.cycle(x, &mut r, &mut stats) {
             Ok(()) => {}
             // A vanishing r̃·r or r̃·v in CGS/BiCGStab (a "lucky" or serious
             // breakdown of the bi-orthogonalisation) after some progress:
@@ -225,16 +264,23 @@ pub fn solve<B: Backend>(
 }
 
 /// `r = b − A x`; returns `‖r‖₂ / ‖b‖₂`.
+#[allow(clippy::too_many_arguments)]
 fn true_residual<B: Backend>(
-    pb: &Problem<'_, '_, B>,
+    backend: &B,
+    op: &B::Operator<'_>,
+    method: KrylovMethod,
     b: &B::Vector,
     x: &B::Vector,
     r: &mut B::Vector,
+    b_norm: f64,
     iterations: usize,
 ) -> Result<f64> {
-    pb.backend.apply(pb.op, x, r);
-    pb.backend.xpay(b, -1.0, r);
-    let rr = pb.backend.dot(r, r);
-    let rr = pb.finite(rr, iterations, "‖b − A x‖² of the true residual")?;
-    Ok(rr.sqrt() / pb.b_norm)
+    backend.apply(op, x, r);
+    backend.xpay(b, -1.0, r);
+    let rr = backend.dot(r, r);
+    if !rr.is_finite() {
+        let what = format!("‖b − A x‖² of the true residual is not finite ({rr})");
+        return Err(krylov::breakdown(method, iterations, what));
+    }
+    Ok(rr.sqrt() / b_norm)
 }

@@ -9,7 +9,7 @@ use super::krylov::breakdown;
 use super::{KrylovMethod, KrylovOptions, Preconditioner};
 
 /// `M⁻¹` on the backend: `None` for the identity, else `D⁻¹` as a vector.
-pub(super) struct Precond<B: Backend> {
+pub(crate) struct Precond<B: Backend> {
     inv_diag: Option<B::Vector>,
 }
 
@@ -17,7 +17,7 @@ impl<B: Backend> Precond<B> {
     /// The preconditioner asked for in `opts`. For Jacobi, `diag` (or, when
     /// `None`, [`Backend::diagonal`] of `op`) is downloaded once, checked (finite
     /// and non-zero; positive for CG, which needs `M` SPD), inverted and uploaded.
-    pub fn new(
+    pub(crate) fn new(
         be: &B,
         op: &B::Operator<'_>,
         diag: Option<&B::Vector>,
@@ -48,6 +48,11 @@ impl<B: Backend> Precond<B> {
         Ok(Precond {
             inv_diag: Some(be.upload(&inv)),
         })
+    }
+
+    /// `D⁻¹` for Jacobi, `None` for `M = I` (for kernels that fuse it).
+    pub(crate) fn inverse_diagonal(&self) -> Option<&B::Vector> {
+        self.inv_diag.as_ref()
     }
 
     /// Scratch space for [`Precond::apply`]: `n` entries, or none for `M = I`.

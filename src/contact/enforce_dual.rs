@@ -1,0 +1,138 @@
+//! Second-order forward-mode numbers in `N` variables (value, gradient and
+//! Hessian), for the exact first and second derivatives of the contact gap
+//! with respect to the few kinematic quantities it depends on (see
+//! [`super::enforce_gap`]).
+//!
+//! Rules: `(a ± b)'' = a'' ± b''`,
+//! `(ab)'' = a b'' + b a'' + a'⊗b' + b'⊗a'` and, for a scalar function `f`,
+//! `f(a)'' = f'(a) a'' + f''(a) a'⊗a'` (used for `1/a` and `√a`).
+
+use std::ops::{Add, Mul, Sub};
+
+/// A value with its gradient and Hessian in `N` variables.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HyperDual<const N: usize> {
+    pub v: f64,
+    pub g: [f64; N],
+    pub h: [[f64; N]; N],
+}
+
+impl<const N: usize> HyperDual<N> {
+    /// A constant.
+    pub fn cst(v: f64) -> Self {
+        HyperDual {
+            v,
+            g: [0.0; N],
+            h: [[0.0; N]; N],
+        }
+    }
+
+    /// Variable number `i` with value `v`.
+    pub fn var(v: f64, i: usize) -> Self {
+        let mut x = Self::cst(v);
+        x.g[i] = 1.0;
+        x
+    }
+
+    /// `s · self` for a constant `s`.
+    pub fn scale(mut self, s: f64) -> Self {
+        self.v *= s;
+        self.g.iter_mut().for_each(|g| *g *= s);
+        self.h.iter_mut().flatten().for_each(|h| *h *= s);
+        self
+    }
+
+    /// `f(self)` from `f`, `f'` and `f''` at `self.v`.
+    fn chain(self, f: f64, df: f64, ddf: f64) -> Self {
+        let mut r = Self::cst(f);
+        for i in 0..N {
+            r.g[i] = df * self.g[i];
+            for j in 0..N {
+                r.h[i][j] = df * self.h[i][j] + ddf * self.g[i] * self.g[j];
+            }
+        }
+        r
+    }
+
+    /// `1 / self`.
+    pub fn recip(self) -> Self {
+        let r = 1.0 / self.v;
+        self.chain(r, -r * r, 2.0 * r * r * r)
+    }
+
+    /// `√self` (for `self.v > 0`).
+    pub fn sqrt(self) -> Self {
+        let s = self.v.sqrt();
+        self.chain(s, 0.5 / s, -0.25 / (s * self.v))
+    }
+
+    fn zip(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        let mut r = self;
+        r.v = f(self.v, o.v);
+        for i in 0..N {
+            r.g[i] = f(self.g[i], o.g[i]);
+            for j in 0..N {
+                r.h[i][j] = f(self.h[i][j], o.h[i][j]);
+            }
+        }
+        r
+    }
+}
+
+impl<const N: usize> Add for HyperDual<N> {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        self.zip(o, |a, b| a + b)
+    }
+}
+
+impl<const N: usize> Sub for HyperDual<N> {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        self.zip(o, |a, b| a - b)
+    }
+}
+
+impl<const N: usize> Mul for HyperDual<N> {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        let mut r = Self::cst(self.v * o.v);
+        for i in 0..N {
+            r.g[i] = self.v * o.g[i] + self.g[i] * o.v;
+            for j in 0..N {
+                r.h[i][j] = self.v * o.h[i][j]
+                    + self.h[i][j] * o.v
+                    + self.g[i] * o.g[j]
+                    + self.g[j] * o.g[i];
+            }
+        }
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derivatives_of_a_rational_root_are_exact() {
+        // f(x, y) = √x · y / (x + y) at (4, 1).
+        let (x, y) = (HyperDual::<2>::var(4.0, 0), HyperDual::<2>::var(1.0, 1));
+        let f = x.sqrt() * y * (x + y).recip();
+        let (xv, yv) = (4.0f64, 1.0f64);
+        let s = xv + yv;
+        assert!((f.v - 2.0 / 5.0).abs() < 1e-15);
+        // ∂f/∂x = y (1/(2√x) / s − √x / s²), ∂f/∂y = √x (1/s − y/s²).
+        let fx = yv * (0.5 / xv.sqrt() / s - xv.sqrt() / (s * s));
+        let fy = xv.sqrt() * (1.0 / s - yv / (s * s));
+        assert!((f.g[0] - fx).abs() < 1e-15 && (f.g[1] - fy).abs() < 1e-15);
+        // ∂²f/∂y² = √x (−2/s² + 2y/s³).
+        let fyy = xv.sqrt() * (-2.0 / (s * s) + 2.0 * yv / (s * s * s));
+        assert!((f.h[1][1] - fyy).abs() < 1e-15);
+        assert!((f.h[0][1] - f.h[1][0]).abs() < 1e-16);
+        // ∂²f/∂x² against a central difference of ∂f/∂x.
+        let dfx = |x: f64| yv * (0.5 / x.sqrt() / (x + yv) - x.sqrt() / ((x + yv) * (x + yv)));
+        let fxx = (dfx(4.0 + 1e-5) - dfx(4.0 - 1e-5)) / 2e-5;
+        assert!((f.h[0][0] - fxx).abs() < 1e-9, "{} vs {fxx}", f.h[0][0]);
+    }
+}

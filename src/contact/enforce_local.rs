@@ -1,0 +1,214 @@
+//! One slave point's contribution to the contact residual and tangent on its
+//! local dofs: the chain from the kinematic variables `y` of
+//! [`super::enforce_gap`] to the nodal displacements.
+//!
+//! `y` is linear in the local dofs, `y = y0 + A u_local`, with `A`'s columns
+//! from the shape functions: the slave cell's `N_a(X)` and `∂N_a/∂X` for
+//! `x1` and `F`, the hit triangle's master cell's `N_b(X_k)` for the corners
+//! `p_k`, and the anchor cell's `N_b(Â)` for `a`. So `R_local = Aᵀ R_y` and
+//! `K_local = Aᵀ K_y A` exactly (kept factored, see `enforce_tangent`).
+
+use super::enforce::SlaveQuadraturePoint;
+use super::enforce::{ContactBody, ContactPairData, MasterPoint, PointHistory, PointState};
+use super::enforce_gap::{local_gap, A, F, NVAR, P, X1};
+use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
+use super::enforce_tangent::PointTangent;
+use super::search::{area_ratio, current_normal, MasterSurface};
+use super::vec3::dot;
+use crate::element::{shape_gradients, shape_values};
+
+/// Local contributions of one point: global dofs, `R` and, when asked
+/// for, the factored tangent.
+pub struct Local {
+    pub dofs: Vec<usize>,
+    pub residual: Vec<f64>,
+    pub tangent: Option<PointTangent>,
+}
+
+/// `∂y/∂u` for one point: the global dofs and, per dof, its column of `A`.
+struct Jacobian {
+    dofs: Vec<usize>,
+    columns: Vec<[f64; NVAR]>,
+}
+
+impl Jacobian {
+    /// `y = y0 + A u_local`.
+    fn state(&self, y0: [f64; NVAR], u: &[f64]) -> [f64; NVAR] {
+        let mut y = y0;
+        for (col, &d) in self.columns.iter().zip(&self.dofs) {
+            (0..NVAR).for_each(|r| y[r] += col[r] * u[d]);
+        }
+        y
+    }
+}
+
+/// The active global dofs of `cell` (node-major, three components each) and
+/// the shape values and physical gradients at the reference point `x`.
+fn cell_shape(
+    body: &ContactBody,
+    cell: usize,
+    x: [f64; 3],
+) -> (Vec<usize>, Vec<f64>, Vec<[f64; 3]>) {
+    let npc = body.dofs.order.nodes_per_cell();
+    let mut nodes = vec![0usize; npc];
+    body.grid.cell_nodes(body.dofs.order, cell, &mut nodes);
+    let active = nodes.iter().map(|&n| {
+        let a = body.dofs.node_to_active[n];
+        assert!(
+            a != u32::MAX,
+            "contact point in cell {cell} with an inactive node"
+        );
+        a as usize
+    });
+    let dofs = active
+        .flat_map(|a| (0..3).map(move |i| body.offset + 3 * a + i))
+        .collect();
+    let lo = body.grid.cell_box(cell).lo;
+    let xi = [0, 1, 2].map(|k| (x[k] - lo[k]) / body.grid.h);
+    let mut n = vec![0.0; npc];
+    let mut dn = vec![[0.0; 3]; npc];
+    shape_values(body.dofs.order, xi, &mut n);
+    shape_gradients(body.dofs.order, xi, &mut dn);
+    dn.iter_mut().flatten().for_each(|d| *d /= body.grid.h);
+    (dofs, n, dn)
+}
+
+/// Columns of `A` for the slave dofs: `x1_i` and `F_ij` depend on `u_{a,i}`
+/// through `N_a(X)` and `∂N_a/∂X_j`.
+fn slave_jacobian(body: &ContactBody, p: &SlaveQuadraturePoint) -> Jacobian {
+    let (dofs, n, dn) = cell_shape(body, p.cell, p.x);
+    let columns = (0..dofs.len())
+        .map(|d| {
+            let (a, i) = (d / 3, d % 3);
+            let mut col = [0.0; NVAR];
+            col[X1 + i] = n[a];
+            (0..3).for_each(|j| col[F + 3 * i + j] = dn[a][j]);
+            col
+        })
+        .collect();
+    Jacobian { dofs, columns }
+}
+
+/// Adds the columns of the master `cell`'s dofs for the master points
+/// `(offset in y, reference position)` that lie in it: component `i` of the
+/// point at `offset` depends on `u_{b,i}` through `N_b(X)`.
+fn add_master_columns(
+    jac: &mut Jacobian,
+    body: &ContactBody,
+    cell: usize,
+    at: &[(usize, [f64; 3])],
+) {
+    let shapes: Vec<(Vec<usize>, Vec<f64>)> = at
+        .iter()
+        .map(|&(_, x)| {
+            let (dofs, n, _) = cell_shape(body, cell, x);
+            (dofs, n)
+        })
+        .collect();
+    for (d, &dof) in shapes[0].0.iter().enumerate() {
+        let (b, i) = (d / 3, d % 3);
+        let mut col = [0.0; NVAR];
+        for (&(offset, _), (_, n)) in at.iter().zip(&shapes) {
+            col[offset + i] = n[b];
+        }
+        jac.dofs.push(dof);
+        jac.columns.push(col);
+    }
+}
+
+/// `y0`: the kinematic state at `u = 0`.
+fn reference_state(x: [f64; 3], corners: &[[f64; 3]; 3], anchor: [f64; 3]) -> [f64; NVAR] {
+    let mut y = [0.0; NVAR];
+    y[X1..X1 + 3].copy_from_slice(&x);
+    (0..3).for_each(|i| y[F + 4 * i] = 1.0);
+    (0..3).for_each(|k| y[P + 3 * k..P + 3 * k + 3].copy_from_slice(&corners[k]));
+    y[A..A + 3].copy_from_slice(&anchor);
+    y
+}
+
+/// The state of slave point `p` and, when active, its local contributions.
+pub fn point_contact(
+    pair: &ContactPairData,
+    surface: &MasterSurface,
+    u: &[f64],
+    p: &SlaveQuadraturePoint,
+    history: &PointHistory,
+    tangent: bool,
+) -> (PointState, Option<Local>) {
+    let mut jac = slave_jacobian(&pair.slave, p);
+    let y_slave = jac.state(reference_state(p.x, &[[0.0; 3]; 3], [0.0; 3]), u);
+    let f = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y_slave[F + 3 * i + j]));
+    let normal = current_normal(&f, p.normal);
+    let mut state = PointState {
+        x: [y_slave[0], y_slave[1], y_slave[2]],
+        normal,
+        weight: p.weight * area_ratio(&f, p.normal),
+        hit: None,
+        master_point: None,
+        pressure: 0.0,
+        tangential: [0.0; 3],
+        slipping: false,
+    };
+    let hit = surface
+        .search(state.x, normal, pair.search_radius)
+        .filter(|h| dot(h.master_normal, normal) < 0.0);
+    let Some(hit) = hit else {
+        return (state, None);
+    };
+    state.master_point = Some(MasterPoint {
+        cell: hit.cell,
+        x: hit.reference_x2,
+    });
+    state.hit = Some((hit.triangle, hit.gap));
+    // Clearly inactive points skip the derivatives (the search's gap equals
+    // the closed form to round-off; the law decides on the latter).
+    if history.recovered + pair.stiffness() * hit.gap > 0.0 {
+        return (state, None);
+    }
+    let corners = pair.master_surface.reference_corners(hit.triangle);
+    let anchor = history.anchor.filter(|_| pair.friction > 0.0);
+    let mut in_hit_cell: Vec<(usize, [f64; 3])> = (0..3).map(|k| (P + 3 * k, corners[k])).collect();
+    match anchor {
+        Some(a) if a.cell == hit.cell => in_hit_cell.push((A, a.x)),
+        Some(a) => add_master_columns(&mut jac, &pair.master, a.cell, &[(A, a.x)]),
+        None => {}
+    }
+    add_master_columns(&mut jac, &pair.master, hit.cell, &in_hit_cell);
+    let anchor_x = anchor.map_or([0.0; 3], |a| a.x);
+    let lg = local_gap(
+        &jac.state(reference_state(p.x, &corners, anchor_x), u),
+        p.normal,
+    );
+    state.hit = Some((hit.triangle, lg.gap.v));
+    let input = LawInput {
+        recovered: history.recovered,
+        kappa: pair.stiffness(),
+        friction: pair.friction,
+        previous_tangential: anchor.map(|_| history.tangential),
+    };
+    let Some(tr) = tractions(&lg, &input) else {
+        return (state, None);
+    };
+    state.pressure = -tr.normal.v;
+    if let Some((t, slipping)) = &tr.tangential {
+        state.tangential = t.map(|ti| ti.v);
+        state.slipping = *slipping;
+    }
+    let r_y = residual_in_y(&lg, &tr, p.weight);
+    let residual = jac.columns.iter().map(|c| dot_n(c, &r_y)).collect();
+    let tangent = tangent.then(|| PointTangent {
+        dofs: jac.dofs.clone(),
+        columns: jac.columns,
+        k_y: tangent_in_y(&lg, &tr, p.weight),
+    });
+    let local = Local {
+        dofs: jac.dofs,
+        residual,
+        tangent,
+    };
+    (state, Some(local))
+}
+
+fn dot_n(a: &[f64; NVAR], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}

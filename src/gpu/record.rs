@@ -1,0 +1,215 @@
+//! How the backend records one kernel: a bind group (params at binding 0,
+//! then the buffers, each whole or as a window, [`super::windows`]) and a
+//! dispatch, in 2D past `max_compute_workgroups_per_dimension`; element-wise
+//! kernels and reductions loop over the vector windows.
+
+use std::num::NonZeroU64;
+use std::ops::Range;
+
+use wgpu::util::DeviceExt;
+
+use super::backend::{storage_usage, GpuBackend};
+use super::kernels::{grid_2d, reduction_groups, Kernel, RedParams, ScalParams, VecParams, WG};
+use super::windows::{vector_windows, REDUCTION_CHUNK};
+
+/// A whole buffer as a binding.
+pub(super) fn whole(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+    b.as_entire_binding()
+}
+
+/// Entries `r` of `b` (entries of `bytes` bytes) as a binding.
+pub(super) fn window(b: &wgpu::Buffer, r: Range<u64>, bytes: u64) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        buffer: b,
+        offset: r.start * bytes,
+        size: NonZeroU64::new((r.end - r.start).max(1) * bytes),
+    })
+}
+
+impl GpuBackend {
+    /// Records `kernel` with `params` at binding 0 and `binds` at 1, 2, …
+    /// over `groups` workgroups.
+    pub(super) fn record(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        params: &[u8],
+        binds: &[wgpu::BindingResource<'_>],
+        groups: (u32, u32),
+    ) {
+        let dev = &self.ctx.device;
+        let uniform = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: params,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let (pipeline, layout) = self.ctx.pipelines.get(kernel);
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniform.as_entire_binding(),
+        }];
+        for (i, b) in binds.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: i as u32 + 1,
+                resource: b.clone(),
+            });
+        }
+        let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(kernel.name()),
+            layout,
+            entries: &entries,
+        });
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(kernel.name()),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(groups.0, groups.1, 1);
+    }
+
+    /// Runs a one-invocation kernel (`scalar_ratio`, `krylov_check`) on the
+    /// device scalars, submitted.
+    pub fn scalar_kernel(&self, kernel: Kernel, p: &ScalParams) {
+        let mut enc = self.encoder();
+        self.record_scalar(&mut enc, kernel, p);
+        self.submit(enc);
+    }
+
+    /// Records a one-invocation kernel on the device scalars.
+    pub(super) fn record_scalar(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        p: &ScalParams,
+    ) {
+        let binds = [whole(&self.scal)];
+        self.record(enc, kernel, bytemuck::bytes_of(p), &binds, (1, 1));
+    }
+
+    pub(super) fn max_dim(&self) -> u32 {
+        self.ctx.limits.max_compute_workgroups_per_dimension
+    }
+
+    /// Entries per vector window.
+    fn vector_window(&self) -> usize {
+        self.bindings.vector_window(self.ctx.precision.bytes())
+    }
+
+    /// `bufs` bound over the entries `r`: the vectors as windows, the device
+    /// scalars (first, when `kernel` reads them) whole.
+    fn vector_binds<'b>(
+        &self,
+        kernel: Kernel,
+        bufs: &[&'b wgpu::Buffer],
+        r: &Range<usize>,
+    ) -> Vec<wgpu::BindingResource<'b>> {
+        let bytes = self.ctx.precision.bytes();
+        let entries = r.start as u64..r.end as u64;
+        bufs.iter()
+            .enumerate()
+            .map(|(i, b)| match i == 0 && kernel.scalars_first() {
+                true => whole(b),
+                false => window(b, entries.clone(), bytes),
+            })
+            .collect()
+    }
+
+    /// Records an element-wise kernel over `n` entries with scalar slots
+    /// `ia`, `ib`, window by window (nothing for `n = 0`).
+    pub(super) fn record_vec(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Kernel,
+        n: usize,
+        (ia, ib): (u32, u32),
+        bufs: &[&wgpu::Buffer],
+    ) {
+        for r in vector_windows(n, self.vector_window()) {
+            let len = (r.end - r.start) as u32;
+            let (x, y, stride) = grid_2d(len, WG, self.max_dim());
+            let p = VecParams {
+                n: len,
+                ia,
+                ib,
+                stride,
+            };
+            let binds = self.vector_binds(kernel, bufs, &r);
+            self.record(enc, kernel, bytemuck::bytes_of(&p), &binds, (x, y));
+        }
+    }
+
+    /// Records `dot` (`vecs = [x, y]`) or `dot2` (`[x, y, z]`) over `n`
+    /// entries, window by window, and the second pass into slots
+    /// `out..out + comps`.
+    pub(super) fn record_dot(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        n: usize,
+        vecs: &[&wgpu::Buffer],
+        out: u32,
+    ) {
+        let comps = vecs.len() as u32 - 1;
+        let total = reduction_groups(n as u32);
+        if total == 0 {
+            self.write_slots(out, &vec![0.0; comps as usize]);
+            return;
+        }
+        let partials = self.partials(total * comps);
+        let kernel = if comps == 1 {
+            Kernel::Dot
+        } else {
+            Kernel::Dot2
+        };
+        for r in vector_windows(n, self.vector_window()) {
+            let groups = reduction_groups((r.end - r.start) as u32);
+            let (x, y, _) = grid_2d(groups, 1, self.max_dim());
+            let first = RedParams {
+                n: (r.end - r.start) as u32,
+                out,
+                groups,
+                comps,
+                base: (r.start as u64 / REDUCTION_CHUNK) as u32,
+                total,
+                ..Default::default()
+            };
+            let mut binds = self.vector_binds(kernel, vecs, &r);
+            binds.push(whole(&partials));
+            self.record(enc, kernel, bytemuck::bytes_of(&first), &binds, (x, y));
+        }
+        let second = RedParams {
+            n: total,
+            out,
+            groups: 1,
+            comps,
+            ..Default::default()
+        };
+        let binds = [whole(&partials), whole(&self.scal)];
+        self.record(
+            enc,
+            Kernel::Reduce,
+            bytemuck::bytes_of(&second),
+            &binds,
+            (1, 1),
+        );
+    }
+
+    /// The partial-sums buffer, grown to at least `entries`.
+    fn partials(&self, entries: u32) -> wgpu::Buffer {
+        let bytes = entries as u64 * self.ctx.precision.bytes();
+        let mut cache = self.partials.borrow_mut();
+        match &*cache {
+            Some(b) if b.size() >= bytes => b.clone(),
+            _ => {
+                let b = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("partials"),
+                    size: bytes.next_power_of_two(),
+                    usage: storage_usage(),
+                    mapped_at_creation: false,
+                });
+                *cache = Some(b.clone());
+                b
+            }
+        }
+    }
+}
