@@ -12,18 +12,58 @@
 use std::borrow::Cow;
 
 use crate::backend::LinearOperator;
+use crate::contact::ContactTangent;
 use crate::hyper::newton::NonlinearProblem;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::tangent::TangentOperator;
 
+/// The tangent of a [`Coupling`] on the stacked vector.
+pub trait CouplingTangent {
+    /// `out += K_c v`.
+    fn apply_add(&self, v: &[f64], out: &mut [f64]);
+    /// `out += diag(K_c)`.
+    fn add_diagonal(&self, out: &mut [f64]);
+}
+
+/// The factored contact tangent of [`crate::contact::enforce`].
+impl CouplingTangent for ContactTangent {
+    fn apply_add(&self, v: &[f64], out: &mut [f64]) {
+        ContactTangent::apply_add(self, v, out)
+    }
+
+    fn add_diagonal(&self, out: &mut [f64]) {
+        ContactTangent::add_diagonal(self, out)
+    }
+}
+
+/// A coupling tangent given by its entries `(row, column, value)`
+/// (duplicates summed).
+pub struct Triplets(pub Vec<(usize, usize, f64)>);
+
+impl CouplingTangent for Triplets {
+    fn apply_add(&self, v: &[f64], out: &mut [f64]) {
+        for &(i, j, a) in &self.0 {
+            out[i] += a * v[j];
+        }
+    }
+
+    fn add_diagonal(&self, out: &mut [f64]) {
+        for &(i, j, a) in &self.0 {
+            if i == j {
+                out[i] += a;
+            }
+        }
+    }
+}
+
 /// A term that couples the bodies (the contact enforcement), on the stacked
-/// dof vector of a [`BodiesProblem`].
+/// dof vector of a [`BodiesProblem`] (body `b`'s dofs from `offsets[b]`, as
+/// [`crate::contact::enforce::ContactBody::offset`] expects).
 pub trait Coupling: Sync {
     /// `r += R_c(u, t)`; `None` where `u` is inadmissible for the coupling.
     fn residual_add(&self, u: &[f64], t: f64, r: &mut [f64]) -> Option<()>;
-    /// The entries `(row, column, value)` of `K_c = ∂R_c/∂u` at `u`
-    /// (duplicates are summed).
-    fn tangent_triplets(&self, u: &[f64], t: f64) -> Option<Vec<(usize, usize, f64)>>;
+    /// `K_c = ∂R_c/∂u` at `u`.
+    fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn CouplingTangent + 'a>>;
 }
 
 /// The bodies, stacked.
@@ -103,13 +143,9 @@ impl NonlinearProblem for BodiesProblem {
             .map(|b| TangentOperator::new(&self.bodies[b], self.part(b, u)))
             .collect::<Option<Vec<_>>>()?;
         let coupling = match &self.coupling {
-            Some(c) => c.tangent_triplets(u, t)?,
-            None => Vec::new(),
+            Some(c) => Some(c.tangent(u, t)?),
+            None => None,
         };
-        let coupling = coupling
-            .into_iter()
-            .filter(|&(i, j, _)| !self.held[i] && !self.held[j])
-            .collect();
         Some(Box::new(BodiesTangent {
             problem: self,
             blocks,
@@ -119,12 +155,13 @@ impl NonlinearProblem for BodiesProblem {
 }
 
 /// `K(u, t)` of a [`BodiesProblem`]: the bodies' matrix-free tangents on the
-/// diagonal blocks, the coupling entries, identity rows on held dofs.
+/// diagonal blocks, the coupling's tangent, identity rows and columns on held
+/// dofs (the coupling sees held entries of `v` as zero, and its rows there
+/// are replaced).
 pub struct BodiesTangent<'p> {
     problem: &'p BodiesProblem,
     blocks: Vec<TangentOperator<'p>>,
-    /// Coupling entries off the held rows and columns.
-    coupling: Vec<(usize, usize, f64)>,
+    coupling: Option<Box<dyn CouplingTangent + 'p>>,
 }
 
 impl LinearOperator for BodiesTangent<'_> {
@@ -146,8 +183,8 @@ impl LinearOperator for BodiesTangent<'_> {
             let range = p.offsets[b]..p.offsets[b + 1];
             k.apply(&free[range.clone()], &mut y[range]);
         }
-        for &(i, j, v) in &self.coupling {
-            y[i] += v * free[j];
+        if let Some(c) = &self.coupling {
+            c.apply_add(&free, y);
         }
         for (d, &h) in p.held.iter().enumerate() {
             if h {
@@ -158,10 +195,8 @@ impl LinearOperator for BodiesTangent<'_> {
 
     fn diagonal(&self) -> Vec<f64> {
         let mut d: Vec<f64> = self.blocks.iter().flat_map(|k| k.diagonal()).collect();
-        for &(i, j, v) in &self.coupling {
-            if i == j {
-                d[i] += v;
-            }
+        if let Some(c) = &self.coupling {
+            c.add_diagonal(&mut d);
         }
         for (x, &h) in d.iter_mut().zip(&self.problem.held) {
             if h {

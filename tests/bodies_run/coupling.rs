@@ -1,6 +1,7 @@
 //! The stacked problem with a coupling term and held dofs: its tangent
 //! against central differences of its residual, and its diagonal.
 
+use cgfem_gpu::bodies::problem::{Coupling, CouplingTangent, Triplets};
 use cgfem_gpu::hyper::material::Material;
 
 use super::alone;
@@ -13,7 +14,7 @@ struct Spring {
     k: f64,
 }
 
-impl cgfem_gpu::bodies::problem::Coupling for Spring {
+impl Coupling for Spring {
     fn residual_add(&self, u: &[f64], t: f64, r: &mut [f64]) -> Option<()> {
         let f = t * self.k * (u[self.a] - u[self.b]).powi(3);
         r[self.a] += f;
@@ -21,14 +22,14 @@ impl cgfem_gpu::bodies::problem::Coupling for Spring {
         Some(())
     }
 
-    fn tangent_triplets(&self, u: &[f64], t: f64) -> Option<Vec<(usize, usize, f64)>> {
+    fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn CouplingTangent + 'a>> {
         let d = 3.0 * t * self.k * (u[self.a] - u[self.b]).powi(2);
-        Some(vec![
+        Some(Box::new(Triplets(vec![
             (self.a, self.a, d),
             (self.a, self.b, -d),
             (self.b, self.a, -d),
             (self.b, self.b, d),
-        ])
+        ])))
     }
 }
 
