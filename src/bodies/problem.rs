@@ -12,7 +12,7 @@
 use std::borrow::Cow;
 
 use crate::backend::LinearOperator;
-use crate::contact::ContactTangent;
+use crate::contact::{ContactRow, ContactTangent};
 use crate::hyper::newton::NonlinearProblem;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::tangent::TangentOperator;
@@ -64,6 +64,12 @@ pub trait Coupling: Sync {
     fn residual_add(&self, u: &[f64], t: f64, r: &mut [f64]) -> Option<()>;
     /// `K_c = ∂R_c/∂u` at `u`.
     fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn CouplingTangent + 'a>>;
+    /// Load step `step` (from 1) converged at `u`: update what the coupling
+    /// carries between steps (friction anchors, say; hence `&self` with
+    /// interior mutability) and return the report's rows for the step.
+    fn step_converged(&self, _u: &[f64], _step: usize) -> Vec<ContactRow> {
+        Vec::new()
+    }
 }
 
 /// The bodies, stacked.
@@ -105,6 +111,13 @@ impl BodiesProblem {
     /// Adds the coupling term.
     pub fn set_coupling(&mut self, coupling: Box<dyn Coupling>) {
         self.coupling = Some(coupling);
+    }
+
+    /// Tells the coupling that load step `step` converged at `u`; its rows.
+    pub fn step_converged(&self, u: &[f64], step: usize) -> Vec<ContactRow> {
+        self.coupling
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.step_converged(u, step))
     }
 
     /// Body `b`'s part of a stacked vector.

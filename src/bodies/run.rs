@@ -36,8 +36,24 @@ pub fn run(
 ) -> Result<RunOutcome> {
     let t = Instant::now();
     let setup = BodiesSetup::new(case, level, progress)?;
-    let mut timings = BTreeMap::new();
-    timings.insert("setup".to_string(), t.elapsed().as_secs_f64());
+    let setup_seconds = t.elapsed().as_secs_f64();
+    let mut outcome = run_setup(case, setup, dir, progress)?;
+    outcome
+        .report
+        .timings
+        .insert("setup".to_string(), setup_seconds);
+    Ok(outcome)
+}
+
+/// Runs a set-up case (with whatever coupling its problem carries): the load
+/// steps, each converged one written into `dir` (created here) and told to the
+/// coupling, whose rows form the report's `contact`.
+pub fn run_setup(
+    case: &BodiesCase,
+    setup: BodiesSetup,
+    dir: Option<&Path>,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
     if let Some(dir) = dir {
         std::fs::create_dir_all(dir).map_err(|e| Error::Io {
             path: dir.display().to_string(),
@@ -47,23 +63,27 @@ pub fn run(
     let t = Instant::now();
     let mut solution = HyperSolution::zero(&setup.problem);
     let mut series = Series::default();
+    let mut contact = Vec::new();
     let problem = &setup.problem;
-    let mut write = |s: &HyperSolution| match dir {
-        Some(dir) => {
-            let parts: Vec<&[f64]> = (0..problem.bodies.len())
-                .map(|b| problem.part(b, &s.u))
-                .collect();
-            let (bodies, problems) = (&setup.bodies, &problem.bodies);
-            series.write_step(
-                dir,
-                bodies,
-                problems,
-                &parts,
-                s.converged_steps,
-                s.load_factor,
-            )
+    let mut converged = |s: &HyperSolution| {
+        contact.extend(problem.step_converged(&s.u, s.converged_steps));
+        match dir {
+            Some(dir) => {
+                let parts: Vec<&[f64]> = (0..problem.bodies.len())
+                    .map(|b| problem.part(b, &s.u))
+                    .collect();
+                let (bodies, problems) = (&setup.bodies, &problem.bodies);
+                series.write_step(
+                    dir,
+                    bodies,
+                    problems,
+                    &parts,
+                    s.converged_steps,
+                    s.load_factor,
+                )
+            }
+            None => Ok(()),
         }
-        None => Ok(()),
     };
     let result = solve_load_steps_with(
         problem,
@@ -71,10 +91,12 @@ pub fn run(
         &mut CpuTangentSolver::default(),
         progress,
         &mut solution,
-        &mut write,
+        &mut converged,
     );
+    let mut timings = BTreeMap::new();
     timings.insert("solve".to_string(), t.elapsed().as_secs_f64());
-    let report = report(case, &setup, &solution, &result, timings);
+    let mut report = report(case, &setup, &solution, &result, timings);
+    report.contact = contact;
     Ok(RunOutcome {
         setup,
         solution,

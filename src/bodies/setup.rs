@@ -4,6 +4,8 @@
 //! penalty `β = k1 E`, the Dirichlet conditions per component (restricted to
 //! their region at the surface quadrature points), the tractions, and the
 //! held `u_z` of plane-strain bodies; and the Newton options of the case.
+//! The case's contact pairs install no [`super::problem::Coupling`] yet (the
+//! enforcement of [`crate::contact::enforce`] is still to be wired in).
 
 use std::sync::Arc;
 

@@ -2,6 +2,7 @@
 //! against central differences of its residual, and its diagonal.
 
 use cgfem_gpu::bodies::problem::{Coupling, CouplingTangent, Triplets};
+use cgfem_gpu::contact::{ContactRow, SlaveSample};
 use cgfem_gpu::hyper::material::Material;
 
 use super::alone;
@@ -15,6 +16,16 @@ struct Spring {
 }
 
 impl Coupling for Spring {
+    fn step_converged(&self, u: &[f64], step: usize) -> Vec<ContactRow> {
+        let gap = u[self.b] - u[self.a];
+        let sample = SlaveSample {
+            weight: 1.0,
+            gap,
+            pressure: self.k * gap.powi(3),
+        };
+        vec![ContactRow::from_samples("spring", step, &[sample])]
+    }
+
     fn residual_add(&self, u: &[f64], t: f64, r: &mut [f64]) -> Option<()> {
         let f = t * self.k * (u[self.a] - u[self.b]).powi(3);
         r[self.a] += f;
@@ -120,4 +131,30 @@ fn the_stacked_tangent_with_coupling_and_held_dofs_is_the_derivative_of_the_resi
             d[i]
         );
     }
+}
+
+/// A run with a coupling: it is told every converged step, and its rows are
+/// the report's `contact`.
+#[test]
+fn the_coupling_reports_a_row_per_converged_step() {
+    use cgfem_gpu::bodies::run::run_setup;
+    use cgfem_gpu::bodies::setup::BodiesSetup;
+    use cgfem_gpu::case::bodies::BodiesCase;
+    use cgfem_gpu::progress::Silent;
+    let case = BodiesCase::from_str_with("two.toml", &super::case_text("0.5"), &[]).unwrap();
+    let mut setup = BodiesSetup::new(&case, Some(1), &Silent).unwrap();
+    let n0 = setup.problem.bodies[0].ndofs();
+    let spring = Spring {
+        a: 3,
+        b: n0,
+        k: 10.0,
+    };
+    setup.problem.set_coupling(Box::new(spring));
+    let outcome = run_setup(&case, setup, None, &Silent).unwrap();
+    outcome.result.unwrap();
+    let u = &outcome.solution.u;
+    let rows = &outcome.report.contact;
+    assert_eq!(rows.iter().map(|r| r.step).collect::<Vec<_>>(), [1, 2]);
+    assert_eq!(rows[1].max_penetration, (u[3] - u[n0]).max(0.0));
+    assert!(rows.iter().all(|r| r.pair == "spring"));
 }
