@@ -43,12 +43,6 @@ pub fn run_bodies_case(
         }
         .into());
     }
-    if !case.pairs.is_empty() {
-        println!(
-            "note: the {} contact pair(s) are checked but not enforced yet: the bodies are solved uncoupled",
-            case.pairs.len()
-        );
-    }
     if outputs.plots {
         println!("note: --plots has no chart for multi-body cases yet");
     }

@@ -4,11 +4,12 @@
 //! penalty `β = k1 E`, the Dirichlet conditions per component (restricted to
 //! their region at the surface quadrature points), the tractions, and the
 //! held `u_z` of plane-strain bodies; and the Newton options of the case.
-//! The case's contact pairs install no [`super::problem::Coupling`] yet (the
-//! enforcement of [`crate::contact::enforce`] is still to be wired in).
+//! The case's contact pairs, if any, are the problem's coupling
+//! ([`super::contact::ContactCoupling`]).
 
 use std::sync::Arc;
 
+use super::contact::{ContactCoupling, ContactSide};
 use super::problem::BodiesProblem;
 use crate::case::bodies::{BodiesCase, Component, HyperModel};
 use crate::cells::{cut_rule_points, Cells};
@@ -72,6 +73,20 @@ impl BodiesSetup {
                     problem.hold(b, 3 * a + 2);
                 }
             }
+        }
+        if !case.pairs.is_empty() {
+            let sides: Vec<ContactSide> = bodies
+                .iter()
+                .zip(&problem.bodies)
+                .map(|(b, p)| ContactSide {
+                    grid: &b.grid,
+                    dofs: &p.dofs,
+                    solid: &b.solid,
+                    cells: &b.cells,
+                })
+                .collect();
+            let coupling = ContactCoupling::new(case, &sides, &problem.offsets);
+            problem.set_coupling(Box::new(coupling));
         }
         Ok(BodiesSetup {
             bodies,

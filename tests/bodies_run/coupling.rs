@@ -158,3 +158,121 @@ fn the_coupling_reports_a_row_per_converged_step() {
     assert_eq!(rows[1].max_penetration, (u[3] - u[n0]).max(0.0));
     assert!(rows.iter().all(|r| r.pair == "spring"));
 }
+
+/// A block pressed 0.1 down onto a wider one, 0.01 apart, frictionless. The
+/// upper grid is offset: with both grids aligned, slave Gauss points lie on
+/// the master triangles' diagonals and Newton stalls (see the report).
+const PRESS: &str = r#"
+[load]
+steps = 4
+[newton]
+rel_tol = 1e-9
+energy_tol = 1e-14
+[solver]
+rel_tol = 1e-12
+[[body]]
+name = "lower"
+geometry = { type = "cuboid", min = [-1, -1, -1], max = [1, 1, 0] }
+grid = { level = 2 }
+material = { young = 1000.0, poisson = 0.3 }
+dirichlet.zmin = { value = ["0", "0", "0"] }
+[[body]]
+name = "upper"
+geometry = { type = "cuboid", min = [-0.5, -0.5, 0.01], max = [0.5, 0.5, 1.01] }
+grid = { level = 2, offset = [0.13, 0.29, 0.0] }
+material = { young = 1000.0, poisson = 0.3 }
+dirichlet.zmax = { value = ["0", "0", "-0.1"] }
+[[contact]]
+slave = "upper.zmin"
+master = "lower.zmax"
+"#;
+
+/// The stacked tangent with the case's contact pair against central
+/// differences of the stacked residual, at a state in contact.
+#[test]
+fn the_stacked_tangent_with_contact_is_the_derivative_of_the_residual() {
+    use cgfem_gpu::bodies::setup::BodiesSetup;
+    use cgfem_gpu::case::bodies::BodiesCase;
+    use cgfem_gpu::element::ElementOrder;
+    use cgfem_gpu::hyper::newton::NonlinearProblem;
+    use cgfem_gpu::progress::Silent;
+    let case = BodiesCase::from_str_with("press.toml", PRESS, &[]).unwrap();
+    let setup = BodiesSetup::new(&case, None, &Silent).unwrap();
+    let p = &setup.problem;
+    let n = p.ndofs();
+    let mut u = vec![0.0; n];
+    for b in 0..2 {
+        let body = &p.bodies[b];
+        for (a, &node) in body.dofs.active_to_node.iter().enumerate() {
+            let x = body.grid.node_position(ElementOrder::Q1, node as usize);
+            let d = &mut u[p.offsets[b] + 3 * a..p.offsets[b] + 3 * a + 3];
+            if b == 1 {
+                d[0] = 0.002 * x[1];
+                d[2] = -0.015 - 0.01 * x[2] + 0.003 * x[0] * x[1];
+            } else {
+                d[2] = 0.001 * x[2] * (1.0 - x[0] * x[0]);
+            }
+        }
+    }
+    let t = 0.5;
+    let k = p.tangent(&u, t).unwrap();
+    let v: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+    let mut kv = vec![0.0; n];
+    k.apply(&v, &mut kv);
+    let eps = 1e-6;
+    let shifted = |s: f64| {
+        let w: Vec<f64> = u.iter().zip(&v).map(|(x, d)| x + s * d).collect();
+        p.residual(&w, t).unwrap()
+    };
+    let (plus, minus) = (shifted(eps), shifted(-eps));
+    let fd: Vec<f64> = plus
+        .iter()
+        .zip(&minus)
+        .map(|(a, b)| (a - b) / (2.0 * eps))
+        .collect();
+    let diff = kv
+        .iter()
+        .zip(&fd)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let norm = fd.iter().map(|a| a * a).sum::<f64>().sqrt();
+    println!(
+        "stacked tangent with contact vs central differences: {:.2e}",
+        diff / norm
+    );
+    assert!(diff < 1e-8 * norm, "{diff:e} of {norm:e}");
+    // The state is in contact: the contact rows see pressure.
+    let rows = p.step_converged(&u, 1);
+    assert!(
+        rows[0].normal_force > 0.0 && rows[0].contact_area > 0.5,
+        "{:?}",
+        rows[0]
+    );
+}
+
+/// Frictionless hyperelastic contact is path independent: 4 and 8 load steps
+/// end with the same contact force.
+#[test]
+fn a_pressed_block_ends_with_the_same_contact_force_in_4_and_8_steps() {
+    use cgfem_gpu::bodies::run::run;
+    use cgfem_gpu::case::bodies::BodiesCase;
+    use cgfem_gpu::progress::Silent;
+    let force = |steps: &str| {
+        let set = [format!("load.steps={steps}")];
+        let case = BodiesCase::from_str_with("press.toml", PRESS, &set).unwrap();
+        let outcome = run(&case, None, None, &Silent).unwrap();
+        outcome.result.unwrap();
+        let rows = &outcome.report.contact;
+        assert_eq!(rows.len(), steps.parse::<usize>().unwrap());
+        assert!(rows
+            .windows(2)
+            .all(|w| w[1].normal_force > w[0].normal_force));
+        let last = rows.last().unwrap().clone();
+        assert!(last.max_penetration < 0.01 * 0.25, "{last:?}");
+        last.normal_force
+    };
+    let (f4, f8) = (force("4"), force("8"));
+    println!("contact force: {f4:.9} (4 steps), {f8:.9} (8 steps)");
+    assert!(f4 > 50.0 && (f4 - f8).abs() < 1e-6 * f4, "{f4} vs {f8}");
+}
