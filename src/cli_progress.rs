@@ -2,7 +2,9 @@
 //! spinners when stderr is a terminal, one plain line per step when it is not,
 //! nothing with `--quiet`; the log writer that prints `tracing` lines above
 //! the bars (so neither garbles the other); and the Ctrl-C flag that stops a
-//! run at the next fixed-point iteration boundary.
+//! run at the next fixed-point (or Newton) iteration boundary. A nonlinear
+//! run shows a bar over its load steps and a spinner with the Newton
+//! residual of the current step.
 
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -25,6 +27,10 @@ enum Mode {
 struct State {
     phase: Option<(Phase, ProgressBar, Instant)>,
     fixed_point: Option<ProgressBar>,
+    /// Load steps of a nonlinear run, and its Newton spinner.
+    load_steps: Option<(ProgressBar, ProgressBar)>,
+    /// The Newton spinner's text of the current iteration.
+    newton: String,
     /// The true relative residual of the last Krylov solve.
     residual: f64,
 }
@@ -59,7 +65,7 @@ impl Terminal {
     }
 
     /// Installs the Ctrl-C handler: the first press asks the run to stop at
-    /// the next fixed-point iteration boundary, a second one exits at once
+    /// the next fixed-point (or Newton) iteration boundary, a second one exits at once
     /// (code 130).
     pub fn catch_ctrl_c(&self) -> anyhow::Result<()> {
         let flag = self.interrupt.clone();
@@ -70,7 +76,7 @@ impl Terminal {
             }
             if !quiet {
                 eprintln!(
-                    "interrupt: stopping at the next fixed-point iteration \
+                    "interrupt: stopping at the next fixed-point or Newton iteration \
                      (Ctrl-C again to abort at once)"
                 );
             }
@@ -92,6 +98,58 @@ impl Terminal {
         }
         if let Some(bar) = s.fixed_point.take() {
             bar.finish_and_clear();
+        }
+        if let Some((steps, newton)) = s.load_steps.take() {
+            steps.finish_and_clear();
+            newton.finish_and_clear();
+        }
+    }
+
+    /// The load-step bar (`steps` long) and the Newton spinner below it.
+    fn load_step_bars(&self, s: &mut State, steps: usize) -> (ProgressBar, ProgressBar) {
+        s.load_steps
+            .get_or_insert_with(|| {
+                let bar = ProgressBar::new(steps as u64).with_style(
+                    ProgressStyle::with_template(
+                        "load steps [{bar:30}] {pos}/{len} {elapsed} {msg}",
+                    )
+                    .expect("template")
+                    .progress_chars("=> "),
+                );
+                let spinner = ProgressBar::new_spinner().with_style(
+                    ProgressStyle::with_template("{spinner} newton: {msg}").expect("template"),
+                );
+                spinner.enable_steady_tick(Duration::from_millis(120));
+                (self.multi.add(bar), self.multi.add(spinner))
+            })
+            .clone()
+    }
+
+    fn newton_iteration(&self, s: &mut State, steps: usize, t: f64, iteration: usize, rel: f64) {
+        let text = format!("t = {t:.4}, iteration {iteration}: ‖R‖/‖R0‖ = {rel:.2e}");
+        match self.mode {
+            Mode::Bars => {
+                self.load_step_bars(s, steps).1.set_message(text.clone());
+                s.newton = text;
+            }
+            _ => eprintln!("  newton {text}"),
+        }
+    }
+
+    fn load_step(&self, s: &mut State, step: usize, steps: usize, t: f64, cuts: usize, ok: bool) {
+        let (bar, _) = self.load_step_bars(s, steps);
+        let text = match ok {
+            true => format!("load step {step} converged at t = {t:.4} ({cuts} cuts)"),
+            false => format!("load step {step} failed at t = {t:.4}; halving the increment"),
+        };
+        match self.mode {
+            Mode::Bars => {
+                if ok {
+                    bar.set_position((t * steps as f64).floor() as u64);
+                }
+                bar.set_message(text);
+            }
+            _ => eprintln!("{text}"),
         }
     }
 
@@ -206,7 +264,12 @@ impl Progress for Terminal {
                     "solve {index}: {iterations} Krylov iterations, residual {relative_residual:.2e}"
                 );
                 match self.mode {
-                    Mode::Bars => self.fixed_point_bar(&mut s).set_message(text),
+                    Mode::Bars => match &s.load_steps {
+                        // A nonlinear run: the solve joins the Newton line.
+                        Some((_, spinner)) => spinner
+                            .set_message(format!("{}; {iterations} Krylov iterations", s.newton)),
+                        None => self.fixed_point_bar(&mut s).set_message(text),
+                    },
                     // The later solves are told with their iteration.
                     _ if index == 0 => eprintln!("{text}"),
                     _ => {}
@@ -231,6 +294,21 @@ impl Progress for Terminal {
                     s.residual
                 ),
             },
+            Event::NewtonIteration {
+                steps,
+                load_factor,
+                iteration,
+                relative_residual,
+                ..
+            } => self.newton_iteration(&mut s, steps, load_factor, iteration, relative_residual),
+            Event::LoadStep {
+                step,
+                steps,
+                load_factor,
+                cuts,
+                converged,
+                ..
+            } => self.load_step(&mut s, step, steps, load_factor, cuts, converged),
         }
     }
 

@@ -9,6 +9,7 @@
 
 pub mod backend;
 pub mod bench;
+pub mod bodies;
 pub mod case;
 pub mod cells;
 pub mod condition;

@@ -3,6 +3,7 @@
 //! report is still written, marked failed), 1 internal error, 130 interrupted
 //! by Ctrl-C (the report is still written, marked interrupted).
 
+mod cli_bodies;
 mod cli_progress;
 mod cli_run;
 
@@ -173,6 +174,13 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             };
             progress.catch_ctrl_c()?;
             let outputs = Outputs { dir: out, plots };
+            let text = std::fs::read_to_string(&case).unwrap_or_default();
+            if cgfem_gpu::case::bodies::is_bodies_case(&text) {
+                if condition || device.backend == Some(BackendChoice::Gpu) {
+                    println!("note: multi-body cases solve on the CPU, without --condition");
+                }
+                return cli_bodies::run_bodies_case(&case, level, &set, &outputs, progress);
+            }
             run_case(&case, level, &set, &outputs, condition, &device, progress)
         }
         Command::Info => {

@@ -1,7 +1,8 @@
 //! Progress of the long phases of a run, reported to an observer so that the
 //! library stays free of terminal code: the binary draws bars (or prints plain
 //! lines, or nothing) from these events. The observer is also asked, at each
-//! fixed-point iteration boundary, whether the run should stop (Ctrl-C).
+//! fixed-point iteration boundary (and each Newton iteration of a nonlinear
+//! run), whether the run should stop (Ctrl-C).
 
 /// A phase of a run with a progress display.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,6 +47,27 @@ pub enum Event {
         iteration: usize,
         eps: f64,
         krylov_iterations: usize,
+    },
+    /// A Newton iteration of a nonlinear run starts in load step `step` (of
+    /// `steps` nominal ones) at load factor `load_factor`: `iteration` from 0,
+    /// with `‖R‖ / ‖R_0‖` of the step.
+    NewtonIteration {
+        step: usize,
+        steps: usize,
+        load_factor: f64,
+        iteration: usize,
+        relative_residual: f64,
+    },
+    /// An attempt at load step `step` (from 1, of `steps` nominal ones) ended
+    /// at load factor `load_factor` after `newton_iterations` updates; a
+    /// failed attempt is retried with a halved increment.
+    LoadStep {
+        step: usize,
+        steps: usize,
+        load_factor: f64,
+        cuts: usize,
+        newton_iterations: usize,
+        converged: bool,
     },
 }
 

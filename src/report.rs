@@ -169,3 +169,94 @@ impl Report {
         }
     }
 }
+
+/// One body of a multi-body report: its grid, cells and domain.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct BodyReport {
+    pub name: String,
+    pub level: u32,
+    pub h: f64,
+    pub grid_cells: [usize; 3],
+    pub dofs: usize,
+    pub plane_strain: bool,
+    pub cells: CellCounts,
+    pub domain: Domain,
+}
+
+impl BodyReport {
+    /// The body `name` on its grid and cells (Q1).
+    pub fn new(
+        name: &str,
+        geometry: &Geometry,
+        grid: &Grid,
+        cells: &Cells,
+        plane_strain: bool,
+    ) -> BodyReport {
+        let r = Report::geometry(name, "", ElementOrder::Q1, geometry, grid, cells);
+        BodyReport {
+            name: name.into(),
+            level: r.level,
+            h: r.h,
+            grid_cells: r.grid_cells,
+            dofs: r.dofs,
+            plane_strain,
+            cells: r.cells,
+            domain: r.domain,
+        }
+    }
+}
+
+/// `newton` of a load step: its iterations and histories.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct NewtonHistory {
+    /// Newton updates made.
+    pub iterations: usize,
+    /// `‖R_k‖ / ‖R_0‖`, from `k = 0`.
+    pub residual_history: Vec<f64>,
+    /// `|Δu_k · R_k| / |Δu_0 · R_0|` per linear solve.
+    pub energy_history: Vec<f64>,
+    /// Line-search step length per update.
+    pub line_search: Vec<f64>,
+}
+
+/// One attempt at a load step (failed attempts are followed by a cut one).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct LoadStepRow {
+    /// The load step (from 1) this attempt tried to reach.
+    pub step: usize,
+    pub load_factor: f64,
+    pub converged: bool,
+    /// Halvings of the nominal increment at this attempt.
+    pub cuts: usize,
+    pub newton: NewtonHistory,
+    /// Krylov iterations per linear solve.
+    pub krylov_iterations: Vec<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
+}
+
+/// The report of a multi-body (large-deformation) run.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct BodiesReport {
+    pub case: String,
+    pub file: String,
+    /// `"ok"`, `"failed"` or `"interrupted"`, the last two with `failure`.
+    pub status: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
+    pub backend: String,
+    /// Unknowns of all bodies, and those held at zero (plane strain).
+    pub dofs: usize,
+    pub held_dofs: usize,
+    pub bodies: Vec<BodyReport>,
+    /// Nominal load steps, and the converged ones.
+    pub steps: usize,
+    pub converged_steps: usize,
+    /// The last converged load factor.
+    pub load_factor: f64,
+    pub load_steps: Vec<LoadStepRow>,
+    /// Per contact pair and converged load step.
+    pub contact: Vec<crate::contact::ContactRow>,
+    /// Seconds per phase.
+    pub timings: BTreeMap<String, f64>,
+}

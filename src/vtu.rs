@@ -221,13 +221,23 @@ pub fn write_vtu(
 /// Fails with [`Error::Io`] (and writes nothing) when a time is not finite or
 /// a file name is not valid UTF-8; and when the file cannot be written.
 pub fn write_pvd<P: AsRef<Path>>(path: &Path, entries: &[(f64, P)]) -> Result<()> {
+    let parts: Vec<(f64, usize, &Path)> =
+        entries.iter().map(|(t, f)| (*t, 0, f.as_ref())).collect();
+    write_pvd_parts(path, &parts)
+}
+
+/// [`write_pvd`] with several parts per time step: `(time, part, file)`
+/// entries, ParaView showing the files of one time with different `part`
+/// numbers together (several bodies, say).
+pub fn write_pvd_parts<P: AsRef<Path>>(path: &Path, entries: &[(f64, usize, P)]) -> Result<()> {
     let fail = |reason: String| Error::Io {
         path: path.display().to_string(),
         reason,
     };
     let mut checked = Vec::with_capacity(entries.len());
-    for (i, (time, file)) in entries.iter().enumerate() {
-        checked.push(check_pvd_entry(i, *time, file.as_ref()).map_err(fail)?);
+    for (i, (time, part, file)) in entries.iter().enumerate() {
+        let (time, name) = check_pvd_entry(i, *time, file.as_ref()).map_err(fail)?;
+        checked.push((time, *part, name));
     }
     write_atomic(path, xml::collection(&checked).as_bytes())
 }

@@ -43,12 +43,28 @@
 //! # ...
 //! neumann.top = { traction = ["0", "0", "-10"] }
 //!
+//! [[body]]                     # a plane-strain body (see "Plane strain")
+//! name = "ring"
+//! plane_strain = true
+//! geometry = { type = "annulus", start = [0, 0, -1], end = [0, 0, 1], inner_radius = 0.5, outer_radius = 1 }
+//! # ...
+//!
 //! [[contact]]
 //! slave = "upper.bottom"       # body.tag
 //! master = "lower.top"
 //! penalty = 30.0               # k of λ_N = min(0, T̂_N + (k E/h) g_N), as k1
 //! friction = 0.0               # Coulomb coefficient (0: frictionless)
 //! ```
+//!
+//! # Plane strain
+//! A body with `plane_strain = true` is solved as a slab one cell thick: its
+//! grid box spans the x–y extent of the grid box (or the geometry's) and
+//! exactly `z ∈ [−h/2, h/2]` at every level (`h` from the x–y extent and the
+//! level; the z offset must be 0), its solid is the geometry clipped to that
+//! slab (see [`BodiesCase::solid`]: the two caps lie on the grid's two node
+//! planes and are tagged [`PLANE_STRAIN_CAP`], traction free), and the runner
+//! holds `u_z = 0` at every node (strongly). The geometry must span the slab
+//! (z from −h/2 to h/2 at least); it is meant to be a prism along z.
 
 use std::collections::BTreeMap;
 
@@ -169,7 +185,13 @@ pub struct BodySpec {
     pub dirichlet: BTreeMap<String, ComponentDirichletSpec>,
     #[serde(default)]
     pub neumann: BTreeMap<String, TractionSpec>,
+    /// Solve as a plane-strain slab (see the module doc).
+    #[serde(default)]
+    pub plane_strain: bool,
 }
+
+/// The tag of the two caps of a plane-strain slab.
+pub const PLANE_STRAIN_CAP: &str = "plane_strain_cap";
 
 fn default_element() -> ElementOrder {
     ElementOrder::Q1
@@ -353,19 +375,24 @@ impl BodiesCase {
         Ok(case)
     }
 
-    /// The grid of every body, each at its own level or all at `level`.
+    /// The grid of every body, each at its own level or all at `level`
+    /// (a plane-strain body's grid is one cell thick, see the module doc).
     pub fn grids(&self, level: Option<u32>) -> Result<Vec<Grid>> {
         self.bodies
             .iter()
             .enumerate()
             .map(|(i, b)| {
                 let key = format!("body[{i}].grid");
-                grid_of(&self.file, &key, &b.spec.grid, &b.geometry, level)
+                let spec = match b.spec.plane_strain {
+                    true => self.slab_grid_spec(i, level)?,
+                    false => b.spec.grid.clone(),
+                };
+                grid_of(&self.file, &key, &spec, &b.geometry, level)
             })
             .collect()
     }
 
-    fn bad(&self, key: &str, reason: String) -> Error {
+    pub(crate) fn bad(&self, key: &str, reason: String) -> Error {
         bad_key(&self.file, key, reason)
     }
 
@@ -586,5 +613,6 @@ fn lattice_volume(bbox: &Aabb, inside: impl Fn([f64; 3]) -> bool) -> f64 {
     count as f64 * d[0] * d[1] * d[2]
 }
 
+mod plane_strain;
 #[cfg(test)]
 mod tests;

@@ -22,6 +22,12 @@
 //! tests then look at the same state, and a residual already at round-off
 //! never has to pass the line search again (it could not decrease further).
 //!
+//! # Problems
+//! The solve only sees a [`NonlinearProblem`]: `R(u, t)` and the tangent at
+//! `u` as a [`LinearOperator`]. [`HyperProblem`] (one body) implements it, and
+//! so does the multi-body problem of [`crate::bodies`] (the bodies' dofs
+//! stacked, plus a coupling term such as contact).
+//!
 //! # Step cutting
 //! A step fails when Newton runs out of iterations, the line search finds no
 //! decrease, or the Krylov solve fails. The displacement is then reset to the
@@ -39,11 +45,36 @@ use crate::error::{Error, Result};
 use crate::progress::{Event, Progress};
 use crate::solver::{solve, KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
+/// A nonlinear problem for [`solve_load_steps`]: the residual `R(u, t)` at
+/// load factor `t` and its tangent `∂R/∂u`.
+pub trait NonlinearProblem {
+    /// Number of unknowns.
+    fn ndofs(&self) -> usize;
+    /// `R(u, t)`, or `None` where `u` is inadmissible (some `det F ≤ 0`).
+    fn residual(&self, u: &[f64], t: f64) -> Option<Vec<f64>>;
+    /// `K_T(u, t)`, or `None` where `u` is inadmissible.
+    fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn LinearOperator + 'a>>;
+}
+
+impl NonlinearProblem for HyperProblem {
+    fn ndofs(&self) -> usize {
+        HyperProblem::ndofs(self)
+    }
+
+    fn residual(&self, u: &[f64], t: f64) -> Option<Vec<f64>> {
+        residual(self, u, t)
+    }
+
+    fn tangent<'a>(&'a self, u: &[f64], _t: f64) -> Option<Box<dyn LinearOperator + 'a>> {
+        TangentOperator::new(self, u).map(|k| Box::new(k) as Box<dyn LinearOperator + 'a>)
+    }
+}
+
 /// Solves `K_T Δu = rhs` on some backend, warm-started at `du`.
 pub trait TangentSolver {
     fn solve(
         &mut self,
-        tangent: &TangentOperator<'_>,
+        tangent: &dyn LinearOperator,
         rhs: &[f64],
         du: &mut Vec<f64>,
         opts: &KrylovOptions,
@@ -59,7 +90,7 @@ pub struct CpuTangentSolver {
 impl TangentSolver for CpuTangentSolver {
     fn solve(
         &mut self,
-        tangent: &TangentOperator<'_>,
+        tangent: &dyn LinearOperator,
         rhs: &[f64],
         du: &mut Vec<f64>,
         opts: &KrylovOptions,
@@ -84,6 +115,9 @@ pub struct NewtonOptions {
     pub max_cuts: usize,
     /// Backtracking halvings per line search.
     pub max_backtracks: usize,
+    /// `false`: take the full Newton step (`α = 1`) without checking that the
+    /// residual decreases.
+    pub line_search: bool,
     /// The inner linear solves.
     pub krylov: KrylovOptions,
 }
@@ -97,6 +131,7 @@ impl Default for NewtonOptions {
             energy_tol: 1e-12,
             max_cuts: 5,
             max_backtracks: 10,
+            line_search: true,
             krylov: KrylovOptions {
                 method: KrylovMethod::BiCgStab,
                 preconditioner: Preconditioner::Jacobi,
@@ -168,7 +203,7 @@ pub struct HyperSolution {
 
 impl HyperSolution {
     /// The undeformed start of `problem`.
-    pub fn zero(problem: &HyperProblem) -> HyperSolution {
+    pub fn zero(problem: &dyn NonlinearProblem) -> HyperSolution {
         HyperSolution {
             u: vec![0.0; problem.ndofs()],
             ..HyperSolution::default()
@@ -196,11 +231,25 @@ impl HyperSolution {
 /// Runs the load steps from `solution` (usually [`HyperSolution::zero`]) to load
 /// factor 1. On failure `solution` holds the last converged step.
 pub fn solve_load_steps(
-    problem: &HyperProblem,
+    problem: &dyn NonlinearProblem,
     opts: &NewtonOptions,
     solver: &mut dyn TangentSolver,
     progress: &dyn Progress,
     solution: &mut HyperSolution,
+) -> Result<()> {
+    solve_load_steps_with(problem, opts, solver, progress, solution, &mut |_| Ok(()))
+}
+
+/// [`solve_load_steps`], calling `on_converged` with the solution after each
+/// converged step (to write that step's outputs); an error it returns ends
+/// the solve.
+pub fn solve_load_steps_with(
+    problem: &dyn NonlinearProblem,
+    opts: &NewtonOptions,
+    solver: &mut dyn TangentSolver,
+    progress: &dyn Progress,
+    solution: &mut HyperSolution,
+    on_converged: &mut dyn FnMut(&HyperSolution) -> Result<()>,
 ) -> Result<()> {
     opts.validate()?;
     let nominal = 1.0 / opts.steps as f64;
@@ -226,14 +275,27 @@ pub fn solve_load_steps(
             problem,
             opts,
             progress,
+            step: solution.converged_steps + 1,
         };
-        match newton_step(&ctx, to, &mut u, solver, &mut report, &mut solves) {
+        let outcome = newton_step(&ctx, to, &mut u, solver, &mut report, &mut solves);
+        if !matches!(outcome, Err(StepFailure::Interrupted(_))) {
+            progress.event(&Event::LoadStep {
+                step: solution.converged_steps + 1,
+                steps: opts.steps,
+                load_factor: to,
+                cuts,
+                newton_iterations: report.alphas.len(),
+                converged: outcome.is_ok(),
+            });
+        }
+        match outcome {
             Ok(()) => {
                 report.converged = true;
                 solution.u = u;
                 solution.load_factor = to;
                 solution.converged_steps += 1;
                 solution.attempts.push(report);
+                on_converged(solution)?;
                 if cuts > 0 {
                     cuts -= 1;
                     increment *= 2.0;
@@ -272,9 +334,11 @@ enum StepFailure {
 }
 
 struct Context<'a> {
-    problem: &'a HyperProblem,
+    problem: &'a dyn NonlinearProblem,
     opts: &'a NewtonOptions,
     progress: &'a dyn Progress,
+    /// The load step being attempted (from 1).
+    step: usize,
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -296,7 +360,9 @@ fn newton_step(
 ) -> std::result::Result<(), StepFailure> {
     let (p, opts) = (ctx.problem, ctx.opts);
     let diverged = |s: &str| StepFailure::Diverged(s.to_string());
-    let mut r = residual(p, u, t).ok_or_else(|| diverged("an element is inverted at the start"))?;
+    let mut r = p
+        .residual(u, t)
+        .ok_or_else(|| diverged("an element is inverted at the start"))?;
     let r0 = norm(&r);
     report.residuals.push(1.0);
     if r0 == 0.0 {
@@ -307,12 +373,20 @@ fn newton_step(
         if ctx.progress.should_stop() {
             return Err(StepFailure::Interrupted(k));
         }
-        let tangent = TangentOperator::new(p, u)
+        ctx.progress.event(&Event::NewtonIteration {
+            step: ctx.step,
+            steps: opts.steps,
+            load_factor: t,
+            iteration: k,
+            relative_residual: report.residuals.last().copied().unwrap_or(1.0),
+        });
+        let tangent = p
+            .tangent(u, t)
             .ok_or_else(|| diverged("an element is inverted at the linearisation point"))?;
         let rhs: Vec<f64> = r.iter().map(|v| -v).collect();
         let mut du = vec![0.0; u.len()];
         let stats = solver
-            .solve(&tangent, &rhs, &mut du, &opts.krylov)
+            .solve(tangent.as_ref(), &rhs, &mut du, &opts.krylov)
             .map_err(|e| StepFailure::Diverged(format!("linear solve: {e}")))?;
         ctx.progress.event(&Event::KrylovSolve {
             index: *solves,
@@ -333,7 +407,8 @@ fn newton_step(
         {
             return Ok(());
         }
-        let (alpha, r_new) = line_search(p, t, u, &du, &r, opts.max_backtracks)
+        let backtracks = opts.line_search.then_some(opts.max_backtracks);
+        let (alpha, r_new) = line_search(p, t, u, &du, &r, backtracks)
             .ok_or_else(|| diverged("the line search found no decrease of the residual"))?;
         for (x, d) in u.iter_mut().zip(&du) {
             *x += alpha * d;
@@ -350,21 +425,22 @@ fn newton_step(
 }
 
 /// Backtracking on `‖R‖`: the first `α = 2^-j` with
-/// `‖R(u + α du)‖ ≤ (1 − 10⁻⁴ α) ‖R(u)‖`, and the residual there.
+/// `‖R(u + α du)‖ ≤ (1 − 10⁻⁴ α) ‖R(u)‖`, and the residual there. Without
+/// backtracking (`None`) the full step is taken wherever `R` is defined.
 fn line_search(
-    p: &HyperProblem,
+    p: &dyn NonlinearProblem,
     t: f64,
     u: &[f64],
     du: &[f64],
     r: &[f64],
-    max_backtracks: usize,
+    max_backtracks: Option<usize>,
 ) -> Option<(f64, Vec<f64>)> {
     let r_norm = norm(r);
     let mut alpha = 1.0;
-    for _ in 0..=max_backtracks {
+    for _ in 0..=max_backtracks.unwrap_or(0) {
         let trial: Vec<f64> = u.iter().zip(du).map(|(x, d)| x + alpha * d).collect();
-        if let Some(r_trial) = residual(p, &trial, t) {
-            if norm(&r_trial) <= (1.0 - 1e-4 * alpha) * r_norm {
+        if let Some(r_trial) = p.residual(&trial, t) {
+            if max_backtracks.is_none() || norm(&r_trial) <= (1.0 - 1e-4 * alpha) * r_norm {
                 return Some((alpha, r_trial));
             }
         }

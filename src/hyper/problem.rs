@@ -24,6 +24,9 @@ pub const CELL_DOFS: usize = 3 * NODES;
 
 /// A vector field of the reference position.
 pub type VectorField = Arc<dyn Fn([f64; 3]) -> [f64; 3] + Send + Sync>;
+/// A point-wise predicate of the reference position: where a Dirichlet
+/// condition applies (a box of the case file, say).
+pub type Region = Arc<dyn Fn([f64; 3]) -> bool + Send + Sync>;
 /// A traction of the reference position and outward normal.
 pub type TractionField = Arc<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Send + Sync>;
 
@@ -95,7 +98,27 @@ impl HyperProblem {
         dirichlet: &[DirichletCondition],
         loads: &Loads,
     ) -> Result<HyperProblem> {
+        Self::new_restricted(grid, cells, material, beta, dirichlet, &[], loads)
+    }
+
+    /// [`Self::new`] with Dirichlet conditions restricted to regions:
+    /// `regions[i]` (when given) keeps condition `i` at the surface quadrature
+    /// points where it holds; conditions past the end of `regions` apply on
+    /// their whole part.
+    pub fn new_restricted(
+        grid: &Grid,
+        cells: &Cells,
+        material: Material,
+        beta: f64,
+        dirichlet: &[DirichletCondition],
+        regions: &[Option<Region>],
+        loads: &Loads,
+    ) -> Result<HyperProblem> {
         check_parameters(&material, beta)?;
+        let applies = |i: usize, x: [f64; 3]| match regions.get(i) {
+            Some(Some(region)) => region(x),
+            _ => true,
+        };
         let dofs = DofMap::new(grid, cells, ElementOrder::Q1);
         let inv_h = 1.0 / grid.h;
         let vol = grid.h.powi(3);
@@ -140,7 +163,9 @@ impl HyperProblem {
             }
             p.cut_start.push(p.cut_points.len());
             for q in cells.surface_points(i) {
-                for d in dirichlet.iter().filter(|d| d.tag == q.tag) {
+                let here =
+                    |(i, d): &(usize, &DirichletCondition)| d.tag == q.tag && applies(*i, q.x);
+                for (_, d) in dirichlet.iter().enumerate().filter(here) {
                     let mut n = [0.0; NODES];
                     shape_values(ElementOrder::Q1, xi(q.x), &mut n);
                     p.penalty.push(PenaltyPoint {

@@ -35,14 +35,14 @@ pub(super) fn unstructured_grid(
 }
 
 /// The whole `.pvd` document for checked `(time, file)` entries.
-pub(super) fn collection(entries: &[(f64, &str)]) -> String {
+pub(super) fn collection(entries: &[(f64, usize, &str)]) -> String {
     let mut s = String::from("<?xml version=\"1.0\"?>\n");
     s.push_str("<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n");
     s.push_str("  <Collection>\n");
-    for (time, file) in entries {
+    for (time, part, file) in entries {
         let _ = writeln!(
             s,
-            "    <DataSet timestep=\"{}\" group=\"\" part=\"0\" file=\"{}\"/>",
+            "    <DataSet timestep=\"{}\" group=\"\" part=\"{part}\" file=\"{}\"/>",
             format_f64(*time),
             escape(file)
         );

@@ -1,0 +1,165 @@
+//! The case's contact pairs as the [`Coupling`] of the stacked problem, by the
+//! enforcement of [`crate::contact::enforce`]: per pair its slave points (the
+//! slave tag's boundary quadrature points), the master tag's surface, `k` and
+//! `μ` of the pair, the slave's `E`, and the points' histories.
+//!
+//! The recovered normal traction is not fed back yet: `T̂_N = 0`, the pure
+//! penalty method (`λ_N = min(0, κ g_N)`, `κ = k E / h_slave`). Histories (the
+//! friction anchors) advance at each converged load step. The ray search
+//! looks for master hits within half the smaller of the two bodies' bounding
+//! box diagonals.
+
+use std::sync::Mutex;
+
+use super::problem::{Coupling, CouplingTangent};
+use crate::case::bodies::BodiesCase;
+use crate::cells::Cells;
+use crate::contact::enforce::{
+    contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
+    PointHistory, SlaveQuadraturePoint,
+};
+use crate::contact::{ContactRow, ContactTangent, Surface};
+use crate::fem::dofs::DofMap;
+use crate::geometry::Geometry;
+use crate::grid::Grid;
+
+/// One pair, ready to enforce.
+struct Pair {
+    name: String,
+    slave: usize,
+    master: usize,
+    points: Vec<SlaveQuadraturePoint>,
+    surface: Surface,
+    penalty: f64,
+    young: f64,
+    friction: f64,
+    search_radius: f64,
+    history: Mutex<Vec<PointHistory>>,
+}
+
+/// Every contact pair of a case on the stacked dofs.
+pub struct ContactCoupling {
+    grids: Vec<Grid>,
+    dofs: Vec<DofMap>,
+    offsets: Vec<usize>,
+    pairs: Vec<Pair>,
+}
+
+/// A body as the contact set-up needs it.
+pub struct ContactSide<'a> {
+    pub grid: &'a Grid,
+    pub dofs: &'a DofMap,
+    pub solid: &'a Geometry,
+    pub cells: &'a Cells,
+}
+
+fn diagonal(g: &Geometry) -> f64 {
+    let b = g.bounding_box();
+    (0..3)
+        .map(|a| (b.hi[a] - b.lo[a]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+impl ContactCoupling {
+    /// The pairs of `case` on the bodies `sides` with dofs from `offsets`.
+    pub fn new(case: &BodiesCase, sides: &[ContactSide], offsets: &[usize]) -> ContactCoupling {
+        let pairs = case
+            .pairs
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let (s, m) = (&sides[p.slave.body], &sides[p.master.body]);
+                let points = slave_points(s.cells, p.slave.tag);
+                let spec = &case.spec.contact[i];
+                Pair {
+                    name: format!("{}→{}", spec.slave, spec.master),
+                    slave: p.slave.body,
+                    master: p.master.body,
+                    history: Mutex::new(vec![PointHistory::fresh(0.0); points.len()]),
+                    points,
+                    surface: Surface::from_level_set(m.grid, m.solid, &[p.master.tag]),
+                    penalty: p.penalty,
+                    young: case.bodies[p.slave.body].spec.material.young,
+                    friction: p.friction,
+                    search_radius: 0.5 * diagonal(s.solid).min(diagonal(m.solid)),
+                }
+            })
+            .collect();
+        ContactCoupling {
+            grids: sides.iter().map(|s| s.grid.clone()).collect(),
+            dofs: sides.iter().map(|s| s.dofs.clone()).collect(),
+            offsets: offsets.to_vec(),
+            pairs,
+        }
+    }
+
+    fn body(&self, b: usize) -> ContactBody<'_> {
+        ContactBody {
+            grid: &self.grids[b],
+            dofs: &self.dofs[b],
+            offset: self.offsets[b],
+        }
+    }
+
+    fn data<'a>(&'a self, p: &'a Pair) -> ContactPairData<'a> {
+        ContactPairData {
+            slave: self.body(p.slave),
+            master: self.body(p.master),
+            slave_points: &p.points,
+            master_surface: &p.surface,
+            penalty: p.penalty,
+            young: p.young,
+            search_radius: p.search_radius,
+            friction: p.friction,
+        }
+    }
+}
+
+fn history(p: &Pair) -> Vec<PointHistory> {
+    p.history.lock().expect("contact history").clone()
+}
+
+/// The pairs' tangents, summed.
+struct Tangents(Vec<ContactTangent>);
+
+impl CouplingTangent for Tangents {
+    fn apply_add(&self, v: &[f64], out: &mut [f64]) {
+        self.0.iter().for_each(|k| k.apply_add(v, out));
+    }
+
+    fn add_diagonal(&self, out: &mut [f64]) {
+        self.0.iter().for_each(|k| k.add_diagonal(out));
+    }
+}
+
+impl Coupling for ContactCoupling {
+    fn residual_add(&self, u: &[f64], _t: f64, r: &mut [f64]) -> Option<()> {
+        for p in &self.pairs {
+            let e = contact_residual(&self.data(p), u, &history(p));
+            r.iter_mut().zip(&e.residual).for_each(|(a, b)| *a += b);
+        }
+        Some(())
+    }
+
+    fn tangent<'a>(&'a self, u: &[f64], _t: f64) -> Option<Box<dyn CouplingTangent + 'a>> {
+        let tangents = self
+            .pairs
+            .iter()
+            .map(|p| contact_residual_and_tangent(&self.data(p), u, &history(p)).tangent)
+            .collect();
+        Some(Box::new(Tangents(tangents)))
+    }
+
+    fn step_converged(&self, u: &[f64], step: usize) -> Vec<ContactRow> {
+        self.pairs
+            .iter()
+            .map(|p| {
+                let mut h = p.history.lock().expect("contact history");
+                let e = contact_residual(&self.data(p), u, &h);
+                *h = e.converged_history(&vec![0.0; p.points.len()]);
+                e.contact_row(&p.name, step)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,18 @@
+//! Several hyperelastic bodies solved together (DESIGN §6, issue 8): the
+//! multi-body runner behind `cgfem-gpu run` on a case with `[[body]]`.
+//!
+//! - [`problem`]: the stacked problem `[u_1; u_2; …]` — each body's total
+//!   Lagrangian residual and matrix-free tangent on its block, the coupling
+//!   term of [`problem::Coupling`] (contact plugs in there), held dofs.
+//! - [`contact`]: the case's contact pairs as that coupling (the enforcement
+//!   of [`crate::contact::enforce`], pure penalty for now).
+//! - [`setup`]: a [`crate::case::bodies::BodiesCase`] mapped to that problem.
+//! - [`output`]: the ParaView series (`solution.pvd`, one `<body>_<step>.vtu`
+//!   per body and converged load step).
+//! - [`run`]: the load steps with the outputs written as steps converge, and
+//!   the report rows.
+pub mod contact;
+pub mod output;
+pub mod problem;
+pub mod run;
+pub mod setup;

@@ -1,0 +1,123 @@
+//! The ParaView time series of a multi-body run: per converged load step `k`
+//! and body `b`, `DIR/<b>_<k>.vtu` — the body's non-outside cells as
+//! hexahedra on the reference positions of their nodes, with the point data
+//! `displacement` (warp by it for the deformed shape) and the cell data
+//! `von_mises` (of the Cauchy stress `σ = P Fᵀ / J` averaged over the cell's
+//! quadrature points, weights `w_q`) and `cell_class` (0 inside, 1 cut, as
+//! [`crate::cells::CellKind`]) — and `DIR/solution.pvd`, listing every file
+//! so far with its load factor as time and its body index as part.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Matrix3;
+
+use super::setup::BodySetup;
+use crate::element::ElementOrder;
+use crate::error::{Error, Result};
+use crate::fem::output::von_mises;
+use crate::hyper::problem::HyperProblem;
+use crate::hyper::residual::point_fields;
+use crate::vtu::{write_pvd_parts, write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
+
+/// The file name of body `name` at load step `step`.
+pub fn body_file(name: &str, step: usize) -> String {
+    format!("{name}_{step}.vtu")
+}
+
+/// Voigt `(xx, yy, zz, yz, xz, xy)` of a symmetric tensor.
+fn voigt(s: &Matrix3<f64>) -> [f64; 6] {
+    [
+        s[(0, 0)],
+        s[(1, 1)],
+        s[(2, 2)],
+        s[(1, 2)],
+        s[(0, 2)],
+        s[(0, 1)],
+    ]
+}
+
+/// Von Mises of the weighted mean Cauchy stress of each cell of `p` at `u`.
+fn cell_von_mises(p: &HyperProblem, u: &[f64], path: &Path) -> Result<Vec<f64>> {
+    let fields = point_fields(p, u).ok_or_else(|| Error::Io {
+        path: path.display().to_string(),
+        reason: "an element is inverted in the displacement to write".into(),
+    })?;
+    Ok(fields
+        .iter()
+        .enumerate()
+        .map(|(k, points)| {
+            let mut mean = Matrix3::zeros();
+            let mut weight = 0.0;
+            for ((f, pk), q) in points.iter().zip(p.points(k)) {
+                mean += pk * f.transpose() * (q.w / f.determinant());
+                weight += q.w;
+            }
+            if weight > 0.0 {
+                von_mises(&voigt(&(mean / weight)))
+            } else {
+                0.0
+            }
+        })
+        .collect())
+}
+
+/// Writes body `p` (set up as `body`) at displacement `u` to `path`.
+pub fn write_body(path: &Path, body: &BodySetup, p: &HyperProblem, u: &[f64]) -> Result<()> {
+    let points: Vec<[f64; 3]> = p
+        .dofs
+        .active_to_node
+        .iter()
+        .map(|&n| body.grid.node_position(ElementOrder::Q1, n as usize))
+        .collect();
+    let cells: Vec<VtuCell> = p
+        .cell_nodes
+        .iter()
+        .map(|nodes| VtuCell::hex8_from_lexicographic(nodes.map(|a| a as usize)))
+        .collect();
+    let displacement: Vec<[f64; 3]> = u.chunks_exact(3).map(|d| [d[0], d[1], d[2]]).collect();
+    let class: Vec<u8> = p.cells.iter().map(|&c| body.cells.kinds[c] as u8).collect();
+    let point_data = [DataArray::vectors("displacement", &displacement)];
+    let cell_data = [
+        DataArray::scalars_f64("von_mises", cell_von_mises(p, u, path)?),
+        DataArray::scalars_u8("cell_class", class),
+    ];
+    let mesh = VtuMesh { points, cells };
+    write_vtu(path, &mesh, &point_data, &cell_data, VtuEncoding::Binary)
+}
+
+/// The series written so far: `(load factor, body, file)` per entry.
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    entries: Vec<(f64, usize, PathBuf)>,
+}
+
+impl Series {
+    /// Writes every body's file of converged step `step` at load factor `t`
+    /// into `dir` and rewrites `dir/solution.pvd`.
+    pub fn write_step(
+        &mut self,
+        dir: &Path,
+        bodies: &[BodySetup],
+        problems: &[HyperProblem],
+        parts: &[&[f64]],
+        step: usize,
+        t: f64,
+    ) -> Result<()> {
+        for (b, (body, p)) in bodies.iter().zip(problems).enumerate() {
+            let file = PathBuf::from(body_file(&body.name, step));
+            write_body(&dir.join(&file), body, p, parts[b])?;
+            self.entries.push((t, b, file));
+        }
+        write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
+    }
+
+    /// Number of files listed.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether nothing was written yet.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}

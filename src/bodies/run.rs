@@ -1,0 +1,169 @@
+//! The multi-body run: set-up, the load steps (each converged step's
+//! ParaView files written as it converges, so that a failed or interrupted
+//! run keeps the last converged step), and the report.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use super::output::Series;
+use super::setup::BodiesSetup;
+use crate::case::bodies::BodiesCase;
+use crate::error::{Error, Result};
+use crate::hyper::newton::{
+    solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
+};
+use crate::progress::Progress;
+use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory};
+
+/// What a run produced: the set-up, the last converged state, the report
+/// (status filled in) and how the solve ended.
+pub struct RunOutcome {
+    pub setup: BodiesSetup,
+    pub solution: HyperSolution,
+    pub report: BodiesReport,
+    pub result: Result<()>,
+}
+
+/// Runs `case` (every body at `level` when given), writing the series into
+/// `dir` when given (created after a successful set-up). A set-up error is
+/// returned as such; a solve error is in [`RunOutcome::result`].
+pub fn run(
+    case: &BodiesCase,
+    level: Option<u32>,
+    dir: Option<&Path>,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
+    let t = Instant::now();
+    let setup = BodiesSetup::new(case, level, progress)?;
+    let setup_seconds = t.elapsed().as_secs_f64();
+    let mut outcome = run_setup(case, setup, dir, progress)?;
+    outcome
+        .report
+        .timings
+        .insert("setup".to_string(), setup_seconds);
+    Ok(outcome)
+}
+
+/// Runs a set-up case (with whatever coupling its problem carries): the load
+/// steps, each converged one written into `dir` (created here) and told to the
+/// coupling, whose rows form the report's `contact`.
+pub fn run_setup(
+    case: &BodiesCase,
+    setup: BodiesSetup,
+    dir: Option<&Path>,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
+    if let Some(dir) = dir {
+        std::fs::create_dir_all(dir).map_err(|e| Error::Io {
+            path: dir.display().to_string(),
+            reason: e.to_string(),
+        })?;
+    }
+    let t = Instant::now();
+    let mut solution = HyperSolution::zero(&setup.problem);
+    let mut series = Series::default();
+    let mut contact = Vec::new();
+    let problem = &setup.problem;
+    let mut converged = |s: &HyperSolution| {
+        contact.extend(problem.step_converged(&s.u, s.converged_steps));
+        match dir {
+            Some(dir) => {
+                let parts: Vec<&[f64]> = (0..problem.bodies.len())
+                    .map(|b| problem.part(b, &s.u))
+                    .collect();
+                let (bodies, problems) = (&setup.bodies, &problem.bodies);
+                series.write_step(
+                    dir,
+                    bodies,
+                    problems,
+                    &parts,
+                    s.converged_steps,
+                    s.load_factor,
+                )
+            }
+            None => Ok(()),
+        }
+    };
+    let result = solve_load_steps_with(
+        problem,
+        &setup.newton,
+        &mut CpuTangentSolver::default(),
+        progress,
+        &mut solution,
+        &mut converged,
+    );
+    let mut timings = BTreeMap::new();
+    timings.insert("solve".to_string(), t.elapsed().as_secs_f64());
+    let mut report = report(case, &setup, &solution, &result, timings);
+    report.contact = contact;
+    Ok(RunOutcome {
+        setup,
+        solution,
+        report,
+        result,
+    })
+}
+
+/// The report of a run that ended with `result`.
+fn report(
+    case: &BodiesCase,
+    setup: &BodiesSetup,
+    solution: &HyperSolution,
+    result: &Result<()>,
+    timings: BTreeMap<String, f64>,
+) -> BodiesReport {
+    let bodies = setup
+        .bodies
+        .iter()
+        .zip(&case.bodies)
+        .map(|(b, c)| BodyReport::new(&b.name, &b.solid, &b.grid, &b.cells, c.spec.plane_strain))
+        .collect();
+    let (status, failure) = match result {
+        Ok(()) => ("ok", None),
+        Err(e @ Error::Interrupted { .. }) => ("interrupted", Some(e.to_string())),
+        Err(e) => ("failed", Some(e.to_string())),
+    };
+    BodiesReport {
+        case: case.spec.name.clone().unwrap_or_else(|| "case".into()),
+        file: case.file.clone(),
+        status: status.into(),
+        failure,
+        backend: "cpu".into(),
+        dofs: setup.problem.ndofs(),
+        held_dofs: setup.problem.num_held(),
+        bodies,
+        steps: setup.newton.steps,
+        converged_steps: solution.converged_steps,
+        load_factor: solution.load_factor,
+        load_steps: load_step_rows(&solution.attempts),
+        contact: Vec::new(),
+        timings,
+    }
+}
+
+/// One row per attempt, numbered by the step it tried to reach.
+pub fn load_step_rows(attempts: &[StepReport]) -> Vec<LoadStepRow> {
+    let mut converged = 0;
+    attempts
+        .iter()
+        .map(|a| {
+            let row = LoadStepRow {
+                step: converged + 1,
+                load_factor: a.to,
+                converged: a.converged,
+                cuts: a.cuts,
+                newton: NewtonHistory {
+                    iterations: a.alphas.len(),
+                    residual_history: a.residuals.clone(),
+                    energy_history: a.energies.clone(),
+                    line_search: a.alphas.clone(),
+                },
+                krylov_iterations: a.krylov_iterations.clone(),
+                failure: a.failure.clone(),
+            };
+            converged += a.converged as usize;
+            row
+        })
+        .collect()
+}

@@ -1,0 +1,185 @@
+//! From a [`BodiesCase`] to a [`BodiesProblem`]: per body its grid (`--level`
+//! sets every body's), its solid (clipped for plane strain), the cell
+//! classification with the Q1 cut rules, the hyperelastic material, the
+//! penalty `β = k1 E`, the Dirichlet conditions per component (restricted to
+//! their region at the surface quadrature points), the tractions, and the
+//! held `u_z` of plane-strain bodies; and the Newton options of the case.
+//! The case's contact pairs, if any, are the problem's coupling
+//! ([`super::contact::ContactCoupling`]).
+
+use std::sync::Arc;
+
+use super::contact::{ContactCoupling, ContactSide};
+use super::problem::BodiesProblem;
+use crate::case::bodies::{BodiesCase, Component, HyperModel};
+use crate::cells::{cut_rule_points, Cells};
+use crate::element::ElementOrder;
+use crate::error::{Error, Result};
+use crate::geometry::Geometry;
+use crate::grid::Grid;
+use crate::hyper::material::{Material, MaterialModel};
+use crate::hyper::newton::NewtonOptions;
+use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Region, TractionField};
+use crate::progress::Progress;
+use crate::solver::KrylovOptions;
+
+/// One body, set up.
+pub struct BodySetup {
+    pub name: String,
+    pub grid: Grid,
+    /// The solid on the grid (clipped for plane strain).
+    pub solid: Geometry,
+    pub cells: Cells,
+}
+
+/// Every body of a case and the stacked problem.
+pub struct BodiesSetup {
+    pub bodies: Vec<BodySetup>,
+    pub problem: BodiesProblem,
+    pub newton: NewtonOptions,
+}
+
+impl BodiesSetup {
+    /// Sets the case up at its levels, or every body at `level`.
+    pub fn new(case: &BodiesCase, level: Option<u32>, progress: &dyn Progress) -> Result<Self> {
+        let grids = case.grids(level)?;
+        let mut bodies = Vec::with_capacity(grids.len());
+        let mut problems = Vec::with_capacity(grids.len());
+        for (i, grid) in grids.into_iter().enumerate() {
+            let spec = &case.bodies[i].spec;
+            if spec.element != ElementOrder::Q1 {
+                return Err(bad(
+                    case,
+                    &format!("body[{i}].element"),
+                    "large deformation runs Q1 only",
+                ));
+            }
+            let solid = case.solid(i, &grid)?;
+            let rule = cut_rule_points(ElementOrder::Q1);
+            let cells = Cells::classify_with_progress(&grid, &solid, rule, progress)
+                .map_err(|e| bad(case, &format!("body[{i}].geometry"), &e.to_string()))?;
+            problems.push(body_problem(case, i, &grid, &solid, &cells)?);
+            bodies.push(BodySetup {
+                name: spec.name.clone(),
+                grid,
+                solid,
+                cells,
+            });
+        }
+        let mut problem = BodiesProblem::new(problems);
+        for (b, body) in case.bodies.iter().enumerate() {
+            if body.spec.plane_strain {
+                for a in 0..problem.bodies[b].dofs.num_active() {
+                    problem.hold(b, 3 * a + 2);
+                }
+            }
+        }
+        if !case.pairs.is_empty() {
+            let sides: Vec<ContactSide> = bodies
+                .iter()
+                .zip(&problem.bodies)
+                .map(|(b, p)| ContactSide {
+                    grid: &b.grid,
+                    dofs: &p.dofs,
+                    solid: &b.solid,
+                    cells: &b.cells,
+                })
+                .collect();
+            let coupling = ContactCoupling::new(case, &sides, &problem.offsets);
+            problem.set_coupling(Box::new(coupling));
+        }
+        Ok(BodiesSetup {
+            bodies,
+            problem,
+            newton: newton_options(case),
+        })
+    }
+}
+
+fn bad(case: &BodiesCase, key: &str, reason: &str) -> Error {
+    Error::CaseFile {
+        file: case.file.clone(),
+        key: key.into(),
+        reason: reason.into(),
+    }
+}
+
+/// The Newton options of `[load]`, `[newton]` and `[solver]`.
+pub fn newton_options(case: &BodiesCase) -> NewtonOptions {
+    let s = &case.spec;
+    NewtonOptions {
+        steps: s.load.steps,
+        max_iterations: s.newton.max_iterations,
+        residual_tol: s.newton.rel_tol,
+        energy_tol: s.newton.energy_tol,
+        max_cuts: s.newton.max_cuts,
+        line_search: s.newton.line_search,
+        krylov: KrylovOptions {
+            method: s.solver.method,
+            preconditioner: s.solver.preconditioner,
+            rel_tol: s.solver.rel_tol,
+            max_iterations: s.solver.max_iterations,
+        },
+        ..NewtonOptions::default()
+    }
+}
+
+/// Body `i`'s material.
+pub fn material(case: &BodiesCase, i: usize) -> Material {
+    let m = &case.bodies[i].spec.material;
+    let model = match m.model {
+        HyperModel::NeoHookean => MaterialModel::NeoHookean,
+        HyperModel::StVenantKirchhoff => MaterialModel::StVenantKirchhoff,
+    };
+    Material::from_young_poisson(model, m.young, m.poisson)
+}
+
+/// Body `i` as a [`HyperProblem`] on its grid and cells.
+fn body_problem(
+    case: &BodiesCase,
+    i: usize,
+    grid: &Grid,
+    solid: &Geometry,
+    cells: &Cells,
+) -> Result<HyperProblem> {
+    let spec = &case.bodies[i].spec;
+    let tag = |name: &str| solid.tag_id(name).expect("tags checked with the case");
+    let mut dirichlet = Vec::new();
+    let mut regions: Vec<Option<Region>> = Vec::new();
+    for (name, d) in &spec.dirichlet {
+        let exprs = d.value.clone();
+        dirichlet.push(DirichletCondition {
+            tag: tag(name),
+            components: d.value.clone().map(|c| c != Component::Free),
+            value: Arc::new(move |x: [f64; 3]| {
+                [0, 1, 2].map(|a| match &exprs[a] {
+                    Component::Given(e) => e.eval(x),
+                    Component::Free => 0.0,
+                })
+            }),
+        });
+        regions.push(
+            d.region
+                .clone()
+                .map(|r| Arc::new(move |x| r.contains(x)) as Region),
+        );
+    }
+    let tractions = spec
+        .neumann
+        .iter()
+        .map(|(name, n)| {
+            let t = n.traction.clone();
+            (
+                tag(name),
+                Arc::new(move |x: [f64; 3], _: [f64; 3]| t.eval(x)) as TractionField,
+            )
+        })
+        .collect();
+    let loads = Loads {
+        body: None,
+        tractions,
+    };
+    let beta = case.spec.stabilisation.k1 * spec.material.young;
+    let m = material(case, i);
+    HyperProblem::new_restricted(grid, cells, m, beta, &dirichlet, &regions, &loads)
+}
