@@ -1,6 +1,7 @@
 //! The fast Q1 apply of [`super::operator::ElasticOperator`]: the interior
-//! stencil along runs ([`super::stencil`]), the cut cells' matrices streamed
-//! cell by cell, and a gather for the remaining active nodes, in parallel.
+//! stencil along runs ([`super::stencil`]), the cut cells from their
+//! moment-fitted weights in SIMD batches ([`super::cut_apply`]), and a gather
+//! for the remaining active nodes, in parallel.
 //!
 //! # Plan
 //! Active nodes split into *interior* nodes (all 8 surrounding cells inside),
@@ -13,8 +14,8 @@
 //! # Apply
 //! 1. De-interleave `x` into the reused scratch `xs` (three component arrays)
 //!    and, at the same time, compute `z_c = K_c x_c` (24 entries) for every
-//!    cut cell `c` in slot order, reading the own matrices once, front to back
-//!    (at apply time, so terms added by `add_to_cut_cell` after the plan was
+//!    cut cell `c` in slot order from its weights, read front to back (at
+//!    apply time, so terms added by `add_cut_cell_mass` after the plan was
 //!    built are applied).
 //! 2. Per chunk: the stencil on its runs from `xs`; for its boundary nodes,
 //!    `z_c[3l .. 3l+3]` of each cut cell and `h K_ref[3l .. 3l+3, :] x_c` of
@@ -27,6 +28,8 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+use super::cut_apply::CutKernel;
+use super::moment_fit::CutWeights;
 use super::operator::{INSIDE, OUTSIDE};
 use super::stencil::{madd, Run, Stencil, TILE};
 use crate::grid::Grid;
@@ -37,13 +40,14 @@ const CHUNK_COST: usize = 1024;
 const BOUNDARY_COST: usize = 4;
 
 /// The operator data the apply reads (borrowed from the operator).
-pub struct Matrices<'a> {
+pub struct CellData<'a> {
     pub slot: &'a [u32],
     /// `h K_ref`, row-major 24 × 24.
     pub inside: &'a [f64],
-    /// Own matrices, row-major 24 × 24 each, in slot order.
-    pub own: &'a [f64],
-    /// The cell of each own matrix.
+    /// The cut cells' weights, in slot order, and their kernel.
+    pub weights: &'a CutWeights,
+    pub kernel: &'a CutKernel,
+    /// The cell of each slot.
     pub own_cells: &'a [usize],
     pub node_to_active: &'a [u32],
 }
@@ -74,7 +78,7 @@ pub struct FastApply {
 
 impl FastApply {
     /// The plan for a Q1 operator on `grid`.
-    pub fn new(grid: &Grid, m: &Matrices, active_to_node: &[u32]) -> FastApply {
+    pub fn new(grid: &Grid, m: &CellData, active_to_node: &[u32]) -> FastApply {
         let mut runs: Vec<Run> = Vec::new();
         let mut boundary = Vec::new();
         let nn = [grid.n[0] + 1, grid.n[1] + 1];
@@ -139,7 +143,7 @@ impl FastApply {
     /// padding (past each component's `num_active` entries) is finite.
     pub fn apply(
         &self,
-        m: &Matrices,
+        m: &CellData,
         active_to_node: &[u32],
         x: &[f64],
         y: &mut [f64],
@@ -176,7 +180,7 @@ impl FastApply {
 /// What every chunk of one apply reads.
 struct Context<'a> {
     plan: &'a FastApply,
-    m: &'a Matrices<'a>,
+    m: &'a CellData<'a>,
     active_to_node: &'a [u32],
     x: &'a [f64],
     /// `x` de-interleaved.
@@ -203,46 +207,14 @@ impl Context<'_> {
         self.chunk_body::<true>(c, y);
     }
 
-    /// `z_c = K_c x_c` for every cut cell, in parallel over blocks of cells.
+    /// `z_c = K_c x_c` for every cut cell, in SIMD batches, in parallel.
     fn cut_cells(&self, z: &mut [f64]) {
-        const CELLS: usize = 64;
-        z.par_chunks_mut(24 * CELLS)
-            .enumerate()
-            .for_each(|(b, zb)| {
-                #[cfg(target_arch = "x86_64")]
-                if self.plan.fma {
-                    // SAFETY: `fma` is set only when the CPU reports AVX2 and FMA.
-                    unsafe { self.cut_block_fma(b * CELLS, zb) };
-                    return;
-                }
-                self.cut_block::<false>(b * CELLS, zb);
-            });
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn cut_block_fma(&self, first: usize, z: &mut [f64]) {
-        self.cut_block::<true>(first, z);
-    }
-
-    /// `z_s = K_s x_c` for the cut cells `s = first, first + 1, …`, as
-    /// `Σ_q x_q K_s[q, :]`: `K_s` is symmetric (as the assembled apply also
-    /// assumes), and rows are contiguous, so each row is one vector update.
-    #[inline(always)]
-    fn cut_block<const FMA: bool>(&self, first: usize, z: &mut [f64]) {
         let [nx, ny, _] = self.plan.n;
-        for (s, zs) in (first..).zip(z.chunks_exact_mut(24)) {
+        let gather = |s: usize, xe: &mut [f64]| {
             let c = self.m.own_cells[s];
-            let xe = self.cell_x([c % nx, (c / nx) % ny, c / (nx * ny)]);
-            let k = &self.m.own[s * 576..(s + 1) * 576];
-            let mut acc = [0.0; 24];
-            for (xq, row) in xe.iter().zip(k.chunks_exact(24)) {
-                for (a, kv) in acc.iter_mut().zip(row) {
-                    *a = madd::<FMA>(*xq, *kv, *a);
-                }
-            }
-            zs.copy_from_slice(&acc);
-        }
+            xe.copy_from_slice(&self.cell_x([c % nx, (c / nx) % ny, c / (nx * ny)]));
+        };
+        self.m.kernel.apply(self.m.weights, gather, z);
     }
 
     /// The 24 dofs of cell `ijk`'s nodes, in local order.
@@ -405,7 +377,7 @@ fn deinterleave(x: &[f64], xs: &mut [f64], stride: usize, n: usize) {
 }
 
 /// Whether the CPU has AVX2 and FMA (the fast build of the chunk kernel).
-fn fma_available() -> bool {
+pub(super) fn fma_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
