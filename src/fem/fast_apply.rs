@@ -1,7 +1,7 @@
 //! The fast Q1 apply of [`super::operator::ElasticOperator`]: the interior
-//! stencil along runs ([`super::stencil`]), the cut cells from their
-//! moment-fitted weights in SIMD batches ([`super::cut_apply`]), and a gather
-//! for the remaining active nodes, in parallel.
+//! stencil along runs ([`super::stencil`]), the cut cells from their factored
+//! forms in SIMD batches ([`super::q1_forms`]), and a gather for the
+//! remaining active nodes, in parallel.
 //!
 //! # Plan
 //! Active nodes split into *interior* nodes (all 8 surrounding cells inside),
@@ -14,7 +14,7 @@
 //! # Apply
 //! 1. De-interleave `x` into the reused scratch `xs` (three component arrays)
 //!    and, at the same time, compute `z_c = K_c x_c` (24 entries) for every
-//!    cut cell `c` in slot order from its weights, read front to back (at
+//!    cut cell `c` in slot order from its form, read front to back (at
 //!    apply time, so terms added by `add_cut_cell_mass` after the plan was
 //!    built are applied).
 //! 2. Per chunk: the stencil on its runs from `xs`; for its boundary nodes,
@@ -28,9 +28,8 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::cut_apply::CutKernel;
-use super::moment_fit::CutWeights;
 use super::operator::{INSIDE, OUTSIDE};
+use super::q1_forms::Q1Forms;
 use super::stencil::{madd, Run, Stencil, TILE};
 use crate::grid::Grid;
 
@@ -44,9 +43,8 @@ pub struct CellData<'a> {
     pub slot: &'a [u32],
     /// `h K_ref`, row-major 24 × 24.
     pub inside: &'a [f64],
-    /// The cut cells' weights, in slot order, and their kernel.
-    pub weights: &'a CutWeights,
-    pub kernel: &'a CutKernel,
+    /// The cut cells' factored forms, in slot order.
+    pub forms: &'a Q1Forms,
     /// The cell of each slot.
     pub own_cells: &'a [usize],
     pub node_to_active: &'a [u32],
@@ -214,7 +212,7 @@ impl Context<'_> {
             let c = self.m.own_cells[s];
             xe.copy_from_slice(&self.cell_x([c % nx, (c / nx) % ny, c / (nx * ny)]));
         };
-        self.m.kernel.apply(self.m.weights, gather, z);
+        self.m.forms.apply(gather, z);
     }
 
     /// The 24 dofs of cell `ijk`'s nodes, in local order.

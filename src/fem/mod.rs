@@ -11,6 +11,7 @@ pub mod moment_fit;
 pub mod operator;
 pub mod output;
 pub mod problem;
+pub mod q1_forms;
 pub mod recovery;
 pub mod rhs;
 pub mod setup;

@@ -93,6 +93,15 @@ impl FitBasis {
         8 * (self.points.len() + self.weights.len() + self.values.len()) + 24 * self.gradients.len()
     }
 
+    /// `N_a(ξ_q)` and `∇_ξ N_a(ξ_q)` for every node `a`.
+    pub fn point(&self, q: usize) -> (&[f64], &[[f64; 3]]) {
+        let npc = self.order.nodes_per_cell();
+        (
+            &self.values[q * npc..(q + 1) * npc],
+            &self.gradients[q * npc..(q + 1) * npc],
+        )
+    }
+
     /// `out[q] += w L_q(ξ)` for every fitting point `q`.
     pub fn add_point(&self, xi: [f64; 3], w: f64, out: &mut [f64]) {
         let n = self.points.len();

@@ -5,14 +5,16 @@
 //! inside cells store nothing; each cut cell stores the moment-fitted weights
 //! of its matrix `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN` (DESIGN
 //! §3.1) at the `(2p+1)³` Gauss points of the cell ([`super::moment_fit`]:
-//! exact, 54 numbers for Q1 instead of 576), and the S-stabilisation adds its
-//! whole-cell mass to the mass weights of the cells it touches.
+//! exact, 250 numbers for Q2 instead of 6561), for Q1 rearranged into the
+//! factored form of [`super::q1_forms`] (114 numbers instead of 576), and
+//! the S-stabilisation adds its whole-cell mass to the mass part of the cells
+//! it touches.
 //!
 //! The apply is node-centred, as the GPU kernel is: each active node gathers,
 //! from the cells around it, its rows of the cell matrix times the cell's
 //! displacements, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`, where a cut cell's rows
 //! come from `z_c = K_c x_c`, computed first for all cut cells from their
-//! weights ([`super::cut_apply`]). No two threads write the same entry, so no
+//! forms or weights ([`super::q1_forms`], [`super::cut_apply`]). No two threads write the same entry, so no
 //! atomics and no colouring are needed. For Q1 the apply runs the plan of
 //! [`super::fast_apply`] (the constant interior stencil along runs, the gather
 //! elsewhere); the generic gather ([`ElasticOperator::apply_gather`]) is the
@@ -28,6 +30,7 @@ use super::cut_apply::CutKernel;
 use super::dofs::{node_cells, DofMap};
 use super::fast_apply::{CellData, FastApply};
 use super::moment_fit::{CutWeights, FitBasis};
+use super::q1_forms::Q1Forms;
 use crate::backend::LinearOperator;
 use crate::cells::{CellKind, Cells};
 use crate::element::reference::{lame, reference_stiffness};
@@ -46,20 +49,30 @@ pub struct ElasticOperator {
     pub dofs: DofMap,
     /// Dofs per cell, `3 · nodes_per_cell`.
     ne: usize,
-    /// Per cell: `OUTSIDE`, `INSIDE` or the index (slot) of its weights.
+    /// Per cell: `OUTSIDE`, `INSIDE` or the index (slot) of its cut data.
     slot: Vec<u32>,
     /// `h K_ref`, row-major `ne × ne`.
     k_inside: Vec<f64>,
-    /// The cut cells' moment-fitted weights, and the cell of each slot.
-    weights: CutWeights,
+    /// The cut cells' data, and the cell of each slot.
+    cut: CutData,
     own_cells: Vec<usize>,
     /// Lamé parameters `(λ, μ)`.
     lame: (f64, f64),
     basis: FitBasis,
-    kernel: CutKernel,
     /// The fast apply's plan (Q1 only) and its reused scratch.
     fast: Option<FastApply>,
     scratch: Scratch,
+}
+
+/// The cut cells' matrices: factored forms for Q1, the moment-fitted weights
+/// and their sum-factorised kernel otherwise.
+#[derive(Clone, Debug)]
+enum CutData {
+    Forms(Q1Forms),
+    Weights {
+        weights: CutWeights,
+        kernel: CutKernel,
+    },
 }
 
 /// A reusable scratch vector; a clone starts empty.
@@ -112,24 +125,30 @@ impl ElasticOperator {
             data,
         };
         let lame = lame(p.young, p.poisson);
+        let cut = match order {
+            ElementOrder::Q1 => CutData::Forms(Q1Forms::new(&basis, &weights, lame, grid.h)),
+            ElementOrder::Q2 => CutData::Weights {
+                weights,
+                kernel: CutKernel::new(&basis, lame, grid.h),
+            },
+        };
         let mut op = ElasticOperator {
             grid: grid.clone(),
             dofs,
             ne,
             slot,
             k_inside,
-            weights,
+            cut,
             own_cells: cells.cut.clone(),
             lame,
-            kernel: CutKernel::new(&basis, lame, grid.h),
             basis,
             fast: None,
             scratch: Scratch::default(),
         };
-        if order == ElementOrder::Q1 {
+        if let CutData::Forms(forms) = &op.cut {
             op.fast = Some(FastApply::new(
                 grid,
-                &op.cell_data(),
+                &op.cell_data(forms),
                 &op.dofs.active_to_node,
             ));
         }
@@ -137,12 +156,11 @@ impl ElasticOperator {
     }
 
     /// The data the fast apply reads.
-    fn cell_data(&self) -> CellData<'_> {
+    fn cell_data<'a>(&'a self, forms: &'a Q1Forms) -> CellData<'a> {
         CellData {
             slot: &self.slot,
             inside: &self.k_inside,
-            weights: &self.weights,
-            kernel: &self.kernel,
+            forms,
             own_cells: &self.own_cells,
             node_to_active: &self.dofs.node_to_active,
         }
@@ -163,10 +181,26 @@ impl ElasticOperator {
         }
     }
 
-    /// The dense matrix of slot `s`, from its weights.
+    /// The dense matrix of slot `s`, from its form or weights.
     fn own_matrix(&self, s: usize) -> Vec<f64> {
-        let (w, m) = self.weights.cell(s);
-        self.basis.expand(w, m, self.lame, 1.0 / self.grid.h)
+        match &self.cut {
+            CutData::Forms(forms) => forms.expand(s),
+            CutData::Weights { weights, .. } => {
+                let (w, m) = weights.cell(s);
+                self.basis.expand(w, m, self.lame, 1.0 / self.grid.h)
+            }
+        }
+    }
+
+    /// The diagonal of slot `s`'s matrix.
+    fn own_diagonal(&self, s: usize) -> Vec<f64> {
+        match &self.cut {
+            CutData::Forms(forms) => forms.diagonal(s),
+            CutData::Weights { weights, .. } => {
+                let (w, m) = weights.cell(s);
+                self.basis.diagonal(w, m, self.lame, 1.0 / self.grid.h)
+            }
+        }
     }
 
     /// Adds `factor · M_c` (the whole-cell vector mass `h³ M_ref`) to a cut
@@ -175,8 +209,12 @@ impl ElasticOperator {
         let s = self.slot[cell];
         assert!(s != OUTSIDE && s != INSIDE, "cell {cell} is not cut");
         let h3 = self.grid.h.powi(3);
-        self.weights
-            .add_cell_mass(&self.basis, s as usize, factor * h3);
+        match &mut self.cut {
+            CutData::Forms(forms) => forms.add_cell_mass(s as usize, factor * h3),
+            CutData::Weights { weights, .. } => {
+                weights.add_cell_mass(&self.basis, s as usize, factor * h3)
+            }
+        }
     }
 
     /// Dofs per cell, `3 · nodes_per_cell` (the side of every cell matrix).
@@ -205,9 +243,12 @@ impl ElasticOperator {
             .collect()
     }
 
-    /// The cut cells' moment-fitted weights, in slot order.
-    pub fn cut_weights(&self) -> &CutWeights {
-        &self.weights
+    /// Bytes of the cut cells' data (forms or weights).
+    pub fn cut_bytes(&self) -> usize {
+        match &self.cut {
+            CutData::Forms(forms) => forms.bytes(),
+            CutData::Weights { weights, .. } => 8 * weights.data.len(),
+        }
     }
 
     /// Cells with their own matrix.
@@ -215,11 +256,13 @@ impl ElasticOperator {
         &self.own_cells
     }
 
-    /// Bytes of operator data (the inside matrix, the weights, the maps, the
-    /// fitting tables and the fast apply's plan), for the memory reports; the
-    /// apply's scratch (three vectors and `z`) is not counted.
+    /// Bytes of operator data (the inside matrix, the cut cells' forms or
+    /// weights, the maps, the fitting tables and the fast apply's plan), for
+    /// the memory reports; the apply's scratch (three vectors and `z`) is not
+    /// counted.
     pub fn bytes(&self) -> usize {
-        8 * (self.k_inside.len() + self.weights.data.len() + self.own_cells.len())
+        self.cut_bytes()
+            + 8 * (self.k_inside.len() + self.own_cells.len())
             + 4 * (self.slot.len()
                 + self.dofs.node_to_active.len()
                 + self.dofs.active_to_node.len())
@@ -239,7 +282,10 @@ impl ElasticOperator {
                 xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
             }
         };
-        self.kernel.apply(&self.weights, gather, z);
+        match &self.cut {
+            CutData::Forms(forms) => forms.apply(gather, z),
+            CutData::Weights { weights, kernel } => kernel.apply(weights, gather, z),
+        }
     }
 
     /// `y = A x` by the generic node-centred gather (see the module doc): the
@@ -377,22 +423,19 @@ impl LinearOperator for ElasticOperator {
         let mut guard = self.scratch.0.try_lock();
         // A concurrent apply holds the shared scratch: use a fresh one.
         let scratch = guard.as_deref_mut().unwrap_or(&mut local);
-        let Some(fast) = &self.fast else {
+        let (Some(fast), CutData::Forms(forms)) = (&self.fast, &self.cut) else {
             scratch.resize(self.ne * self.own_cells.len(), 0.0);
             return self.apply_gather_with(x, y, scratch);
         };
         scratch.resize(fast.scratch_len(), 0.0);
-        fast.apply(&self.cell_data(), &self.dofs.active_to_node, x, y, scratch);
+        let data = self.cell_data(forms);
+        fast.apply(&data, &self.dofs.active_to_node, x, y, scratch);
     }
 
     fn diagonal(&self) -> Vec<f64> {
-        let inv_h = 1.0 / self.grid.h;
         let own: Vec<f64> = (0..self.own_cells.len())
             .into_par_iter()
-            .flat_map_iter(|s| {
-                let (w, m) = self.weights.cell(s);
-                self.basis.diagonal(w, m, self.lame, inv_h)
-            })
+            .flat_map_iter(|s| self.own_diagonal(s))
             .collect();
         let ne = self.ne;
         let mut d = vec![0.0; self.dofs.ndofs()];
