@@ -429,7 +429,7 @@ impl LinearOperator for ElasticOperator {
         };
         scratch.resize(fast.scratch_len(), 0.0);
         let data = self.cell_data(forms);
-        fast.apply(&data, &self.dofs.active_to_node, x, y, scratch);
+        fast.apply(&data, x, y, scratch);
     }
 
     fn diagonal(&self) -> Vec<f64> {

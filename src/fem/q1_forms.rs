@@ -253,6 +253,40 @@ impl Q1Forms {
         }
     }
 
+    /// The terms `Σ_a s^D_a E_{D,i}[o_D(a)]` of direction `D`, all `i`.
+    #[inline(always)]
+    fn direction<const FMA: bool, const D: usize>(
+        &self,
+        form: &[V; FORM_LEN],
+        diff: &[[[V; 4]; 3]; 3],
+        f: &mut [[V; 8]; 3],
+    ) {
+        let mut p = [[0.0; LANES]; 4];
+        matvec::<FMA, D, 0>(form, &diff[0][0], &mut p);
+        matvec::<FMA, D, 1>(form, &diff[1][1], &mut p);
+        matvec::<FMA, D, 2>(form, &diff[2][2], &mut p);
+        let mut acc = [[[0.0; LANES]; 4]; 3];
+        matvec::<FMA, D, 0>(form, &diff[0][D], &mut acc[0]);
+        matvec::<FMA, D, 1>(form, &diff[1][D], &mut acc[1]);
+        matvec::<FMA, D, 2>(form, &diff[2][D], &mut acc[2]);
+        for (i, acc) in acc.iter_mut().enumerate() {
+            matvec::<FMA, D, D>(form, &diff[D][i], acc);
+        }
+        for (i, (fi, acc)) in f.iter_mut().zip(&acc).enumerate() {
+            for (alpha, e) in acc.iter().enumerate() {
+                let (hi, lo) = (node(D, alpha, 1), node(D, alpha, 0));
+                for l in 0..LANES {
+                    let mut v = self.mu * e[l];
+                    if D == i {
+                        v = madd::<FMA>(self.lambda, p[alpha][l], v);
+                    }
+                    fi[hi][l] += v;
+                    fi[lo][l] -= v;
+                }
+            }
+        }
+    }
+
     /// `f_i = (K x)_i` for one batch: `form` its lane-interleaved forms, `u[j][a]`
     /// component `j` of node `a`.
     #[inline(always)]
@@ -268,28 +302,9 @@ impl Q1Forms {
             }
         }
         let mut f = [[[0.0; LANES]; 8]; 3];
-        for d in 0..3 {
-            let mut p = [[0.0; LANES]; 4];
-            for e in 0..3 {
-                matvec::<FMA>(form, d, e, &diff[e][e], &mut p);
-            }
-            for (i, fi) in f.iter_mut().enumerate() {
-                let mut acc = [[0.0; LANES]; 4];
-                matvec::<FMA>(form, d, i, &diff[i][d], &mut acc);
-                matvec::<FMA>(form, d, d, &diff[d][i], &mut acc);
-                for (alpha, e) in acc.iter().enumerate() {
-                    let (hi, lo) = (node(d, alpha, 1), node(d, alpha, 0));
-                    for l in 0..LANES {
-                        let mut v = self.mu * e[l];
-                        if d == i {
-                            v = madd::<FMA>(self.lambda, p[alpha][l], v);
-                        }
-                        fi[hi][l] += v;
-                        fi[lo][l] -= v;
-                    }
-                }
-            }
-        }
+        self.direction::<FMA, 0>(form, &diff, &mut f);
+        self.direction::<FMA, 1>(form, &diff, &mut f);
+        self.direction::<FMA, 2>(form, &diff, &mut f);
         for a in 0..8 {
             for b in 0..8 {
                 let m = form[MASS + sym(8, a, b)];
@@ -304,12 +319,16 @@ impl Q1Forms {
     }
 }
 
-/// `acc += T^{de} v` on lanes.
+/// `acc += T^{DE} v` on lanes.
 #[inline(always)]
-fn matvec<const FMA: bool>(form: &[V; FORM_LEN], d: usize, e: usize, v: &[V; 4], acc: &mut [V; 4]) {
+fn matvec<const FMA: bool, const D: usize, const E: usize>(
+    form: &[V; FORM_LEN],
+    v: &[V; 4],
+    acc: &mut [V; 4],
+) {
     for (alpha, acc) in acc.iter_mut().enumerate() {
         for (beta, vb) in v.iter().enumerate() {
-            let t = form[t_index(d, e, alpha, beta)];
+            let t = form[t_index(D, E, alpha, beta)];
             for l in 0..LANES {
                 acc[l] = madd::<FMA>(t[l], vb[l], acc[l]);
             }
