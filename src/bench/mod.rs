@@ -18,7 +18,8 @@
 //! - `solve` at the solve levels: the first linear system of the fixed-point
 //!   loop, `A u = F`, by the case's Krylov method on the matrix-free operator
 //!   (`cpu-mf`) and by assembly plus sparse Cholesky (`cpu-direct`,
-//!   [`direct`]), each with its peak resident memory.
+//!   [`direct`], nested-dissection ordering [`ordering`]), each with its
+//!   peak resident memory.
 //!
 //! - on the preferred GPU adapter, when `gpu` is asked for and one is found:
 //!   its copy-kernel bandwidth and the same apply and iteration rows
@@ -32,6 +33,7 @@ mod csr;
 mod direct;
 mod gpu;
 mod measure;
+mod ordering;
 mod table;
 
 use rayon::ThreadPool;

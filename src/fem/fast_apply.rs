@@ -174,13 +174,7 @@ impl FastApply {
 
     /// `y = A x`, with `scratch` of [`Self::scratch_len`] entries whose
     /// padding (past each component's `num_active` entries) is finite.
-    pub fn apply(
-        &self,
-        m: &CellData,
-        x: &[f64],
-        y: &mut [f64],
-        scratch: &mut [f64],
-    ) {
+    pub fn apply(&self, m: &CellData, x: &[f64], y: &mut [f64], scratch: &mut [f64]) {
         let stride = self.stride();
         let (xs, z) = scratch.split_at_mut(3 * stride);
         let mut ctx = Context {
@@ -333,7 +327,6 @@ impl Context<'_> {
             y[3 * (a - c.lo)..3 * (a - c.lo) + 3].copy_from_slice(&out);
         }
     }
-
 }
 
 /// Whether node `(i, j, k)` has all 8 surrounding cells inside.

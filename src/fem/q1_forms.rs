@@ -192,7 +192,8 @@ impl Q1Forms {
             let mass = self.at(s, MASS + sym(8, a, a));
             let lap: f64 = (0..3).map(|d| self.a(s, d, d, a, a)).sum();
             for i in 0..3 {
-                out[3 * a + i] = (self.lambda + self.mu) * self.a(s, i, i, a, a) + self.mu * lap + mass;
+                out[3 * a + i] =
+                    (self.lambda + self.mu) * self.a(s, i, i, a, a) + self.mu * lap + mass;
             }
         }
         out
@@ -225,7 +226,12 @@ impl Q1Forms {
     }
 
     #[inline(always)]
-    fn task<const FMA: bool, G: Fn(usize, &mut [f64])>(&self, gather: &G, first: usize, z: &mut [f64]) {
+    fn task<const FMA: bool, G: Fn(usize, &mut [f64])>(
+        &self,
+        gather: &G,
+        first: usize,
+        z: &mut [f64],
+    ) {
         for (b, zb) in z.chunks_mut(24 * LANES).enumerate() {
             let s0 = first + b * LANES;
             let b0 = s0 / LANES;
@@ -351,7 +357,8 @@ fn cell_form(basis: &FitBasis, w: &CutWeights, s: usize, s2: f64) -> [f64; FORM_
                         if d == e && beta < alpha {
                             continue;
                         }
-                        form[t_index(d, e, alpha, beta)] += s2 * wk[q] * psi(d, alpha) * psi(e, beta);
+                        form[t_index(d, e, alpha, beta)] +=
+                            s2 * wk[q] * psi(d, alpha) * psi(e, beta);
                     }
                 }
             }
