@@ -13,6 +13,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use cgfem_gpu::case::Case;
+use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
 use cli_progress::Terminal;
@@ -127,6 +128,9 @@ enum Command {
         /// Output folder (default: out/bench).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Element orders to run, e.g. q1,q2 (default q1).
+        #[arg(long = "element", value_delimiter = ',', value_parser = parse_element)]
+        elements: Vec<ElementOrder>,
     },
 }
 
@@ -219,6 +223,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             budget,
             backend,
             out,
+            elements,
         } => {
             let solve_levels = match (no_solve, solve_levels.is_empty()) {
                 (true, _) => Vec::new(),
@@ -231,7 +236,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 cgfem_gpu::gpu::GpuContext::new(None, Default::default())?;
             }
             let gpu = backend != BackendChoice::Cpu;
-            bench(levels, threads, solve_levels, budget, gpu, out)
+            bench(levels, threads, solve_levels, budget, gpu, out, elements)
         }
     }
 }
@@ -243,6 +248,7 @@ fn bench(
     budget: f64,
     gpu: bool,
     out: Option<PathBuf>,
+    elements: Vec<ElementOrder>,
 ) -> anyhow::Result<()> {
     let opts = cgfem_gpu::bench::BenchOptions {
         levels: if levels.is_empty() {
@@ -258,14 +264,20 @@ fn bench(
         solve_levels,
         budget,
         gpu,
+        elements: if elements.is_empty() {
+            vec![ElementOrder::Q1]
+        } else {
+            elements
+        },
     };
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));
     let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
     let rows = cgfem_gpu::bench::run(&case, &opts, |r| {
         println!(
-            "  {} {} level {} threads {}: {:.2} Mdofs/s",
+            "  {} {} {} level {} threads {}: {:.2} Mdofs/s",
             r.what,
             r.backend,
+            r.element,
             r.level,
             r.threads,
             r.dofs_per_s / 1e6
@@ -369,5 +381,14 @@ fn info() {
     }
     for (i, a) in adapters.iter().enumerate() {
         println!("[{i}] {a}");
+    }
+}
+
+/// `q1` or `q2` (the `--element` values of `bench`).
+fn parse_element(s: &str) -> Result<ElementOrder, String> {
+    match s {
+        "q1" => Ok(ElementOrder::Q1),
+        "q2" => Ok(ElementOrder::Q2),
+        _ => Err(format!("unknown element {s:?} (q1 or q2)")),
     }
 }

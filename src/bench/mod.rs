@@ -1,8 +1,9 @@
 //! `cgfem-gpu bench` (DESIGN §8): operator and solver throughput on the paper's
-//! sphere (Q1) for the CPU backends and the GPU, in one process, as rows of
-//! `bench.json`.
+//! sphere (Q1, and Q2 when asked) for the CPU backends and the GPU, in one
+//! process, as rows of `bench.json`.
 //!
-//! Per level and thread count (each run inside its own rayon pool):
+//! Per element order, level and thread count (each run inside its own rayon
+//! pool):
 //! - `apply`: `y = A x` by the matrix-free operator (`cpu-mf`), by faer's
 //!   sparse × dense product of the assembled matrix (`cpu-csr`, one thread: faer
 //!   does not split a single vector) and by a row-parallel CSR product
@@ -17,7 +18,8 @@
 //! - `solve` at the solve levels: the first linear system of the fixed-point
 //!   loop, `A u = F`, by the case's Krylov method on the matrix-free operator
 //!   (`cpu-mf`) and by assembly plus sparse Cholesky (`cpu-direct`,
-//!   [`direct`]), each with its peak resident memory.
+//!   [`direct`], nested-dissection ordering [`ordering`]), each with its
+//!   peak resident memory.
 //!
 //! - on the preferred GPU adapter, when `gpu` is asked for and one is found:
 //!   its copy-kernel bandwidth and the same apply and iteration rows
@@ -31,6 +33,7 @@ mod csr;
 mod direct;
 mod gpu;
 mod measure;
+mod ordering;
 mod table;
 
 use rayon::ThreadPool;
@@ -38,6 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::{CpuBackend, LinearOperator};
 use crate::case::Case;
+use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::fem::operator::AssembledOperator;
 use crate::fem::setup::Setup;
@@ -82,6 +86,8 @@ pub struct BenchOptions {
     pub budget: f64,
     /// Also bench the preferred GPU adapter (f64 where it can, and f32).
     pub gpu: bool,
+    /// Element orders, each run at every level.
+    pub elements: Vec<ElementOrder>,
 }
 
 /// Iterations timed per Krylov method (beyond the 2 subtracted).
@@ -115,28 +121,44 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
     levels.extend(&opts.solve_levels);
     levels.sort_unstable();
     levels.dedup();
-    for level in levels {
-        reset_peak_resident();
-        let setup = Setup::new(case, Some(level))?;
-        if opts.solve_levels.contains(&level) {
-            let threads = opts.threads.iter().copied().max().unwrap_or(1);
-            let krylov = krylov_options(case);
-            for r in direct::solves(&setup, &krylov, &pool(threads)?)? {
-                emit(r);
-            }
-        }
-        if opts.levels.contains(&level) {
-            for r in throughput(&setup, opts)? {
-                emit(r);
-            }
-            for be in &gpus {
-                for r in gpu::throughput(be, &setup, opts)? {
+    for &element in &opts.elements {
+        let mut case = case.clone();
+        case.spec.element = element;
+        let mut emit = |mut row: Row| {
+            row.element = element_name(element).into();
+            emit(row);
+        };
+        for &level in &levels {
+            reset_peak_resident();
+            let setup = Setup::new(&case, Some(level))?;
+            if opts.solve_levels.contains(&level) {
+                let threads = opts.threads.iter().copied().max().unwrap_or(1);
+                let krylov = krylov_options(&case);
+                for r in direct::solves(&setup, &krylov, &pool(threads)?)? {
                     emit(r);
+                }
+            }
+            if opts.levels.contains(&level) {
+                for r in throughput(&setup, opts)? {
+                    emit(r);
+                }
+                for be in &gpus {
+                    for r in gpu::throughput(be, &setup, opts)? {
+                        emit(r);
+                    }
                 }
             }
         }
     }
     Ok(rows)
+}
+
+/// `q1` or `q2`, as in case files and rows.
+pub fn element_name(order: ElementOrder) -> &'static str {
+    match order {
+        ElementOrder::Q1 => "q1",
+        ElementOrder::Q2 => "q2",
+    }
 }
 
 /// The Krylov settings of the case's `[solver]` table.
@@ -161,7 +183,8 @@ fn pool(threads: usize) -> Result<ThreadPool> {
         })
 }
 
-/// A Q1 f64 row with the rate from `seconds` and the current peak memory.
+/// A Q1 f64 row with the rate from `seconds` and the current peak memory
+/// (the caller sets the element of a Q2 row).
 fn row(what: &str, backend: &str, level: u32, dofs: usize, threads: usize, seconds: f64) -> Row {
     Row {
         what: what.into(),

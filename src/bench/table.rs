@@ -32,7 +32,11 @@ fn reference(rows: &[Row], r: &Row) -> Option<f64> {
         ("cpu-csr", 1)
     };
     rate(rows, |q| {
-        q.what == r.what && q.level == r.level && q.backend == backend && q.threads == threads
+        q.what == r.what
+            && q.element == r.element
+            && q.level == r.level
+            && q.backend == backend
+            && q.threads == threads
     })
 }
 
@@ -62,9 +66,10 @@ pub fn format_table(rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:<9} {:<14} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8}",
+        "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8}",
         "what",
         "backend",
+        "el",
         "lvl",
         "dofs",
         "thr",
@@ -80,15 +85,17 @@ pub fn format_table(rows: &[Row]) -> String {
         let one = rate(rows, |q| {
             q.what == r.what
                 && q.backend == r.backend
+                && q.element == r.element
                 && q.precision == r.precision
                 && q.level == r.level
                 && q.threads == 1
         });
         let _ = writeln!(
             s,
-            "{:<9} {:<14} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0}",
+            "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0}",
             r.what,
             r.backend,
+            r.element,
             r.level,
             r.dofs,
             r.threads,

@@ -1,7 +1,6 @@
 //! The sparse-matrix side of the condition estimate: `A x`, the Jacobi scaling
 //! `D^-1/2 A D^-1/2`, the sparse Cholesky factor `A = L Lᵀ` (faer, AMD
-//! ordering, sequential so that results are reproducible; the benchmark's
-//! direct solve runs it in parallel) and the Rayleigh quotient `zᵀ A z` with
+//! ordering, sequential so that results are reproducible) and the Rayleigh quotient `zᵀ A z` with
 //! its rounding level.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -127,11 +126,6 @@ impl Cholesky {
             values,
             par,
         })
-    }
-
-    /// Entries of the factor `L`.
-    pub fn factor_len(&self) -> usize {
-        self.values.len()
     }
 
     /// `x ← A⁻¹ x`.

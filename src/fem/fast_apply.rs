@@ -1,24 +1,29 @@
 //! The fast Q1 apply of [`super::operator::ElasticOperator`]: the interior
-//! stencil along runs ([`super::stencil`]), the cut cells' matrices streamed
-//! cell by cell, and a gather for the remaining active nodes, in parallel.
+//! stencil along runs ([`super::stencil`]), the cut cells from their factored
+//! forms in SIMD batches ([`super::q1_forms`]), and a gather for the
+//! remaining active nodes, in parallel.
 //!
 //! # Plan
 //! Active nodes split into *interior* nodes (all 8 surrounding cells inside),
 //! grouped in [`Run`]s, and *boundary* nodes (touching a cut or outside cell, or
 //! the grid's edge). Each boundary node gathers its rows from its non-outside
-//! cells, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`. Runs and boundary nodes are cut into
-//! chunks of consecutive active indices; each chunk writes only its own slice
-//! of `y`, so chunks run in parallel with no atomics.
+//! cells, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`, read from the cells' products
+//! `z_c = K_c x_c`: the cut cells', and those of the *rim* cells (the inside
+//! cells with a boundary node); the plan links each boundary node to the
+//! products of its 8 cells. Runs and boundary nodes are cut into chunks of
+//! consecutive active indices; each chunk writes only its own slice of `y`,
+//! so chunks run in parallel with no atomics.
 //!
 //! # Apply
 //! 1. De-interleave `x` into the reused scratch `xs` (three component arrays)
 //!    and, at the same time, compute `z_c = K_c x_c` (24 entries) for every
-//!    cut cell `c` in slot order, reading the own matrices once, front to back
-//!    (at apply time, so terms added by `add_to_cut_cell` after the plan was
-//!    built are applied).
+//!    cut cell `c` in slot order from its form, read front to back (at
+//!    apply time, so terms added by `add_cut_cell_mass` after the plan was
+//!    built are applied), and `z_c = h K_ref x_c` for every rim cell, both
+//!    in SIMD batches of cells.
 //! 2. Per chunk: the stencil on its runs from `xs`; for its boundary nodes,
-//!    `z_c[3l .. 3l+3]` of each cut cell and `h K_ref[3l .. 3l+3, :] x_c` of
-//!    each inside cell around them. Both write `y` in place, interleaved.
+//!    the sum of `z_c[3l .. 3l+3]` over the cells around them. Both write `y`
+//!    in place, interleaved.
 //!
 //! Where the CPU has AVX2 and FMA (checked at run time) the chunk kernel is
 //! compiled for them; elsewhere it is the portable build of the same code.
@@ -28,22 +33,28 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::operator::{INSIDE, OUTSIDE};
+use super::q1_forms::Q1Forms;
 use super::stencil::{madd, Run, Stencil, TILE};
 use crate::grid::Grid;
 
 /// Work per chunk, in interior-node equivalents.
 const CHUNK_COST: usize = 1024;
 /// A boundary node costs about this many interior nodes.
-const BOUNDARY_COST: usize = 4;
+const BOUNDARY_COST: usize = 2;
+/// A link to no cell product (an outside cell, or none).
+const NONE: u32 = u32::MAX;
+/// Rim cells per SIMD batch, and batches per rayon task.
+const LANES: usize = 4;
+const RIM_BATCHES_PER_TASK: usize = 32;
 
 /// The operator data the apply reads (borrowed from the operator).
-pub struct Matrices<'a> {
+pub struct CellData<'a> {
     pub slot: &'a [u32],
     /// `h K_ref`, row-major 24 × 24.
     pub inside: &'a [f64],
-    /// Own matrices, row-major 24 × 24 each, in slot order.
-    pub own: &'a [f64],
-    /// The cell of each own matrix.
+    /// The cut cells' factored forms, in slot order.
+    pub forms: &'a Q1Forms,
+    /// The cell of each slot.
     pub own_cells: &'a [usize],
     pub node_to_active: &'a [u32],
 }
@@ -64,6 +75,14 @@ pub struct FastApply {
     runs: Vec<Run>,
     /// Active indices of the boundary nodes, ascending.
     boundary: Vec<u32>,
+    /// Per boundary node, per cell `cc` around it (cell `(i−1+ci, j−1+cj,
+    /// k−1+ck)`, `cc = ci + 2 cj + 4 ck`): the index of the cell's product in
+    /// `z` (cut cells in slot order, then rim cells), or [`NONE`].
+    links: Vec<[u32; 8]>,
+    /// The corner node (lowest lattice index) of each cut cell, in slot
+    /// order, and of each rim cell.
+    cut_corners: Vec<u32>,
+    rim: Vec<u32>,
     chunks: Vec<Chunk>,
     /// Cells per axis.
     n: [usize; 3],
@@ -74,7 +93,7 @@ pub struct FastApply {
 
 impl FastApply {
     /// The plan for a Q1 operator on `grid`.
-    pub fn new(grid: &Grid, m: &Matrices, active_to_node: &[u32]) -> FastApply {
+    pub fn new(grid: &Grid, m: &CellData, active_to_node: &[u32]) -> FastApply {
         let mut runs: Vec<Run> = Vec::new();
         let mut boundary = Vec::new();
         let nn = [grid.n[0] + 1, grid.n[1] + 1];
@@ -101,10 +120,20 @@ impl FastApply {
             last_interior = nd;
         }
         let chunks = chunks(&runs, &boundary, active_to_node.len());
+        let (links, rim_cells) = links(grid, m, active_to_node, &boundary);
+        let corner = |c: usize| {
+            let [nx, ny] = [grid.n[0], grid.n[1]];
+            node(c % nx, (c / nx) % ny, c / (nx * ny)) as u32
+        };
+        let cut_corners = m.own_cells.iter().map(|&c| corner(c)).collect();
+        let rim = rim_cells.iter().map(|&c| corner(c as usize)).collect();
         FastApply {
             stencil: Stencil::new(m.inside),
             runs,
             boundary,
+            links,
+            cut_corners,
+            rim,
             chunks,
             n: grid.n,
             num_active: active_to_node.len(),
@@ -113,11 +142,14 @@ impl FastApply {
         }
     }
 
-    /// Bytes of plan data (stencil, runs, boundary list, chunks).
+    /// Bytes of plan data (stencil, runs, boundary list, links, cell
+    /// corners, chunks).
     pub fn bytes(&self) -> usize {
         self.stencil.bytes()
             + self.runs.len() * std::mem::size_of::<Run>()
             + self.boundary.len() * 4
+            + self.links.len() * 32
+            + (self.cut_corners.len() + self.rim.len()) * 4
             + self.chunks.len() * std::mem::size_of::<Chunk>()
     }
 
@@ -126,9 +158,14 @@ impl FastApply {
         self.runs.iter().map(|r| r.len as usize).sum()
     }
 
+    /// Number of rim cells (inside cells with a boundary node).
+    pub fn num_rim(&self) -> usize {
+        self.rim.len()
+    }
+
     /// Length of the scratch [`Self::apply`] needs: `xs` and the `z_c`.
     pub fn scratch_len(&self) -> usize {
-        3 * self.stride() + 24 * self.num_cut
+        3 * self.stride() + 24 * (self.num_cut + self.rim.len())
     }
 
     fn stride(&self) -> usize {
@@ -137,27 +174,22 @@ impl FastApply {
 
     /// `y = A x`, with `scratch` of [`Self::scratch_len`] entries whose
     /// padding (past each component's `num_active` entries) is finite.
-    pub fn apply(
-        &self,
-        m: &Matrices,
-        active_to_node: &[u32],
-        x: &[f64],
-        y: &mut [f64],
-        scratch: &mut [f64],
-    ) {
+    pub fn apply(&self, m: &CellData, x: &[f64], y: &mut [f64], scratch: &mut [f64]) {
         let stride = self.stride();
         let (xs, z) = scratch.split_at_mut(3 * stride);
         let mut ctx = Context {
             plan: self,
             m,
-            active_to_node,
             x,
             xs: &[],
             z: &[],
         };
         rayon::join(
             || deinterleave(x, xs, stride, self.num_active),
-            || ctx.cut_cells(z),
+            || {
+                let (zc, zr) = z.split_at_mut(24 * self.num_cut);
+                rayon::join(|| ctx.cut_cells(zc), || ctx.rim_cells(zr));
+            },
         );
         (ctx.xs, ctx.z) = (xs, z);
         let mut pieces = Vec::with_capacity(self.chunks.len());
@@ -176,8 +208,7 @@ impl FastApply {
 /// What every chunk of one apply reads.
 struct Context<'a> {
     plan: &'a FastApply,
-    m: &'a Matrices<'a>,
-    active_to_node: &'a [u32],
+    m: &'a CellData<'a>,
     x: &'a [f64],
     /// `x` de-interleaved.
     xs: &'a [f64],
@@ -203,54 +234,70 @@ impl Context<'_> {
         self.chunk_body::<true>(c, y);
     }
 
-    /// `z_c = K_c x_c` for every cut cell, in parallel over blocks of cells.
+    /// `z_c = K_c x_c` for every cut cell, in SIMD batches, in parallel.
     fn cut_cells(&self, z: &mut [f64]) {
-        const CELLS: usize = 64;
-        z.par_chunks_mut(24 * CELLS)
+        let gather = |s: usize, xe: &mut [f64]| {
+            xe.copy_from_slice(&self.cell_x(self.plan.cut_corners[s] as usize));
+        };
+        self.m.forms.apply(gather, z);
+    }
+
+    /// `z_c = h K_ref x_c` for every rim cell, in SIMD batches, in parallel.
+    fn rim_cells(&self, z: &mut [f64]) {
+        let per_task = LANES * RIM_BATCHES_PER_TASK;
+        z.par_chunks_mut(24 * per_task)
             .enumerate()
-            .for_each(|(b, zb)| {
+            .for_each(|(t, zt)| {
                 #[cfg(target_arch = "x86_64")]
                 if self.plan.fma {
                     // SAFETY: `fma` is set only when the CPU reports AVX2 and FMA.
-                    unsafe { self.cut_block_fma(b * CELLS, zb) };
+                    unsafe { self.rim_block_fma(t * per_task, zt) };
                     return;
                 }
-                self.cut_block::<false>(b * CELLS, zb);
+                self.rim_block::<false>(t * per_task, zt);
             });
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn cut_block_fma(&self, first: usize, z: &mut [f64]) {
-        self.cut_block::<true>(first, z);
+    fn rim_block_fma(&self, first: usize, z: &mut [f64]) {
+        self.rim_block::<true>(first, z);
     }
 
-    /// `z_s = K_s x_c` for the cut cells `s = first, first + 1, …`, as
-    /// `Σ_q x_q K_s[q, :]`: `K_s` is symmetric (as the assembled apply also
-    /// assumes), and rows are contiguous, so each row is one vector update.
+    /// `z = h K_ref x_c` for the rim cells `first, first + 1, …`, [`LANES`]
+    /// cells at a time (one per SIMD lane).
     #[inline(always)]
-    fn cut_block<const FMA: bool>(&self, first: usize, z: &mut [f64]) {
-        let [nx, ny, _] = self.plan.n;
-        for (s, zs) in (first..).zip(z.chunks_exact_mut(24)) {
-            let c = self.m.own_cells[s];
-            let xe = self.cell_x([c % nx, (c / nx) % ny, c / (nx * ny)]);
-            let k = &self.m.own[s * 576..(s + 1) * 576];
-            let mut acc = [0.0; 24];
-            for (xq, row) in xe.iter().zip(k.chunks_exact(24)) {
-                for (a, kv) in acc.iter_mut().zip(row) {
-                    *a = madd::<FMA>(*xq, *kv, *a);
+    fn rim_block<const FMA: bool>(&self, first: usize, z: &mut [f64]) {
+        for (b, zb) in z.chunks_mut(24 * LANES).enumerate() {
+            let mut u = [[0.0; LANES]; 24];
+            for l in 0..zb.len() / 24 {
+                let xe = self.cell_x(self.plan.rim[first + b * LANES + l] as usize);
+                for (uk, xk) in u.iter_mut().zip(xe) {
+                    uk[l] = xk;
                 }
             }
-            zs.copy_from_slice(&acc);
+            let mut out = [[0.0; LANES]; 24];
+            for (o, row) in out.iter_mut().zip(self.m.inside.chunks_exact(24)) {
+                for (uk, kv) in u.iter().zip(row) {
+                    for l in 0..LANES {
+                        o[l] = madd::<FMA>(*kv, uk[l], o[l]);
+                    }
+                }
+            }
+            for (l, zl) in zb.chunks_exact_mut(24).enumerate() {
+                for (zr, o) in zl.iter_mut().zip(&out) {
+                    *zr = o[l];
+                }
+            }
         }
     }
 
-    /// The 24 dofs of cell `ijk`'s nodes, in local order.
+    /// The 24 dofs of the nodes of the cell with corner node `corner`, in
+    /// local order.
     #[inline(always)]
-    fn cell_x(&self, [i, j, k]: [usize; 3]) -> [f64; 24] {
+    fn cell_x(&self, corner: usize) -> [f64; 24] {
         let [nx, ny, _] = self.plan.n;
         let (mx, my) = (nx + 1, ny + 1);
-        let corner = i + mx * (j + my * k);
         let mut xe = [0.0; 24];
         for q in 0..8 {
             let nq = corner + (q & 1) + mx * (((q >> 1) & 1) + my * (q >> 2));
@@ -266,67 +313,20 @@ impl Context<'_> {
         let runs = &plan.runs[c.runs.clone()];
         plan.stencil
             .apply_runs::<FMA>(runs, self.xs, plan.stride(), y, c.lo);
-        for &a in &plan.boundary[c.boundary.clone()] {
-            let a = a as usize;
-            let out = self.gather::<FMA>(a);
+        for b in c.boundary.clone() {
+            let a = plan.boundary[b] as usize;
+            let mut out = [0.0; 3];
+            for (cc, &zi) in plan.links[b].iter().enumerate() {
+                if zi != NONE {
+                    let zl = &self.z[24 * zi as usize + 3 * (7 - cc)..];
+                    for (o, v) in out.iter_mut().zip(zl) {
+                        *o += v;
+                    }
+                }
+            }
             y[3 * (a - c.lo)..3 * (a - c.lo) + 3].copy_from_slice(&out);
         }
     }
-
-    /// Rows of boundary node `a`: `Σ_{c ∋ n} K_c[3l+i, :] x_c` over its
-    /// non-outside cells `c`, `l` the node's local index in `c` (for a cut
-    /// cell, entries of `z_c`).
-    #[inline(always)]
-    fn gather<const FMA: bool>(&self, a: usize) -> [f64; 3] {
-        let [nx, ny, nz] = self.plan.n;
-        let (mx, my) = (nx + 1, ny + 1);
-        let nd = self.active_to_node[a] as usize;
-        let [i, j, k] = [nd % mx, (nd / mx) % my, nd / (mx * my)];
-        let mut out = [0.0; 3];
-        for cc in 0..8 {
-            let [ci, cj, ck] = [cc & 1, (cc >> 1) & 1, cc >> 2];
-            // Cell (i−1+ci, j−1+cj, k−1+ck), where it exists.
-            let (Some(ia), Some(ja), Some(ka)) = (
-                (i + ci).checked_sub(1).filter(|v| *v < nx),
-                (j + cj).checked_sub(1).filter(|v| *v < ny),
-                (k + ck).checked_sub(1).filter(|v| *v < nz),
-            ) else {
-                continue;
-            };
-            let l = 7 - cc;
-            let part = match self.m.slot[ia + nx * (ja + ny * ka)] {
-                OUTSIDE => continue,
-                INSIDE => {
-                    let rows = &self.m.inside[3 * l * 24..(3 * l + 3) * 24];
-                    rows_dot::<FMA>(rows, &self.cell_x([ia, ja, ka]))
-                }
-                s => {
-                    let zl = &self.z[24 * s as usize + 3 * l..];
-                    [zl[0], zl[1], zl[2]]
-                }
-            };
-            for (o, p) in out.iter_mut().zip(part) {
-                *o += p;
-            }
-        }
-        out
-    }
-}
-
-/// `(R x)_r` for the three rows `R` (row-major 3 × 24): four partial sums per
-/// row, so that the products vectorise and the additions do not form one
-/// long dependency chain.
-#[inline(always)]
-fn rows_dot<const FMA: bool>(rows: &[f64], x: &[f64; 24]) -> [f64; 3] {
-    let mut acc = [[0.0; 4]; 3];
-    for (a, row) in acc.iter_mut().zip(rows.chunks_exact(24)) {
-        for q in (0..24).step_by(4) {
-            for lane in 0..4 {
-                a[lane] = madd::<FMA>(row[q + lane], x[q + lane], a[lane]);
-            }
-        }
-    }
-    acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]))
 }
 
 /// Whether node `(i, j, k)` has all 8 surrounding cells inside.
@@ -343,6 +343,48 @@ fn is_interior(grid: &Grid, slot: &[u32], [i, j, k]: [usize; 3]) -> bool {
         ];
         slot[grid.cell_index(c)] == INSIDE
     })
+}
+
+/// The links of the boundary nodes to their cells' products, and the rim
+/// cells (see [`FastApply`]), numbered in order of first use.
+fn links(
+    grid: &Grid,
+    m: &CellData,
+    active_to_node: &[u32],
+    boundary: &[u32],
+) -> (Vec<[u32; 8]>, Vec<u32>) {
+    let n = grid.n;
+    let (mx, my) = (n[0] + 1, n[1] + 1);
+    let num_cut = m.own_cells.len() as u32;
+    let mut rim_index = vec![NONE; grid.num_cells()];
+    let mut rim = Vec::new();
+    let links = boundary
+        .iter()
+        .map(|&a| {
+            let nd = active_to_node[a as usize] as usize;
+            let ijk = [nd % mx, (nd / mx) % my, nd / (mx * my)];
+            std::array::from_fn(|cc| {
+                let d = [cc & 1, (cc >> 1) & 1, cc >> 2];
+                let c: Option<Vec<usize>> = (0..3)
+                    .map(|ax| (ijk[ax] + d[ax]).checked_sub(1).filter(|v| *v < n[ax]))
+                    .collect();
+                let Some(c) = c else { return NONE };
+                let cell = grid.cell_index([c[0], c[1], c[2]]);
+                match m.slot[cell] {
+                    OUTSIDE => NONE,
+                    INSIDE => {
+                        if rim_index[cell] == NONE {
+                            rim_index[cell] = num_cut + rim.len() as u32;
+                            rim.push(cell as u32);
+                        }
+                        rim_index[cell]
+                    }
+                    s => s,
+                }
+            })
+        })
+        .collect();
+    (links, rim)
 }
 
 /// Cuts the active nodes `0..num_active` into chunks of about [`CHUNK_COST`]
@@ -405,7 +447,7 @@ fn deinterleave(x: &[f64], xs: &mut [f64], stride: usize, n: usize) {
 }
 
 /// Whether the CPU has AVX2 and FMA (the fast build of the chunk kernel).
-fn fma_available() -> bool {
+pub(super) fn fma_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")

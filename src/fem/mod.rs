@@ -1,14 +1,17 @@
 //! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
 //! assembled), right-hand sides, the discrete field and its error norms.
 pub mod checks;
+pub mod cut_apply;
 pub mod dofs;
 pub mod fast_apply;
 pub mod field;
 pub mod fixed_point;
 pub mod linear;
+pub mod moment_fit;
 pub mod operator;
 pub mod output;
 pub mod problem;
+pub mod q1_forms;
 pub mod recovery;
 pub mod rhs;
 pub mod setup;

@@ -2,29 +2,39 @@
 //! matrix-free, and the same operator assembled as a sparse matrix (faer).
 //!
 //! Every inside cell has the same element matrix `h K_ref` (DESIGN §2.2), so
-//! inside cells store nothing; each cut cell stores its dense matrix
-//! `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN` (DESIGN §3.1), and later
-//! terms (the S-stabilisation) are added to the cells they touch.
+//! inside cells store nothing; each cut cell stores the moment-fitted weights
+//! of its matrix `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN` (DESIGN
+//! §3.1) at the `(2p+1)³` Gauss points of the cell ([`super::moment_fit`]:
+//! exact, 250 numbers for Q2 instead of 6561), for Q1 rearranged into the
+//! factored form of [`super::q1_forms`] (114 numbers instead of 576), and
+//! the S-stabilisation adds its whole-cell mass to the mass part of the cells
+//! it touches.
 //!
-//! The apply is node-centred, as the GPU kernel will be: each active node
-//! gathers, from the (up to 8) cells around it, its rows of the cell matrix
-//! times the cell's displacements, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`. No two
-//! threads write the same entry, so no atomics and no colouring are needed.
-//! For Q1 the apply runs the plan of [`super::fast_apply`] (the constant
-//! interior stencil along runs, the gather elsewhere); the generic gather
-//! ([`ElasticOperator::apply_gather`]) is the reference and serves Q2.
+//! The apply is node-centred, as the GPU kernel is: each active node gathers,
+//! from the cells around it, its rows of the cell matrix times the cell's
+//! displacements, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`, where a cut cell's rows
+//! come from `z_c = K_c x_c`, computed first for all cut cells from their
+//! forms or weights ([`super::q1_forms`], [`super::cut_apply`]). No two threads write the same entry, so no
+//! atomics and no colouring are needed. For Q1 the apply runs the plan of
+//! [`super::fast_apply`] (the constant interior stencil along runs, the gather
+//! elsewhere); the generic gather ([`ElasticOperator::apply_gather`]) is the
+//! reference and serves Q2.
 
-use nalgebra::DMatrix;
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
 use std::sync::Mutex;
 
+use super::cut_apply::CutKernel;
 use super::dofs::{node_cells, DofMap};
-use super::fast_apply::{FastApply, Matrices};
+use super::fast_apply::{CellData, FastApply};
+use super::moment_fit::{CutWeights, FitBasis};
+use super::q1_forms::Q1Forms;
 use crate::backend::LinearOperator;
 use crate::cells::{CellKind, Cells};
-use crate::element::reference::{elasticity_matrix, reference_stiffness, strain_displacement};
-use crate::element::{shape_values, ElementOrder};
+use crate::element::reference::{lame, reference_stiffness};
+use crate::element::ElementOrder;
 use crate::grid::Grid;
 
 /// Slot of an outside cell.
@@ -39,16 +49,30 @@ pub struct ElasticOperator {
     pub dofs: DofMap,
     /// Dofs per cell, `3 · nodes_per_cell`.
     ne: usize,
-    /// Per cell: `OUTSIDE`, `INSIDE` or the index of its own matrix.
+    /// Per cell: `OUTSIDE`, `INSIDE` or the index (slot) of its cut data.
     slot: Vec<u32>,
     /// `h K_ref`, row-major `ne × ne`.
     k_inside: Vec<f64>,
-    /// Own matrices, row-major `ne × ne` each, and the cell of each.
-    k_own: Vec<f64>,
+    /// The cut cells' data, and the cell of each slot.
+    cut: CutData,
     own_cells: Vec<usize>,
+    /// Lamé parameters `(λ, μ)`.
+    lame: (f64, f64),
+    basis: FitBasis,
     /// The fast apply's plan (Q1 only) and its reused scratch.
     fast: Option<FastApply>,
     scratch: Scratch,
+}
+
+/// The cut cells' matrices: factored forms for Q1, the moment-fitted weights
+/// and their sum-factorised kernel otherwise.
+#[derive(Clone, Debug)]
+enum CutData {
+    Forms(Q1Forms),
+    Weights {
+        weights: CutWeights,
+        kernel: CutKernel,
+    },
 }
 
 /// A reusable scratch vector; a clone starts empty.
@@ -73,12 +97,15 @@ pub struct OperatorParams<'a> {
 }
 
 impl ElasticOperator {
-    /// Builds the operator: reference matrix and cut-cell matrices (in parallel).
+    /// Builds the operator: reference matrix and cut-cell weights (in parallel).
     pub fn new(grid: &Grid, cells: &Cells, order: ElementOrder, p: &OperatorParams) -> Self {
         let dofs = DofMap::new(grid, cells, order);
         let ne = 3 * order.nodes_per_cell();
         let k_ref = reference_stiffness(order, p.young, p.poisson) * grid.h;
-        let k_inside: Vec<f64> = row_major(&k_ref);
+        let mut k_inside = Vec::with_capacity(ne * ne);
+        for i in 0..ne {
+            k_inside.extend((0..ne).map(|j| k_ref[(i, j)]));
+        }
         let mut slot = vec![OUTSIDE; grid.num_cells()];
         for (c, k) in cells.kinds.iter().enumerate() {
             if *k == CellKind::Inside {
@@ -88,25 +115,40 @@ impl ElasticOperator {
         for (i, &c) in cells.cut.iter().enumerate() {
             slot[c] = i as u32;
         }
-        let k_own: Vec<f64> = (0..cells.cut.len())
+        let basis = FitBasis::new(order);
+        let data: Vec<f64> = (0..cells.cut.len())
             .into_par_iter()
-            .flat_map_iter(|i| row_major(&cut_cell_matrix(grid, cells, i, order, p)))
+            .flat_map_iter(|i| cut_cell_weights(grid, cells, i, &basis, p))
             .collect();
+        let weights = CutWeights {
+            nq: basis.num_points(),
+            data,
+        };
+        let lame = lame(p.young, p.poisson);
+        let cut = match order {
+            ElementOrder::Q1 => CutData::Forms(Q1Forms::new(&basis, &weights, lame, grid.h)),
+            ElementOrder::Q2 => CutData::Weights {
+                weights,
+                kernel: CutKernel::new(&basis, lame, grid.h),
+            },
+        };
         let mut op = ElasticOperator {
             grid: grid.clone(),
             dofs,
             ne,
             slot,
             k_inside,
-            k_own,
+            cut,
             own_cells: cells.cut.clone(),
+            lame,
+            basis,
             fast: None,
             scratch: Scratch::default(),
         };
-        if order == ElementOrder::Q1 {
+        if let CutData::Forms(forms) = &op.cut {
             op.fast = Some(FastApply::new(
                 grid,
-                &op.matrices(),
+                &op.cell_data(forms),
                 &op.dofs.active_to_node,
             ));
         }
@@ -114,11 +156,11 @@ impl ElasticOperator {
     }
 
     /// The data the fast apply reads.
-    fn matrices(&self) -> Matrices<'_> {
-        Matrices {
+    fn cell_data<'a>(&'a self, forms: &'a Q1Forms) -> CellData<'a> {
+        CellData {
             slot: &self.slot,
             inside: &self.k_inside,
-            own: &self.k_own,
+            forms,
             own_cells: &self.own_cells,
             node_to_active: &self.dofs.node_to_active,
         }
@@ -129,26 +171,49 @@ impl ElasticOperator {
         self.fast.as_ref()
     }
 
-    /// The matrix of a cell, row-major, or `None` for an outside cell.
-    pub fn cell_matrix(&self, cell: usize) -> Option<&[f64]> {
-        let ne2 = self.ne * self.ne;
+    /// The matrix of a cell, row-major (a cut cell's rebuilt from its
+    /// weights), or `None` for an outside cell.
+    pub fn cell_matrix(&self, cell: usize) -> Option<Cow<'_, [f64]>> {
         match self.slot[cell] {
             OUTSIDE => None,
-            INSIDE => Some(&self.k_inside),
-            s => Some(&self.k_own[s as usize * ne2..(s as usize + 1) * ne2]),
+            INSIDE => Some(Cow::Borrowed(&self.k_inside)),
+            s => Some(Cow::Owned(self.own_matrix(s as usize))),
         }
     }
 
-    /// Adds `m` (row-major `ne × ne`) to a cut cell's own matrix.
-    pub fn add_to_cut_cell(&mut self, cell: usize, m: &[f64]) {
+    /// The dense matrix of slot `s`, from its form or weights.
+    fn own_matrix(&self, s: usize) -> Vec<f64> {
+        match &self.cut {
+            CutData::Forms(forms) => forms.expand(s),
+            CutData::Weights { weights, .. } => {
+                let (w, m) = weights.cell(s);
+                self.basis.expand(w, m, self.lame, 1.0 / self.grid.h)
+            }
+        }
+    }
+
+    /// The diagonal of slot `s`'s matrix.
+    fn own_diagonal(&self, s: usize) -> Vec<f64> {
+        match &self.cut {
+            CutData::Forms(forms) => forms.diagonal(s),
+            CutData::Weights { weights, .. } => {
+                let (w, m) = weights.cell(s);
+                self.basis.diagonal(w, m, self.lame, 1.0 / self.grid.h)
+            }
+        }
+    }
+
+    /// Adds `factor · M_c` (the whole-cell vector mass `h³ M_ref`) to a cut
+    /// cell's matrix: the S-term `(k2 E/h²) M_c` of a pathological cell.
+    pub fn add_cut_cell_mass(&mut self, cell: usize, factor: f64) {
         let s = self.slot[cell];
-        assert!(s != OUTSIDE && s != INSIDE, "cell {cell} has no own matrix");
-        let ne2 = self.ne * self.ne;
-        for (k, v) in self.k_own[s as usize * ne2..(s as usize + 1) * ne2]
-            .iter_mut()
-            .zip(m)
-        {
-            *k += v;
+        assert!(s != OUTSIDE && s != INSIDE, "cell {cell} is not cut");
+        let h3 = self.grid.h.powi(3);
+        match &mut self.cut {
+            CutData::Forms(forms) => forms.add_cell_mass(s as usize, factor * h3),
+            CutData::Weights { weights, .. } => {
+                weights.add_cell_mass(&self.basis, s as usize, factor * h3)
+            }
         }
     }
 
@@ -168,10 +233,22 @@ impl ElasticOperator {
         &self.k_inside
     }
 
-    /// The own matrices of the cut cells, row-major `ne × ne` each, back to back
-    /// in slot order (stabilisation terms included once added).
-    pub fn own_matrices(&self) -> &[f64] {
-        &self.k_own
+    /// The cut cells' dense matrices, row-major `ne × ne` each, back to back
+    /// in slot order (stabilisation terms included once added), rebuilt from
+    /// the weights (what a device backend uploads).
+    pub fn own_matrices(&self) -> Vec<f64> {
+        (0..self.own_cells.len())
+            .into_par_iter()
+            .flat_map_iter(|s| self.own_matrix(s))
+            .collect()
+    }
+
+    /// Bytes of the cut cells' data (forms or weights).
+    pub fn cut_bytes(&self) -> usize {
+        match &self.cut {
+            CutData::Forms(forms) => forms.bytes(),
+            CutData::Weights { weights, .. } => 8 * weights.data.len(),
+        }
     }
 
     /// Cells with their own matrix.
@@ -179,64 +256,111 @@ impl ElasticOperator {
         &self.own_cells
     }
 
-    /// Bytes of operator data (matrices, maps and the fast apply's plan), for
-    /// the memory reports; the apply's scratch (three vectors) is not counted.
+    /// Bytes of operator data (the inside matrix, the cut cells' forms or
+    /// weights, the maps, the fitting tables and the fast apply's plan), for
+    /// the memory reports; the apply's scratch (three vectors and `z`) is not
+    /// counted.
     pub fn bytes(&self) -> usize {
-        8 * (self.k_inside.len() + self.k_own.len())
+        self.cut_bytes()
+            + 8 * (self.k_inside.len() + self.own_cells.len())
             + 4 * (self.slot.len()
                 + self.dofs.node_to_active.len()
                 + self.dofs.active_to_node.len())
+            + self.basis.bytes()
             + self.fast.as_ref().map_or(0, FastApply::bytes)
+    }
+
+    /// `z[ne s .. ne (s+1)] = K_s x_s` for every cut cell `s`.
+    fn cut_products(&self, x: &[f64], z: &mut [f64]) {
+        let npc = self.dofs.order.nodes_per_cell();
+        let gather = |s: usize, xe: &mut [f64]| {
+            let mut nodes = [0usize; 27];
+            let nodes = &mut nodes[..npc];
+            self.dofs
+                .cell_active_nodes(&self.grid, self.own_cells[s], nodes);
+            for (m, &an) in nodes.iter().enumerate() {
+                xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
+            }
+        };
+        match &self.cut {
+            CutData::Forms(forms) => forms.apply(gather, z),
+            CutData::Weights { weights, kernel } => kernel.apply(weights, gather, z),
+        }
     }
 
     /// `y = A x` by the generic node-centred gather (see the module doc): the
     /// reference the fast apply is tested against, and the Q2 apply.
     pub fn apply_gather(&self, x: &[f64], y: &mut [f64]) {
+        let mut z = vec![0.0; self.ne * self.own_cells.len()];
+        self.apply_gather_with(x, y, &mut z);
+    }
+
+    /// [`Self::apply_gather`] with the scratch `z` (`ne` per cut cell).
+    fn apply_gather_with(&self, x: &[f64], y: &mut [f64], z: &mut [f64]) {
+        self.cut_products(x, z);
+        let z = &*z;
         let npc = self.dofs.order.nodes_per_cell();
+        let ne = self.ne;
         y.par_chunks_mut(3)
             .enumerate()
             .with_min_len(64)
             .for_each_init(
-                || (vec![0usize; npc], vec![0.0; 3 * npc]),
-                |(nodes, xe), (a, yn)| {
+                || (vec![0usize; npc], vec![0.0; ne], Vec::with_capacity(8)),
+                |(nodes, xe, around), (a, yn)| {
                     yn.fill(0.0);
-                    self.for_node_cells(a, |cell, l, k| {
-                        self.dofs.cell_active_nodes(&self.grid, cell, nodes);
-                        for (m, &an) in nodes.iter().enumerate() {
-                            xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
-                        }
-                        for i in 0..3 {
-                            let row = &k[(3 * l + i) * self.ne..(3 * l + i + 1) * self.ne];
-                            let mut s = 0.0;
-                            for j in 0..self.ne {
-                                s += row[j] * xe[j];
+                    let node = self.dofs.active_to_node[a] as usize;
+                    node_cells(&self.grid, self.dofs.order, node, around);
+                    for &(cell, l) in around.iter() {
+                        match self.slot[cell] {
+                            OUTSIDE => {}
+                            INSIDE => {
+                                self.dofs.cell_active_nodes(&self.grid, cell, nodes);
+                                for (m, &an) in nodes.iter().enumerate() {
+                                    xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
+                                }
+                                for (i, o) in yn.iter_mut().enumerate() {
+                                    let row =
+                                        &self.k_inside[(3 * l + i) * ne..(3 * l + i + 1) * ne];
+                                    *o +=
+                                        row.iter().zip(xe.iter()).map(|(k, v)| k * v).sum::<f64>();
+                                }
                             }
-                            yn[i] += s;
+                            s => {
+                                let zl = &z[ne * s as usize + 3 * l..];
+                                for (o, v) in yn.iter_mut().zip(zl) {
+                                    *o += v;
+                                }
+                            }
                         }
-                    });
+                    }
                 },
             );
     }
 
-    /// Calls `f(cell, local, matrix)` for the cells around an active node.
-    fn for_node_cells(&self, active: usize, mut f: impl FnMut(usize, usize, &[f64])) {
+    /// Calls `f(cell, local, matrix)` for the non-outside cells around an
+    /// active node, the cut cells' matrices read from `own`
+    /// ([`Self::own_matrices`]).
+    fn for_node_cells(&self, active: usize, own: &[f64], mut f: impl FnMut(usize, usize, &[f64])) {
         let node = self.dofs.active_to_node[active] as usize;
         let mut around = Vec::with_capacity(8);
         node_cells(&self.grid, self.dofs.order, node, &mut around);
+        let ne2 = self.ne * self.ne;
         for &(cell, local) in &around {
-            if let Some(k) = self.cell_matrix(cell) {
-                f(cell, local, k);
+            match self.slot[cell] {
+                OUTSIDE => {}
+                INSIDE => f(cell, local, &self.k_inside),
+                s => f(cell, local, &own[s as usize * ne2..(s as usize + 1) * ne2]),
             }
         }
     }
 
     /// Rows of the matrix for an active node, as (column dof, value) triples
     /// per component, summed over cells: for the assembly and its tests.
-    fn node_rows(&self, active: usize) -> [Vec<(usize, f64)>; 3] {
+    fn node_rows(&self, active: usize, own: &[f64]) -> [Vec<(usize, f64)>; 3] {
         let npc = self.dofs.order.nodes_per_cell();
         let mut nodes = vec![0; npc];
         let mut rows: [Vec<(usize, f64)>; 3] = Default::default();
-        self.for_node_cells(active, |cell, l, k| {
+        self.for_node_cells(active, own, |cell, l, k| {
             self.dofs.cell_active_nodes(&self.grid, cell, &mut nodes);
             for i in 0..3 {
                 let row = &k[(3 * l + i) * self.ne..(3 * l + i + 1) * self.ne];
@@ -264,9 +388,10 @@ impl ElasticOperator {
     /// The operator as a faer sparse matrix (symmetric, so CSR = CSC).
     pub fn assemble(&self) -> faer::sparse::SparseColMat<usize, f64> {
         let n = self.dofs.ndofs();
+        let own = self.own_matrices();
         let blocks: Vec<[Vec<(usize, f64)>; 3]> = (0..self.dofs.num_active())
             .into_par_iter()
-            .map(|a| self.node_rows(a))
+            .map(|a| self.node_rows(a, &own))
             .collect();
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
@@ -294,25 +419,39 @@ impl LinearOperator for ElasticOperator {
 
     /// `y = A x`: the fast plan for Q1, the generic gather otherwise.
     fn apply(&self, x: &[f64], y: &mut [f64]) {
-        let Some(fast) = &self.fast else {
-            return self.apply_gather(x, y);
-        };
         let mut local = Vec::new();
         let mut guard = self.scratch.0.try_lock();
         // A concurrent apply holds the shared scratch: use a fresh one.
-        let xs = guard.as_deref_mut().unwrap_or(&mut local);
-        xs.resize(fast.scratch_len(), 0.0);
-        fast.apply(&self.matrices(), &self.dofs.active_to_node, x, y, xs);
+        let scratch = guard.as_deref_mut().unwrap_or(&mut local);
+        let (Some(fast), CutData::Forms(forms)) = (&self.fast, &self.cut) else {
+            scratch.resize(self.ne * self.own_cells.len(), 0.0);
+            return self.apply_gather_with(x, y, scratch);
+        };
+        scratch.resize(fast.scratch_len(), 0.0);
+        let data = self.cell_data(forms);
+        fast.apply(&data, x, y, scratch);
     }
 
     fn diagonal(&self) -> Vec<f64> {
+        let own: Vec<f64> = (0..self.own_cells.len())
+            .into_par_iter()
+            .flat_map_iter(|s| self.own_diagonal(s))
+            .collect();
+        let ne = self.ne;
         let mut d = vec![0.0; self.dofs.ndofs()];
         d.par_chunks_mut(3).enumerate().for_each(|(a, dn)| {
-            self.for_node_cells(a, |_, l, k| {
-                for i in 0..3 {
-                    dn[i] += k[(3 * l + i) * self.ne + 3 * l + i];
+            let node = self.dofs.active_to_node[a] as usize;
+            let mut around = Vec::with_capacity(8);
+            node_cells(&self.grid, self.dofs.order, node, &mut around);
+            for &(cell, l) in &around {
+                for (i, v) in dn.iter_mut().enumerate() {
+                    *v += match self.slot[cell] {
+                        OUTSIDE => 0.0,
+                        INSIDE => self.k_inside[(3 * l + i) * ne + 3 * l + i],
+                        s => own[ne * s as usize + 3 * l + i],
+                    };
                 }
-            });
+            }
         });
         d
     }
@@ -357,52 +496,29 @@ impl LinearOperator for AssembledOperator {
     }
 }
 
-fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
-    let mut out = Vec::with_capacity(m.nrows() * m.ncols());
-    for i in 0..m.nrows() {
-        for j in 0..m.ncols() {
-            out.push(m[(i, j)]);
-        }
-    }
-    out
-}
-
-/// `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN` on the `i`-th cut cell.
-fn cut_cell_matrix(
+/// The moment-fitted weights of the `i`-th cut cell (see
+/// [`super::moment_fit`]): `W_q = Σ_vol w L_q(ξ)`, then
+/// `M_q = (β/h) Σ_{Dirichlet points} w L_q(ξ)`.
+fn cut_cell_weights(
     grid: &Grid,
     cells: &Cells,
     i: usize,
-    order: ElementOrder,
+    basis: &FitBasis,
     p: &OperatorParams,
-) -> DMatrix<f64> {
-    let npc = order.nodes_per_cell();
-    let ne = 3 * npc;
-    let cell = cells.cut[i];
-    let x0 = grid.cell_box(cell).lo;
+) -> Vec<f64> {
+    let nq = basis.num_points();
+    let x0 = grid.cell_box(cells.cut[i]).lo;
     let inv_h = 1.0 / grid.h;
-    let d = elasticity_matrix(p.young, p.poisson);
-    let mut k = DMatrix::zeros(ne, ne);
-    let mut b = DMatrix::zeros(6, ne);
     let xi = |x: [f64; 3]| [0, 1, 2].map(|a| (x[a] - x0[a]) * inv_h);
+    let mut w = vec![0.0; 2 * nq];
+    let (stiffness, mass) = w.split_at_mut(nq);
     for q in cells.volume_points(i) {
-        strain_displacement(order, xi(q.x), inv_h, &mut b);
-        crate::element::reference::add_btdb(&mut k, &b, &d, q.w);
+        basis.add_point(xi(q.x), q.w, stiffness);
     }
-    let mut n = vec![0.0; npc];
     for q in cells.surface_points(i) {
-        if !p.dirichlet_tags[q.tag as usize] {
-            continue;
-        }
-        shape_values(order, xi(q.x), &mut n);
-        let s = q.w * p.beta * inv_h;
-        for a in 0..npc {
-            for bb in 0..npc {
-                let v = s * n[a] * n[bb];
-                for c in 0..3 {
-                    k[(3 * a + c, 3 * bb + c)] += v;
-                }
-            }
+        if p.dirichlet_tags[q.tag as usize] {
+            basis.add_point(xi(q.x), q.w * p.beta * inv_h, mass);
         }
     }
-    k
+    w
 }
