@@ -66,7 +66,7 @@ fn q2_sphere_solves_on_the_gpu_in_f64_like_on_the_cpu() {
     for (level, scalars) in [(2, Scalars::Host), (2, Scalars::Device)] {
         let (case, setup) = sphere_q2(level);
         let (u_cpu, it_cpu, _, e_cpu) = solve(&case, &setup, &mut CpuSolver::new(&setup.op));
-        let mut gpu = GpuSolver::new(ctx.clone(), &setup.op, scalars);
+        let mut gpu = GpuSolver::new(ctx.clone(), &setup.op, scalars).unwrap();
         let (u, it, res, e) = solve(&case, &setup, &mut gpu);
         let diff = max_relative_difference(&u, &u_cpu);
         println!(
