@@ -239,8 +239,26 @@ impl Progress for Terminal {
             return;
         }
         let mut s = self.state.lock().expect("progress state");
-        match *event {
-            Event::Start { phase, total } => self.start(&mut s, phase, total),
+        match event {
+            Event::RunDone { summary } => match self.mode {
+                Mode::Bars => self.multi.suspend(|| eprintln!("{summary}")),
+                _ => eprintln!("{summary}"),
+            },
+            _ => self.show(&mut s, event.clone()),
+        }
+    }
+
+    fn should_stop(&self) -> bool {
+        self.interrupt.load(Ordering::SeqCst)
+    }
+}
+
+impl Terminal {
+    /// Draws (or prints) a phase, Krylov or fixed-point event.
+    fn show(&self, s: &mut State, event: Event) {
+        match event {
+            Event::RunDone { .. } => {}
+            Event::Start { phase, total } => self.start(s, phase, total),
             Event::Advance { steps, .. } => {
                 if let Some((_, bar, _)) = &s.phase {
                     bar.inc(steps);
@@ -268,7 +286,7 @@ impl Progress for Terminal {
                         // A nonlinear run: the solve joins the Newton line.
                         Some((_, spinner)) => spinner
                             .set_message(format!("{}; {iterations} Krylov iterations", s.newton)),
-                        None => self.fixed_point_bar(&mut s).set_message(text),
+                        None => self.fixed_point_bar(s).set_message(text),
                     },
                     // The later solves are told with their iteration.
                     _ if index == 0 => eprintln!("{text}"),
@@ -281,7 +299,7 @@ impl Progress for Terminal {
                 krylov_iterations,
             } => match self.mode {
                 Mode::Bars => {
-                    let bar = self.fixed_point_bar(&mut s);
+                    let bar = self.fixed_point_bar(s);
                     bar.set_position(iteration as u64);
                     bar.set_message(format!(
                         "ε = {eps:.2e}, {krylov_iterations} Krylov iterations, residual {:.2e}",
@@ -300,7 +318,7 @@ impl Progress for Terminal {
                 iteration,
                 relative_residual,
                 ..
-            } => self.newton_iteration(&mut s, steps, load_factor, iteration, relative_residual),
+            } => self.newton_iteration(s, steps, load_factor, iteration, relative_residual),
             Event::LoadStep {
                 step,
                 steps,
@@ -308,11 +326,7 @@ impl Progress for Terminal {
                 cuts,
                 converged,
                 ..
-            } => self.load_step(&mut s, step, steps, load_factor, cuts, converged),
+            } => self.load_step(s, step, steps, load_factor, cuts, converged),
         }
-    }
-
-    fn should_stop(&self) -> bool {
-        self.interrupt.load(Ordering::SeqCst)
     }
 }

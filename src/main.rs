@@ -213,7 +213,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 condition: !no_condition,
                 ..CutSweepOptions::default()
             };
-            reproduce(&what, &levels, &sweep, element.as_deref(), out)
+            reproduce(&what, &levels, &sweep, element.as_deref(), out, progress)
         }
         Command::Bench {
             levels,
@@ -319,6 +319,7 @@ fn reproduce(
     sweep: &CutSweepOptions,
     element: Option<&str>,
     out: Option<PathBuf>,
+    progress: &Terminal,
 ) -> anyhow::Result<()> {
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("reproduce"));
     let or = |default: &[u32]| {
@@ -339,7 +340,7 @@ fn reproduce(
     }
     if what == "table1" || what == "all" {
         let case = &sphere_cases(element, "q1")?[0];
-        let rows = reproduce::table1(case, &or(&[4, 5]), &dir)?;
+        let rows = reproduce::table1(case, &or(&[4, 5]), &dir, progress)?;
         println!(
             "table1: {} rows; wrote {}/table1.{{json,md,svg}}",
             rows.len(),
@@ -353,7 +354,7 @@ fn reproduce(
             .iter()
             .map(|c| reproduce::Fig3Curves::for_case(c, &levels))
             .collect();
-        let rows = reproduce::fig3(&curves, &dir)?;
+        let rows = reproduce::fig3(&curves, &dir, progress)?;
         println!(
             "fig3: {} rows; wrote {}/fig3.{{json,md,svg}}",
             rows.len(),
@@ -363,7 +364,7 @@ fn reproduce(
     if what == "cut-sweep" || what == "all" {
         let case = &sphere_cases(element, "q1")?[0];
         let sweep = sweep.clone().with_case_stabilisation(case);
-        let rows = reproduce::cut_sweep(case, &sweep, &dir)?;
+        let rows = reproduce::cut_sweep(case, &sweep, &dir, progress)?;
         println!(
             "cut-sweep: {} rows; wrote {}/cut-sweep.{{json,md,svg}}",
             rows.len(),

@@ -13,6 +13,8 @@ pub enum Phase {
     Operator,
     /// Stress (and displacement) recovery.
     Recovery,
+    /// The runs of a `reproduce` table or figure (one step per run).
+    Runs,
 }
 
 impl Phase {
@@ -22,6 +24,7 @@ impl Phase {
             Phase::Quadrature => "quadrature",
             Phase::Operator => "operator",
             Phase::Recovery => "recovery",
+            Phase::Runs => "runs",
         }
     }
 }
@@ -36,6 +39,8 @@ pub enum Event {
     Advance { phase: Phase, steps: u64 },
     /// A phase ends.
     Finish { phase: Phase },
+    /// One run of a `reproduce` result ended; `summary` is a line for the user.
+    RunDone { summary: String },
     /// A Krylov solve ended: `index` 0 is the initial solve.
     KrylovSolve {
         index: usize,

@@ -18,10 +18,11 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{median, run_sphere, write_outputs, RunConfig};
+use super::{median, run_sphere, write_outputs, RunConfig, Runs};
 use crate::case::Case;
 use crate::error::Result;
 use crate::plot::{Chart, Series};
+use crate::progress::Progress;
 use crate::solver::{KrylovMethod, Preconditioner};
 
 /// Settings of the sweep.
@@ -145,9 +146,16 @@ pub fn offsets(n: usize, seed: u64) -> Vec<[f64; 3]> {
 }
 
 /// Runs the sweep and writes the files; returns the summary rows.
-pub fn cut_sweep(case: &Case, opts: &CutSweepOptions, out: &Path) -> Result<Vec<SweepRow>> {
+/// Each run is reported to `progress` ([`Phase::Runs`]).
+pub fn cut_sweep(
+    case: &Case,
+    opts: &CutSweepOptions,
+    out: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<SweepRow>> {
     let element = format!("{:?}", case.spec.element).to_lowercase();
     let offsets = offsets(opts.offsets, opts.seed);
+    let progress = Runs::start(progress, opts.levels.len() * 2 * offsets.len());
     let mut runs = Vec::new();
     let mut rows = Vec::new();
     for &level in &opts.levels {
@@ -156,8 +164,8 @@ pub fn cut_sweep(case: &Case, opts: &CutSweepOptions, out: &Path) -> Result<Vec<
             let mut these = Vec::new();
             for (i, &offset) in offsets.iter().enumerate() {
                 let run = sweep_run(case, opts, level, k2, offset)?;
-                eprintln!(
-                    "  {element} level {level}, {} S, offset {i} {:?}: κ = {}, first solve {} (plain{}), {} (Jacobi{})",
+                progress.done(format!(
+                    "cut-sweep {element} level {level}, {} S, offset {i} {:?}: κ = {}, first solve {} (plain{}), {} (Jacobi{})",
                     if stabilised { "with" } else { "without" },
                     offset.map(|v| (v * 1000.0).round() / 1000.0),
                     run.kappa.map_or("–".into(), |k| format!("{k:.3e}")),
@@ -165,13 +173,14 @@ pub fn cut_sweep(case: &Case, opts: &CutSweepOptions, out: &Path) -> Result<Vec<
                     if run.converged_plain { "" } else { ", not converged" },
                     run.iterations_jacobi,
                     if run.converged_jacobi { " accumulated" } else { ", not converged" },
-                );
+                ));
                 these.push(run);
             }
             rows.push(summarise(&these, level, &element, stabilised, k2, opts.a));
             runs.extend(these);
         }
     }
+    progress.finish();
     let json = serde_json::json!({ "rows": rows, "runs": runs });
     write_outputs(
         out,

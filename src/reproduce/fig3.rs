@@ -13,11 +13,12 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::table1::CONFIGS;
-use super::{rate, run_sphere, write_outputs, RunConfig};
+use super::{rate, run_sphere, write_outputs, RunConfig, Runs};
 use crate::case::Case;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::plot::{Chart, Series};
+use crate::progress::Progress;
 
 /// One row of `fig3.json`.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -70,13 +71,24 @@ fn element_name(e: ElementOrder) -> String {
 }
 
 /// Runs every curve and writes the files.
-pub fn fig3(curves: &[Fig3Curves<'_>], out: &Path) -> Result<Vec<Fig3Row>> {
+/// Each run is reported to `progress` ([`Phase::Runs`]).
+pub fn fig3(
+    curves: &[Fig3Curves<'_>],
+    out: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<Fig3Row>> {
     let mut rows: Vec<Fig3Row> = Vec::new();
+    let total = curves
+        .iter()
+        .map(|c| c.configs.len() * c.levels.len())
+        .sum();
+    let runs = Runs::start(progress, total);
     for c in curves {
         for &(k2, a) in &c.configs {
-            rows.extend(curve(c.case, &c.levels, k2, a)?);
+            rows.extend(curve(c.case, &c.levels, k2, a, &runs)?);
         }
     }
+    runs.finish();
     let json = serde_json::json!({ "rows": rows });
     write_outputs(
         out,
@@ -89,7 +101,7 @@ pub fn fig3(curves: &[Fig3Curves<'_>], out: &Path) -> Result<Vec<Fig3Row>> {
 }
 
 /// One configuration of one element over the levels.
-fn curve(case: &Case, levels: &[u32], k2: f64, a: f64) -> Result<Vec<Fig3Row>> {
+fn curve(case: &Case, levels: &[u32], k2: f64, a: f64, runs: &Runs) -> Result<Vec<Fig3Row>> {
     let element = element_name(case.spec.element);
     let mut rows = Vec::new();
     let mut previous: Option<(f64, f64)> = None;
@@ -112,11 +124,11 @@ fn curve(case: &Case, levels: &[u32], k2: f64, a: f64) -> Result<Vec<Fig3Row>> {
         };
         let energy_rate = previous.map(|p| rate(p, (run.h, energy_error)));
         previous = Some((run.h, energy_error));
-        eprintln!(
-            "  {element} level {level}, k2 = {k2}, A = {a}: {} dofs, energy error {energy_error:.4e}, rate {}",
+        runs.done(format!(
+            "fig3 {element} level {level}, k2 = {k2}, A = {a}: {} dofs, energy error {energy_error:.4e}, rate {}",
             run.dofs,
             energy_rate.map_or("–".into(), |r| format!("{r:.3}"))
-        );
+        ));
         rows.push(Fig3Row {
             level,
             element: element.clone(),

@@ -23,6 +23,7 @@ use crate::fem::fixed_point::FixedPointReport;
 use crate::fem::setup::Setup;
 use crate::fem::solve::solve;
 use crate::output::write_atomic;
+use crate::progress::{Event, Phase, Progress};
 use crate::solver::{solve as krylov_solve, KrylovMethod, Preconditioner};
 
 pub use cut_sweep::{cut_sweep, CutSweepOptions};
@@ -180,6 +181,37 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
         Err(e) => return Err(e),
     }
     Ok(out)
+}
+
+/// The runs of one result as a [`Phase::Runs`] of `progress`: started with
+/// their count, each reported with a summary line, then finished.
+pub struct Runs<'a> {
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Runs<'a> {
+    /// Starts the phase of `total` runs.
+    pub fn start(progress: &'a dyn Progress, total: usize) -> Self {
+        progress.event(&Event::Start {
+            phase: Phase::Runs,
+            total: Some(total as u64),
+        });
+        Runs { progress }
+    }
+
+    /// One run ended; `summary` says what it measured.
+    pub fn done(&self, summary: String) {
+        self.progress.event(&Event::RunDone { summary });
+        self.progress.event(&Event::Advance {
+            phase: Phase::Runs,
+            steps: 1,
+        });
+    }
+
+    /// Every run ended.
+    pub fn finish(&self) {
+        self.progress.event(&Event::Finish { phase: Phase::Runs });
+    }
 }
 
 /// The observed rate `log(e_c/e_f) / log(h_c/h_f)` between two runs.

@@ -13,10 +13,11 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{run_sphere, write_outputs, RunConfig};
+use super::{run_sphere, write_outputs, RunConfig, Runs};
 use crate::case::Case;
 use crate::error::Result;
 use crate::plot::{Chart, Series};
+use crate::progress::Progress;
 
 /// One row of `table1.json`.
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -56,8 +57,15 @@ pub const CONFIGS: [(f64, f64); 5] = [
 ];
 
 /// Runs the rows for `levels` on `case` (the sphere) and writes the files.
-pub fn table1(case: &Case, levels: &[u32], out: &Path) -> Result<Vec<Table1Row>> {
+/// Each run is reported to `progress` ([`Phase::Runs`]).
+pub fn table1(
+    case: &Case,
+    levels: &[u32],
+    out: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<Table1Row>> {
     let mut rows = Vec::new();
+    let runs = Runs::start(progress, levels.len() * CONFIGS.len());
     for &level in levels {
         for (k2, a) in CONFIGS {
             let cfg = RunConfig {
@@ -81,13 +89,14 @@ pub fn table1(case: &Case, levels: &[u32], out: &Path) -> Result<Vec<Table1Row>>
                 krylov_iterations: run.krylov_iterations,
                 paper_kappa: paper_kappa(level, k2 > 0.0),
             };
-            eprintln!(
-                "  level {level}, k2 = {k2}, A = {a}: κ = {:.3e}, κ_J = {:.3e}, {} iterations",
+            runs.done(format!(
+                "table1 level {level}, k2 = {k2}, A = {a}: κ = {:.3e}, κ_J = {:.3e}, {} iterations",
                 row.kappa, row.kappa_jacobi, row.krylov_iterations
-            );
+            ));
             rows.push(row);
         }
     }
+    runs.finish();
     let json = serde_json::json!({ "rows": rows });
     write_outputs(
         out,
