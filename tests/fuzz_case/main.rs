@@ -6,7 +6,10 @@
 //! and, when they parse, through `Setup` at a tiny level, and some through
 //! the solve. Nothing may panic; every error of the parser and the setup must
 //! be a `CaseFile` error naming the file and a key, every error of the solve
-//! a solver failure (exit code 3).
+//! a solver failure (exit code 3). Multi-body cases (`[[body]]`, from
+//! `cases/` and a built-in two-block contact case) go through
+//! `BodiesCase::from_str_with` and, a third of those that parse, through
+//! `BodiesSetup` at level 0 or 1, under the same rules.
 //!
 //! 10 000 inputs by default (a third of those that parse are set up; about
 //! half a minute in release); set
@@ -15,6 +18,8 @@
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
+use cgfem_gpu::bodies::setup::BodiesSetup;
+use cgfem_gpu::case::bodies::{is_bodies_case, BodiesCase};
 use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
@@ -45,7 +50,63 @@ fn seeds() -> Vec<String> {
         .map(|p| std::fs::read_to_string(p).unwrap())
         .collect();
     assert!(seeds.len() >= 2, "no case files to start from");
+    let mut seeds = seeds;
+    seeds.push(TWO_BLOCKS.to_string());
     seeds
+}
+
+/// A multi-body seed: two blocks, a contact pair, per-component and
+/// region-restricted Dirichlet data.
+const TWO_BLOCKS: &str = r#"
+name = "blocks"
+[load]
+steps = 2
+[newton]
+max_iterations = 10
+[[body]]
+name = "lower"
+geometry = { type = "cuboid", min = [-1, -1, -1], max = [1, 1, 0] }
+grid = { level = 1, offset = [0.1, 0.2, 0.3] }
+material = { young = 1000.0, poisson = 0.3 }
+dirichlet.zmin = { value = ["0", "0", "0"] }
+[[body]]
+name = "upper"
+geometry = { type = "cuboid", min = [-0.5, -0.5, 0.01], max = [0.5, 0.5, 1.01] }
+grid = { level = 1 }
+material = { model = "st_venant_kirchhoff", young = 500.0, poisson = 0.25 }
+dirichlet.zmax = { value = ["free", "free", "-0.01"], region = { min = [-inf, -inf, 1.0] } }
+[[contact]]
+slave = "upper.zmin"
+master = "lower.zmax"
+"#;
+
+/// A multi-body input: parsed, and a third of those that parse set up at
+/// level 0 or 1. True when it parsed.
+fn try_bodies(rng: &mut ChaCha8Rng, k: usize, text: &str, sets: &[String]) -> bool {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        BodiesCase::from_str_with(FILE, text, sets)
+    }));
+    let case = match r {
+        Err(_) => panic!("input {k}: the multi-body parser panicked on\n{text}\n{sets:?}"),
+        Ok(Err(e)) => {
+            check_error(&e, "multi-body parse", text, sets);
+            return false;
+        }
+        Ok(Ok(case)) => case,
+    };
+    if rng.gen_bool(1.0 / 3.0) {
+        let level = rng.gen_range(0..=1);
+        let silent = cgfem_gpu::progress::Silent;
+        let r = catch_unwind(AssertUnwindSafe(|| {
+            BodiesSetup::new(&case, Some(level), &silent)
+        }));
+        match r {
+            Err(_) => panic!("input {k}: the multi-body setup panicked on\n{text}\n{sets:?}"),
+            Ok(Err(e)) => check_error(&e, "multi-body setup", text, sets),
+            Ok(Ok(_)) => {}
+        }
+    }
+    true
 }
 
 /// One input: a mutated seed (structure, then text), and overrides.
@@ -121,9 +182,14 @@ fn random_and_mutated_cases_never_panic() {
     let seeds = seeds();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut parsed, mut set_up, mut solved, mut setup_seconds) = (0, 0, 0, 0.0);
+    let mut bodies_parsed = 0;
     let start = std::time::Instant::now();
     for k in 0..n {
         let (text, sets) = input(&mut rng, &seeds);
+        if is_bodies_case(&text) {
+            bodies_parsed += try_bodies(&mut rng, k, &text, &sets) as usize;
+            continue;
+        }
         let r = catch_unwind(AssertUnwindSafe(|| Case::from_str_with(FILE, &text, &sets)));
         let case = match r {
             Err(_) => panic!("input {k}: the parser panicked on\n{text}\n{sets:?}"),
@@ -166,10 +232,14 @@ fn random_and_mutated_cases_never_panic() {
     }
     println!(
         "{n} inputs: {parsed} parsed, {set_up} set up, {solved} solved; \
-         {:.1} s in all, {setup_seconds:.1} s in setups",
+         {bodies_parsed} multi-body parsed; {:.1} s in all, {setup_seconds:.1} s in setups",
         start.elapsed().as_secs_f64()
     );
     // The generator must reach the checks behind the parser and the setup.
     assert!(parsed * 10 >= n, "only {parsed} of {n} inputs parsed");
+    assert!(
+        bodies_parsed * 50 >= n,
+        "only {bodies_parsed} multi-body inputs of {n} parsed"
+    );
     assert!(set_up * 40 >= n, "only {set_up} of {n} inputs were set up");
 }
