@@ -1,5 +1,7 @@
 //! Every case in `cases/` runs as is (at level 2, to keep CI short) and
-//! writes its report (status ok) and solution.
+//! writes its report (status ok) and solution: `solution.vtu` for a
+//! single-body case, the `solution.pvd` series (every body at the level) for
+//! a multi-body one.
 
 use std::process::Command;
 
@@ -34,11 +36,19 @@ fn every_case_runs() {
             path.display(),
             String::from_utf8_lossy(&o.stderr)
         );
-        assert!(out.join("report.json").exists() && out.join("solution.vtu").exists());
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
         assert_eq!(report["status"], "ok", "{}", path.display());
-        assert_eq!(report["level"], 2, "{}", path.display());
+        match report["bodies"].as_array() {
+            Some(bodies) => {
+                assert!(out.join("solution.pvd").exists(), "{}", path.display());
+                assert!(bodies.iter().all(|b| b["level"] == 2), "{}", path.display());
+            }
+            None => {
+                assert!(out.join("solution.vtu").exists(), "{}", path.display());
+                assert_eq!(report["level"], 2, "{}", path.display());
+            }
+        }
         std::fs::remove_dir_all(&out).unwrap();
         count += 1;
     }

@@ -7,7 +7,8 @@
 //! penalty method (`λ_N = min(0, κ g_N)`, `κ = k E / h_slave`). Histories (the
 //! friction anchors) advance at each converged load step. The ray search
 //! looks for master hits within half the smaller of the two bodies' bounding
-//! box diagonals.
+//! box diagonals. Each report row carries the contact residual's resultants
+//! on the slave and the master body (their force balance).
 
 use std::sync::Mutex;
 
@@ -102,6 +103,16 @@ impl ContactCoupling {
         }
     }
 
+    /// `Σ r` over body `b`'s dofs, per component.
+    fn resultant(&self, b: usize, r: &[f64]) -> [f64; 3] {
+        let body = &r[self.offsets[b]..self.offsets[b] + self.dofs[b].ndofs()];
+        let mut sum = [0.0; 3];
+        for node in body.chunks_exact(3) {
+            (0..3).for_each(|c| sum[c] += node[c]);
+        }
+        sum
+    }
+
     fn data<'a>(&'a self, p: &'a Pair) -> ContactPairData<'a> {
         ContactPairData {
             slave: self.body(p.slave),
@@ -158,7 +169,9 @@ impl Coupling for ContactCoupling {
                 let mut h = p.history.lock().expect("contact history");
                 let e = contact_residual(&self.data(p), u, &h);
                 *h = e.converged_history(&vec![0.0; p.points.len()]);
+                let force = |b: usize| self.resultant(b, &e.residual);
                 e.contact_row(&p.name, step)
+                    .with_forces(force(p.slave), force(p.master))
             })
             .collect()
     }

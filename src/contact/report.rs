@@ -8,6 +8,12 @@
 //! `normal_force = Σ_k w_k p_k`, `contact_area = Σ_{k: p_k > 0} w_k`,
 //! `peak_pressure = max_k p_k` and `max_penetration = max(0, max_k −g_k)`
 //! (all 0 for a pair without points).
+//!
+//! `slave_force` and `master_force` are the resultants `Σ R_c` of the contact
+//! residual over each body's dofs, per component (the force the contact
+//! exerts on the body is minus that): they balance, `slave_force +
+//! master_force = 0`, when the contact forces are equal and opposite; 0 until
+//! set by [`ContactRow::with_forces`].
 
 use serde::Serialize;
 
@@ -30,6 +36,8 @@ pub struct ContactRow {
     pub contact_area: f64,
     pub peak_pressure: f64,
     pub max_penetration: f64,
+    pub slave_force: [f64; 3],
+    pub master_force: [f64; 3],
 }
 
 impl ContactRow {
@@ -43,6 +51,18 @@ impl ContactRow {
             contact_area: active.map(|s| s.weight).sum(),
             peak_pressure: samples.iter().map(|s| s.pressure).fold(0.0, f64::max),
             max_penetration: samples.iter().map(|s| -s.gap).fold(0.0, f64::max),
+            slave_force: [0.0; 3],
+            master_force: [0.0; 3],
+        }
+    }
+
+    /// The row with the contact residual's resultants on the slave and the
+    /// master body.
+    pub fn with_forces(self, slave_force: [f64; 3], master_force: [f64; 3]) -> ContactRow {
+        ContactRow {
+            slave_force,
+            master_force,
+            ..self
         }
     }
 }
@@ -74,12 +94,14 @@ mod tests {
                 contact_area: 0.75,
                 peak_pressure: 10.0,
                 max_penetration: 0.002,
+                slave_force: [0.0; 3],
+                master_force: [0.0; 3],
             }
         );
         let json = serde_json::to_string(&row).unwrap();
         assert_eq!(
             json,
-            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"peak_pressure":10.0,"max_penetration":0.002}"#
+            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"peak_pressure":10.0,"max_penetration":0.002,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
         );
         let empty = ContactRow::from_samples("none", 0, &[]);
         assert_eq!(
@@ -90,6 +112,11 @@ mod tests {
                 empty.max_penetration
             ),
             (0.0, 0.0, 0.0, 0.0)
+        );
+        let forced = row.with_forces([1.0, 2.0, 3.0], [-1.0, -2.0, -3.0]);
+        assert_eq!(
+            (forced.slave_force, forced.master_force, forced.normal_force),
+            ([1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], 6.0)
         );
     }
 }
