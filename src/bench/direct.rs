@@ -8,19 +8,16 @@
 
 use std::time::Instant;
 
-use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
-};
-use faer::sparse::SparseColMat;
-use faer::{Conj, MatMut, Par, Side};
+use faer::sparse::linalg::cholesky::SymmetricOrdering;
+use faer::Par;
 use rayon::ThreadPool;
 
 use super::measure::reset_peak_resident;
 use super::ordering::nested_dissection;
 use super::{row, Row};
 use crate::backend::{CpuBackend, LinearOperator};
+use crate::condition::sparse::Cholesky;
 use crate::error::{Error, Result};
 use crate::fem::setup::Setup;
 use crate::grid::machine_memory_bytes;
@@ -102,68 +99,19 @@ fn cholesky_solve(setup: &Setup, threads: usize) -> Result<(Vec<f64>, usize)> {
         what: "sparse Cholesky of the assembled operator".into(),
         reason,
     };
-    let (symbolic, values) =
-        factor(&a, &setup.op, Par::rayon(threads), max_bytes).map_err(failed)?;
+    let (forward, inverse) = nested_dissection(&setup.op);
+    let ordering = SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, a.nrows()));
+    let factor =
+        Cholesky::with_ordering(&a, ordering, Par::rayon(threads), max_bytes).map_err(failed)?;
     let factored = t.elapsed().as_secs_f64();
     let mut u = setup.fixed_rhs.clone();
-    let n = u.len();
-    let par = Par::rayon(threads);
-    let mut mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, par));
-    LltRef::new(&symbolic, &values).solve_in_place_with_conj(
-        Conj::No,
-        MatMut::from_column_major_slice_mut(&mut u, n, 1),
-        par,
-        MemStack::new(&mut mem),
-    );
+    factor.solve_in_place(&mut u);
     println!(
         "  direct: assembly {assembled:.2} s, factorisation {:.2} s, solve {:.2} s",
         factored - assembled,
         t.elapsed().as_secs_f64() - factored
     );
-    Ok((u, values.len()))
-}
-
-/// The supernodal factor `A = L Lᵀ` in nested-dissection order, refused when
-/// it would take more than `max_bytes`.
-fn factor(
-    a: &SparseColMat<usize, f64>,
-    op: &crate::fem::operator::ElasticOperator,
-    par: Par,
-    max_bytes: usize,
-) -> std::result::Result<(SymbolicCholesky<usize>, Vec<f64>), String> {
-    let (forward, inverse) = nested_dissection(op);
-    let perm = PermRef::new_checked(&forward, &inverse, a.nrows());
-    let ordering = SymmetricOrdering::Custom(perm);
-    let symbolic =
-        factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, Default::default())
-            .map_err(|e| format!("{e:?}"))?;
-    let bytes = 8 * symbolic.len_val();
-    if bytes > max_bytes {
-        return Err(format!(
-            "the factor needs {:.1} GB, over the limit of {:.1} GB",
-            bytes as f64 / 1e9,
-            max_bytes as f64 / 1e9
-        ));
-    }
-    let mut values = Vec::new();
-    values
-        .try_reserve_exact(symbolic.len_val())
-        .map_err(|e| format!("the factor ({bytes} bytes): {e}"))?;
-    values.resize(symbolic.len_val(), 0.0);
-    let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-    let mut mem = MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?;
-    symbolic
-        .factorize_numeric_llt(
-            &mut values,
-            a.as_ref(),
-            Side::Lower,
-            Default::default(),
-            par,
-            MemStack::new(&mut mem),
-            Default::default(),
-        )
-        .map_err(|e| format!("{e:?}"))?;
-    Ok((symbolic, values))
+    Ok((u, factor.len()))
 }
 
 /// `MemAvailable` of `/proc/meminfo` (the machine's memory where unknown).

@@ -86,13 +86,19 @@ impl Cholesky {
         par: Par,
         max_bytes: usize,
     ) -> std::result::Result<Self, String> {
-        let symbolic = factorize_symbolic_cholesky(
-            a.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            Default::default(),
-        )
-        .map_err(|e| format!("{e:?}"))?;
+        Cholesky::with_ordering(a, SymmetricOrdering::Amd, par, max_bytes)
+    }
+
+    /// [`Cholesky::with_par`] with the fill-reducing `ordering` given.
+    pub fn with_ordering(
+        a: &SparseColMat<usize, f64>,
+        ordering: SymmetricOrdering<'_, usize>,
+        par: Par,
+        max_bytes: usize,
+    ) -> std::result::Result<Self, String> {
+        let symbolic =
+            factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, Default::default())
+                .map_err(|e| format!("{e:?}"))?;
         let bytes = 8 * symbolic.len_val();
         if bytes > max_bytes {
             return Err(format!(
@@ -126,6 +132,11 @@ impl Cholesky {
             values,
             par,
         })
+    }
+
+    /// Entries of the factor `L`.
+    pub fn len(&self) -> usize {
+        self.values.len()
     }
 
     /// `x ← A⁻¹ x`.
