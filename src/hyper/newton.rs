@@ -31,9 +31,12 @@
 //! # Step cutting
 //! A step fails when Newton runs out of iterations, the line search finds no
 //! decrease, or the Krylov solve fails. The displacement is then reset to the
-//! last converged one and the increment halved; after a converged step at a
-//! cut increment the increment doubles again (up to the nominal one). More
-//! than `max_cuts` halvings of one increment end the solve with
+//! last converged one and the increment halved. The cut increment is kept
+//! until the load has passed the point that failed; after that, each
+//! converged step doubles it again (up to the nominal one). (Doubling sooner
+//! would aim every success short of the failed point at it again, spending
+//! the cuts on near-identical attempts.) More than `max_cuts` halvings of one
+//! increment end the solve with
 //! [`Error::LoadStepFailed`], which names the last converged step; the
 //! [`HyperSolution`] passed in then holds that step's displacement.
 
@@ -255,6 +258,8 @@ pub fn solve_load_steps_with(
     let nominal = 1.0 / opts.steps as f64;
     let mut increment = nominal;
     let mut cuts = 0;
+    // The load of the last failed attempt, until a converged step passes it.
+    let mut failed_at: Option<f64> = None;
     let mut solves = 0;
     while solution.load_factor < 1.0 {
         let from = solution.load_factor;
@@ -296,9 +301,13 @@ pub fn solve_load_steps_with(
                 solution.converged_steps += 1;
                 solution.attempts.push(report);
                 on_converged(solution)?;
-                if cuts > 0 {
-                    cuts -= 1;
-                    increment *= 2.0;
+                let short_of_failure = failed_at.is_some_and(|f| to < f - 1e-12);
+                if !short_of_failure {
+                    failed_at = None;
+                    if cuts > 0 {
+                        cuts -= 1;
+                        increment *= 2.0;
+                    }
                 }
             }
             Err(StepFailure::Interrupted(iterations)) => {
@@ -308,6 +317,7 @@ pub fn solve_load_steps_with(
             Err(StepFailure::Diverged(reason)) => {
                 report.failure = Some(reason.clone());
                 solution.attempts.push(report);
+                failed_at = Some(to);
                 if cuts == opts.max_cuts {
                     return Err(Error::LoadStepFailed {
                         step: solution.converged_steps + 1,

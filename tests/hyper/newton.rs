@@ -273,6 +273,25 @@ fn a_failed_step_is_cut_until_it_converges() {
     r.unwrap();
     assert!(!sol.attempts[0].converged && sol.attempts[0].failure.is_some());
     assert!(sol.attempts.iter().any(|a| a.cuts > 0 && a.converged));
+    // A converged step short of the load that failed keeps the cut increment
+    // (it does not aim at the failed load again at once).
+    let mut failed_at: Option<f64> = None;
+    for w in sol.attempts.windows(2) {
+        let (prev, next) = (&w[0], &w[1]);
+        if !prev.converged {
+            failed_at = Some(prev.to);
+            continue;
+        }
+        if failed_at.is_some_and(|f| prev.to < f - 1e-12) {
+            let kept = (next.to - next.from) - (prev.to - prev.from);
+            assert!(
+                kept.abs() < 1e-12 || next.to == 1.0,
+                "{prev:?} then {next:?}"
+            );
+        } else {
+            failed_at = None;
+        }
+    }
     assert_eq!(sol.load_factor, 1.0);
     // The same equilibrium as a smooth run in 8 steps.
     let (reference, r) = run(&p, &options(8));
