@@ -17,8 +17,9 @@ fn case(name: &str) -> PathBuf {
         .join(format!("{name}.toml"))
 }
 
-/// Runs `cases/<name>.toml` at `level` and returns its report.
-fn run(name: &str, level: u32) -> Value {
+/// Runs `cases/<name>.toml` at `level`: exit 0, `solution` written, status
+/// "ok"; returns the report.
+fn run_with(name: &str, level: u32, solution: &str) -> Value {
     let out = std::env::temp_dir().join(format!(
         "cgfem-examples-{}-{name}-{level}",
         std::process::id()
@@ -37,37 +38,22 @@ fn run(name: &str, level: u32) -> Value {
     );
     let report: Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-    assert!(out.join("solution.vtu").exists());
+    assert!(out.join(solution).exists(), "{name}: no {solution}");
     std::fs::remove_dir_all(&out).unwrap();
     assert_eq!(report["status"], "ok");
+    report
+}
+
+/// A single-body case: its fixed-point loop converged.
+fn run(name: &str, level: u32) -> Value {
+    let report = run_with(name, level, "solution.vtu");
     assert_eq!(report["fixed_point"]["converged"], true, "{name}");
     report
 }
 
-/// Runs the multi-body case `cases/<name>.toml` at `level` and returns its
-/// report (every load step converged, the ParaView series written).
+/// A multi-body case: every load step converged, the ParaView series written.
 fn run_bodies(name: &str, level: u32) -> Value {
-    let out = std::env::temp_dir().join(format!(
-        "cgfem-examples-{}-{name}-{level}",
-        std::process::id()
-    ));
-    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .arg("run")
-        .arg(case(name))
-        .args(["--level", &level.to_string(), "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "{name} at level {level}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let report: Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-    assert!(out.join("solution.pvd").exists());
-    std::fs::remove_dir_all(&out).unwrap();
-    assert_eq!(report["status"], "ok");
+    let report = run_with(name, level, "solution.pvd");
     assert_eq!(report["converged_steps"], report["steps"], "{name}");
     report
 }
