@@ -20,6 +20,10 @@ use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Region,
 use cgfem_gpu::progress::Silent;
 use serde_json::Value;
 
+#[cfg(unix)]
+#[path = "common/sigint.rs"]
+mod sigint;
+
 #[path = "bodies_run/coupling.rs"]
 mod coupling;
 
@@ -379,33 +383,16 @@ fn a_plane_strain_slab_is_one_cell_thick_with_uz_held() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_at_a_newton_boundary_with_code_130() {
-    use std::io::{BufRead, BufReader, Read};
-    use std::process::Stdio;
     let (dir, case) = scratch("sigint", &case_text("0.5"));
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .arg("run")
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"));
+    cmd.arg("run")
         .arg(&case)
         .arg("--out")
         .arg(&out)
-        .args(["--set", "load.steps=1000"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut seen = String::new();
-    while !seen.contains("load step 1 converged") {
-        assert!(stderr.read_line(&mut seen).unwrap() > 0, "{seen}");
-    }
-    let pid = child.id().to_string();
-    assert!(Command::new("kill")
-        .args(["-INT", &pid])
-        .status()
-        .unwrap()
-        .success());
-    stderr.read_to_string(&mut seen).unwrap();
-    assert_eq!(child.wait().unwrap().code(), Some(130), "{seen}");
+        .args(["--set", "load.steps=1000"]);
+    let (code, seen) = sigint::interrupt_after(cmd, "load step 1 converged");
+    assert_eq!(code, Some(130), "{seen}");
     let r = report(&out);
     assert_eq!(r["status"], "interrupted");
     let converged = r["converged_steps"].as_u64().unwrap() as usize;

@@ -3,11 +3,13 @@
 //! stops the run at an iteration boundary with exit code 130 and a report
 //! marked interrupted.
 
-use std::io::{BufRead, BufReader, Read};
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 mod common;
+#[cfg(unix)]
+#[path = "common/sigint.rs"]
+mod sigint;
 use common::{with_physics, SPHERE};
 
 fn bin() -> Command {
@@ -115,31 +117,15 @@ fn plots_writes_the_residual_chart() {
 #[test]
 fn ctrl_c_stops_the_run_with_code_130_and_an_interrupted_report() {
     let (case, out) = scratch("sigint");
-    let mut child = bin()
-        .arg("run")
+    let mut cmd = bin();
+    cmd.arg("run")
         .arg(&case)
         .arg("--out")
         .arg(&out)
         .args(["--level", "5", "--plots"])
         .args(["--set", "solver.fixed_point_tol=1e-300"])
-        .args(["--set", "solver.max_fixed_point=100000"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut seen = String::new();
-    while !seen.contains("solve 0:") {
-        assert!(stderr.read_line(&mut seen).unwrap() > 0, "{seen}");
-    }
-    let pid = child.id().to_string();
-    assert!(Command::new("kill")
-        .args(["-INT", &pid])
-        .status()
-        .unwrap()
-        .success());
-    stderr.read_to_string(&mut seen).unwrap();
-    let code = child.wait().unwrap().code();
+        .args(["--set", "solver.max_fixed_point=100000"]);
+    let (code, seen) = sigint::interrupt_after(cmd, "solve 0:");
     assert_eq!(code, Some(130), "{seen}");
     assert!(seen.contains("report (marked interrupted)"), "{seen}");
     let r = report(&out);
