@@ -231,6 +231,8 @@ pub struct LoadStepRow {
     pub newton: NewtonHistory,
     /// Krylov iterations per linear solve.
     pub krylov_iterations: Vec<usize>,
+    /// The Newton passes of the fixed point on recovered terms (one without).
+    pub passes: Vec<crate::hyper::newton::PassReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub failure: Option<String>,
 }

@@ -5,6 +5,8 @@
 
 #[path = "hyper/newton.rs"]
 mod newton;
+#[path = "hyper/recovered.rs"]
+mod recovered;
 
 use std::sync::Arc;
 

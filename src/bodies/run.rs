@@ -160,6 +160,7 @@ pub fn load_step_rows(attempts: &[StepReport]) -> Vec<LoadStepRow> {
                     line_search: a.alphas.clone(),
                 },
                 krylov_iterations: a.krylov_iterations.clone(),
+                passes: a.passes.clone(),
                 failure: a.failure.clone(),
             };
             converged += a.converged as usize;

@@ -114,6 +114,8 @@ pub fn newton_options(case: &BodiesCase) -> NewtonOptions {
         energy_tol: s.newton.energy_tol,
         max_cuts: s.newton.max_cuts,
         line_search: s.newton.line_search,
+        fixed_point_tol: s.newton.fixed_point_tol,
+        max_fixed_point: s.newton.max_fixed_point,
         krylov: KrylovOptions {
             method: s.solver.method,
             preconditioner: s.solver.preconditioner,

@@ -17,6 +17,8 @@
 //! energy_tol = 1e-16           # |Δu · R| / |Δu_0 · R_0| of the step
 //! line_search = true           # backtracking on ‖R‖
 //! max_cuts = 5                 # a failed step is halved at most this many times
+//! fixed_point_tol = 1e-6       # recovered terms (T̂_N, S): ‖u_k − u_{k−1}‖/‖u_k‖ between passes
+//! max_fixed_point = 30         # Newton passes per step with recovered terms
 //!
 //! [solver]                     # the inner Krylov solves
 //! method = "bicgstab"          # cgs | cg | bicgstab
@@ -134,6 +136,10 @@ pub struct NewtonSpec {
     pub line_search: bool,
     /// Halvings of a failed step before the run stops (exit code 3).
     pub max_cuts: usize,
+    /// With recovered terms: passes end when ‖u_k − u_{k−1}‖ ≤ fixed_point_tol ‖u_k‖.
+    pub fixed_point_tol: f64,
+    /// With recovered terms: Newton passes allowed per step.
+    pub max_fixed_point: usize,
 }
 
 impl Default for NewtonSpec {
@@ -144,6 +150,8 @@ impl Default for NewtonSpec {
             energy_tol: 1e-16,
             line_search: true,
             max_cuts: 5,
+            fixed_point_tol: 1e-6,
+            max_fixed_point: 30,
         }
     }
 }
@@ -412,8 +420,12 @@ impl BodiesCase {
         if n.max_iterations == 0 {
             return Err(self.bad("newton.max_iterations", "must be at least 1".into()));
         }
+        if n.max_fixed_point == 0 {
+            return Err(self.bad("newton.max_fixed_point", "must be at least 1".into()));
+        }
         for (key, v) in [
             ("newton.rel_tol", n.rel_tol),
+            ("newton.fixed_point_tol", n.fixed_point_tol),
             ("newton.energy_tol", n.energy_tol),
             ("solver.rel_tol", s.solver.rel_tol),
         ] {

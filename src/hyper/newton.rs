@@ -22,6 +22,26 @@
 //! tests then look at the same state, and a residual already at round-off
 //! never has to pass the line search again (it could not decrease further).
 //!
+//! # Recovered terms
+//! A problem may carry terms recovered from the solution (by SPR) that `R`
+//! holds fixed and `K_T` does not differentiate: the recovered normal
+//! traction `T̂_N` of contact and the recovered displacement of the S-term.
+//! They make each step a fixed point around Newton, as in DESIGN §3.3: at
+//! the start of an attempt they are evaluated at the last converged `u`;
+//! Newton converges (pass 0); then, pass after pass, they are re-evaluated at
+//! the pass's solution `u_k` and Newton runs again from there, until
+//! ```text
+//! ε_k = ‖u_k − u_{k−1}‖ / ‖u_k‖ < fixed_point_tol
+//! ```
+//! (`u_{−1}`: the start of the step). Every pass is held to the tolerances
+//! relative to the first pass's `‖R(u_0)‖` and `|Δu_0 · R(u_0)|`, and the
+//! history is relative to them too. More than
+//! `max_fixed_point` passes fail the attempt like a Newton failure. Each pass
+//! is a whole Newton solve, so its last iterations keep Newton's quadratic
+//! rate; the step's report concatenates the passes' histories (a pass's
+//! residuals start where the refreshed terms put it) and lists each pass in
+//! `passes`.
+//!
 //! # Problems
 //! The solve only sees a [`NonlinearProblem`]: `R(u, t)` and the tangent at
 //! `u` as a [`LinearOperator`]. [`HyperProblem`] (one body) implements it, and
@@ -57,6 +77,14 @@ pub trait NonlinearProblem {
     fn residual(&self, u: &[f64], t: f64) -> Option<Vec<f64>>;
     /// `K_T(u, t)`, or `None` where `u` is inadmissible.
     fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn LinearOperator + 'a>>;
+    /// Re-evaluates at `u` (load factor `t`) the terms recovered from the
+    /// solution and held fixed in `R` and `K_T` (the contact's recovered
+    /// normal traction, the S-term's recovered displacement); `false` when
+    /// the problem has none, so one Newton solve per step is enough (see
+    /// the module doc, *Recovered terms*). An error ends the solve.
+    fn refresh_recovered(&self, _u: &[f64], _t: f64) -> Result<bool> {
+        Ok(false)
+    }
 }
 
 impl NonlinearProblem for HyperProblem {
@@ -123,6 +151,10 @@ pub struct NewtonOptions {
     pub line_search: bool,
     /// The inner linear solves.
     pub krylov: KrylovOptions,
+    /// Tolerance of `ε_k` between fixed-point passes (recovered terms only).
+    pub fixed_point_tol: f64,
+    /// Newton passes allowed per step when the problem has recovered terms.
+    pub max_fixed_point: usize,
 }
 
 impl Default for NewtonOptions {
@@ -141,6 +173,8 @@ impl Default for NewtonOptions {
                 rel_tol: 1e-10,
                 max_iterations: 20_000,
             },
+            fixed_point_tol: 1e-6,
+            max_fixed_point: 30,
         }
     }
 }
@@ -160,9 +194,13 @@ impl NewtonOptions {
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be at least 1".into());
         }
+        if self.max_fixed_point == 0 {
+            return bad("max_fixed_point", "must be at least 1".into());
+        }
         for (name, v) in [
             ("residual_tol", self.residual_tol),
             ("energy_tol", self.energy_tol),
+            ("fixed_point_tol", self.fixed_point_tol),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return bad(name, format!("must be finite and positive, got {v}"));
@@ -189,8 +227,22 @@ pub struct StepReport {
     pub alphas: Vec<f64>,
     /// Krylov iterations per linear solve.
     pub krylov_iterations: Vec<usize>,
+    /// The Newton passes of the fixed point on recovered terms (one pass
+    /// without such terms); the histories above are theirs, concatenated.
+    pub passes: Vec<PassReport>,
     /// Why the attempt failed.
     pub failure: Option<String>,
+}
+
+/// One Newton pass of a step (see the module doc, *Recovered terms*).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PassReport {
+    /// Newton updates of the pass (its entries of `alphas`).
+    pub newton_iterations: usize,
+    /// Krylov iterations of the pass, summed.
+    pub krylov_iterations: usize,
+    /// `ε_k` after the pass (`None` without recovered terms).
+    pub change: Option<f64>,
 }
 
 /// The state of a nonlinear solve: the last converged displacement and load
@@ -282,7 +334,7 @@ pub fn solve_load_steps_with(
             progress,
             step: solution.converged_steps + 1,
         };
-        let outcome = newton_step(&ctx, to, &mut u, solver, &mut report, &mut solves);
+        let outcome = recovered_step(&ctx, to, &mut u, solver, &mut report, &mut solves);
         if !matches!(outcome, Err(StepFailure::Interrupted(_))) {
             progress.event(&Event::LoadStep {
                 step: solution.converged_steps + 1,
@@ -359,8 +411,9 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Newton iterations at load factor `t` from `u`; fills `report`.
-fn newton_step(
+/// One attempt at load factor `t` from `u`: Newton, in fixed-point passes
+/// when the problem has recovered terms (module doc); fills `report`.
+fn recovered_step(
     ctx: &Context<'_>,
     t: f64,
     u: &mut [f64],
@@ -368,17 +421,86 @@ fn newton_step(
     report: &mut StepReport,
     solves: &mut usize,
 ) -> std::result::Result<(), StepFailure> {
+    let refresh = |u: &[f64]| {
+        ctx.problem
+            .refresh_recovered(u, t)
+            .map_err(|e| StepFailure::Diverged(format!("recovery: {e}")))
+    };
+    let recovered = refresh(u)?;
+    let mut previous = u.to_vec();
+    let mut refs = References::default();
+    for _ in 0..ctx.opts.max_fixed_point {
+        let (alphas, krylov) = (report.alphas.len(), report.krylov_iterations.len());
+        let outcome = newton_step(ctx, t, u, solver, report, solves, &mut refs);
+        let change = recovered.then(|| relative_change(u, &previous));
+        report.passes.push(PassReport {
+            newton_iterations: report.alphas.len() - alphas,
+            krylov_iterations: report.krylov_iterations[krylov..].iter().sum(),
+            change,
+        });
+        outcome?;
+        match change {
+            None => return Ok(()),
+            Some(eps) if eps < ctx.opts.fixed_point_tol => return Ok(()),
+            Some(_) => {}
+        }
+        previous.copy_from_slice(u);
+        refresh(u)?;
+    }
+    Err(StepFailure::Diverged(format!(
+        "the recovered terms did not settle in {} passes (ε = {:.3e})",
+        ctx.opts.max_fixed_point,
+        report
+            .passes
+            .last()
+            .and_then(|p| p.change)
+            .unwrap_or(f64::NAN)
+    )))
+}
+
+/// `‖u − v‖ / ‖u‖` (0 where both vanish).
+fn relative_change(u: &[f64], v: &[f64]) -> f64 {
+    let d: f64 = u.iter().zip(v).map(|(a, b)| (a - b) * (a - b)).sum();
+    let n = norm(u);
+    if n > 0.0 {
+        d.sqrt() / n
+    } else {
+        d.sqrt()
+    }
+}
+
+/// The norms a step's tolerances are relative to: `‖R(u_0)‖` and
+/// `|Δu_0 · R(u_0)|` of the step's first pass.
+#[derive(Clone, Copy, Debug, Default)]
+struct References {
+    residual: Option<f64>,
+    energy: Option<f64>,
+}
+
+/// Newton iterations at load factor `t` from `u`; fills `report`. The
+/// tolerances (and the history) are relative to `refs`, set by the first
+/// pass of the step, so later passes (which start near convergence) are
+/// held to the same absolute accuracy.
+fn newton_step(
+    ctx: &Context<'_>,
+    t: f64,
+    u: &mut [f64],
+    solver: &mut dyn TangentSolver,
+    report: &mut StepReport,
+    solves: &mut usize,
+    refs: &mut References,
+) -> std::result::Result<(), StepFailure> {
     let (p, opts) = (ctx.problem, ctx.opts);
     let diverged = |s: &str| StepFailure::Diverged(s.to_string());
     let mut r = p
         .residual(u, t)
         .ok_or_else(|| diverged("an element is inverted at the start"))?;
-    let r0 = norm(&r);
-    report.residuals.push(1.0);
+    let r0 = *refs.residual.get_or_insert(norm(&r));
     if r0 == 0.0 {
+        report.residuals.push(1.0);
         return Ok(());
     }
-    let mut e0 = None;
+    report.residuals.push(norm(&r) / r0);
     for k in 0..opts.max_iterations {
         if ctx.progress.should_stop() {
             return Err(StepFailure::Interrupted(k));
@@ -406,7 +528,7 @@ fn newton_step(
         *solves += 1;
         report.krylov_iterations.push(stats.iterations);
         let energy = dot(&du, &r).abs();
-        let e_ref = *e0.get_or_insert(energy);
+        let e_ref = *refs.energy.get_or_insert(energy);
         let rel_energy = if e_ref > 0.0 { energy / e_ref } else { 0.0 };
         report.energies.push(rel_energy);
         if report
