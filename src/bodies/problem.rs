@@ -13,6 +13,7 @@ use std::borrow::Cow;
 
 use crate::backend::LinearOperator;
 use crate::contact::{ContactRow, ContactTangent};
+use crate::error::Result;
 use crate::hyper::newton::NonlinearProblem;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::tangent::TangentOperator;
@@ -69,6 +70,12 @@ pub trait Coupling: Sync {
     /// interior mutability) and return the report's rows for the step.
     fn step_converged(&self, _u: &[f64], _step: usize) -> Vec<ContactRow> {
         Vec::new()
+    }
+    /// Re-evaluates at `u` the terms the coupling recovers from the solution
+    /// and holds fixed in `R_c` and `K_c` (the recovered normal traction);
+    /// `false` when it has none (see [`NonlinearProblem::refresh_recovered`]).
+    fn refresh_recovered(&self, _bodies: &[HyperProblem], _u: &[f64], _t: f64) -> Result<bool> {
+        Ok(false)
     }
 }
 
@@ -149,6 +156,13 @@ impl NonlinearProblem for BodiesProblem {
         }
         self.zero_held(&mut r);
         Some(r)
+    }
+
+    fn refresh_recovered(&self, u: &[f64], t: f64) -> Result<bool> {
+        match &self.coupling {
+            Some(c) => c.refresh_recovered(&self.bodies, u, t),
+            None => Ok(false),
+        }
     }
 
     fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn LinearOperator + 'a>> {
