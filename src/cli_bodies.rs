@@ -5,21 +5,43 @@
 //! "interrupted", exit code 130).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::Context;
 
-use cgfem_gpu::bodies::run::run;
+use cgfem_gpu::bodies::run::run_on;
 use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::BodiesReport;
 
 use crate::cli_progress::Terminal;
-use crate::cli_run::Outputs;
+use crate::cli_run::{Device, Outputs};
 
 fn write_report(dir: &Path, report: &BodiesReport) -> anyhow::Result<()> {
     let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
     write_atomic(&dir.join("report.json"), &json)?;
     Ok(())
+}
+
+/// The device for the bodies' inside-cell tangents: only with `--backend gpu`
+/// (`auto` keeps multi-body runs on the CPU, where the Krylov iterations run
+/// anyway), in f64.
+fn tangent_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
+    if BackendChoice::resolve(d.backend)? != BackendChoice::Gpu {
+        return Ok(None);
+    }
+    if d.precision == PrecisionChoice::F32 {
+        return Err(cgfem_gpu::Error::CaseFile {
+            file: "(command line)".into(),
+            key: "--precision".into(),
+            reason: "large-deformation runs need f64".into(),
+        }
+        .into());
+    }
+    let filter = cgfem_gpu::gpu::context::adapter_filter(d.adapter.as_deref());
+    let ctx = GpuContext::new(filter.as_deref(), PrecisionChoice::F64)?;
+    Ok(Some(Arc::new(ctx)))
 }
 
 /// Runs the multi-body case at `path`.
@@ -28,6 +50,7 @@ pub fn run_bodies_case(
     level: Option<u32>,
     set: &[String],
     outputs: &Outputs,
+    device: &Device,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let case = BodiesCase::from_file_with(path, set)?;
@@ -46,7 +69,11 @@ pub fn run_bodies_case(
     if outputs.plots {
         println!("note: --plots has no chart for multi-body cases yet");
     }
-    let outcome = run(&case, level, Some(&dir), progress);
+    let gpu = tangent_device(device)?;
+    if let Some(ctx) = &gpu {
+        println!("tangent of the inside cells on {}", ctx.adapter.name);
+    }
+    let outcome = run_on(&case, level, Some(&dir), gpu, progress);
     progress.finish();
     let outcome = outcome?;
     let report = &outcome.report;

@@ -180,10 +180,12 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             let outputs = Outputs { dir: out, plots };
             let text = std::fs::read_to_string(&case).unwrap_or_default();
             if cgfem_gpu::case::bodies::is_bodies_case(&text) {
-                if condition || device.backend == Some(BackendChoice::Gpu) {
-                    println!("note: multi-body cases solve on the CPU, without --condition");
+                if condition {
+                    println!("note: multi-body cases run without --condition");
                 }
-                return cli_bodies::run_bodies_case(&case, level, &set, &outputs, progress);
+                return cli_bodies::run_bodies_case(
+                    &case, level, &set, &outputs, &device, progress,
+                );
             }
             run_case(&case, level, &set, &outputs, condition, &device, progress)
         }

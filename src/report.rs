@@ -246,7 +246,10 @@ pub struct BodiesReport {
     pub status: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub failure: Option<String>,
+    /// `"cpu"`, or `"gpu"` when the inside-cell tangents ran on `adapter`.
     pub backend: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adapter: Option<String>,
     /// Unknowns of all bodies, and those held at zero (plane strain).
     pub dofs: usize,
     pub held_dofs: usize,

@@ -10,10 +10,13 @@
 //! `K`, so every Newton correction leaves it at its start value 0.
 
 use std::borrow::Cow;
+use std::sync::Arc;
 
 use crate::backend::LinearOperator;
 use crate::contact::{ContactRow, ContactTangent};
 use crate::error::Result;
+use crate::gpu::hyper::GpuHyperBody;
+use crate::gpu::GpuContext;
 use crate::hyper::newton::NonlinearProblem;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::tangent::TangentOperator;
@@ -87,6 +90,8 @@ pub struct BodiesProblem {
     /// Per dof: held at zero.
     held: Vec<bool>,
     coupling: Option<Box<dyn Coupling>>,
+    /// Per body its device side of the tangent (empty: the CPU tangent).
+    devices: Vec<GpuHyperBody>,
 }
 
 impl BodiesProblem {
@@ -102,6 +107,7 @@ impl BodiesProblem {
             offsets,
             held: vec![false; n],
             coupling: None,
+            devices: Vec::new(),
         }
     }
 
@@ -118,6 +124,22 @@ impl BodiesProblem {
     /// Adds the coupling term.
     pub fn set_coupling(&mut self, coupling: Box<dyn Coupling>) {
         self.coupling = Some(coupling);
+    }
+
+    /// Puts the bodies' inside-cell tangents on the device of `ctx`
+    /// ([`GpuHyperBody`]); the cut cells and the coupling stay on the CPU.
+    pub fn use_device(&mut self, ctx: Arc<GpuContext>) -> Result<()> {
+        self.devices = self
+            .bodies
+            .iter()
+            .map(|b| GpuHyperBody::new(ctx.clone(), b))
+            .collect::<Result<_>>()?;
+        Ok(())
+    }
+
+    /// The adapter the tangents run on, if any.
+    pub fn device_name(&self) -> Option<&str> {
+        self.devices.first().map(GpuHyperBody::adapter)
     }
 
     /// Tells the coupling that load step `step` converged at `u`; its rows.
@@ -166,9 +188,14 @@ impl NonlinearProblem for BodiesProblem {
     }
 
     fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn LinearOperator + 'a>> {
-        let blocks = (0..self.bodies.len())
-            .map(|b| TangentOperator::new(&self.bodies[b], self.part(b, u)))
-            .collect::<Option<Vec<_>>>()?;
+        let mut blocks: Vec<Box<dyn LinearOperator + 'a>> = Vec::new();
+        for (b, body) in self.bodies.iter().enumerate() {
+            let k = TangentOperator::new(body, self.part(b, u))?;
+            blocks.push(match self.devices.get(b) {
+                Some(d) => Box::new(d.bind(k)),
+                None => Box::new(k),
+            });
+        }
         let coupling = match &self.coupling {
             Some(c) => Some(c.tangent(u, t)?),
             None => None,
@@ -187,7 +214,7 @@ impl NonlinearProblem for BodiesProblem {
 /// are replaced).
 pub struct BodiesTangent<'p> {
     problem: &'p BodiesProblem,
-    blocks: Vec<TangentOperator<'p>>,
+    blocks: Vec<Box<dyn LinearOperator + 'p>>,
     coupling: Option<Box<dyn CouplingTangent + 'p>>,
 }
 

@@ -4,12 +4,14 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::output::Series;
 use super::setup::BodiesSetup;
 use crate::case::bodies::BodiesCase;
 use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
 use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
 };
@@ -34,8 +36,23 @@ pub fn run(
     dir: Option<&Path>,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
+    run_on(case, level, dir, None, progress)
+}
+
+/// [`run`] with the bodies' inside-cell tangents on `device` when given
+/// ([`crate::bodies::BodiesProblem::use_device`]).
+pub fn run_on(
+    case: &BodiesCase,
+    level: Option<u32>,
+    dir: Option<&Path>,
+    device: Option<Arc<GpuContext>>,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
     let t = Instant::now();
-    let setup = BodiesSetup::new(case, level, progress)?;
+    let mut setup = BodiesSetup::new(case, level, progress)?;
+    if let Some(ctx) = device {
+        setup.problem.use_device(ctx)?;
+    }
     let setup_seconds = t.elapsed().as_secs_f64();
     let mut outcome = run_setup(case, setup, dir, progress)?;
     outcome
@@ -129,7 +146,11 @@ fn report(
         file: case.file.clone(),
         status: status.into(),
         failure,
-        backend: "cpu".into(),
+        backend: match setup.problem.device_name() {
+            Some(_) => "gpu".into(),
+            None => "cpu".into(),
+        },
+        adapter: setup.problem.device_name().map(str::to_string),
         dofs: setup.problem.ndofs(),
         held_dofs: setup.problem.num_held(),
         bodies,
