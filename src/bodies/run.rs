@@ -10,6 +10,7 @@ use super::output::Series;
 use super::setup::BodiesSetup;
 use crate::case::bodies::BodiesCase;
 use crate::error::{Error, Result};
+use crate::hyper::convergence::convergence_order;
 use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
 };
@@ -148,6 +149,7 @@ pub fn load_step_rows(attempts: &[StepReport]) -> Vec<LoadStepRow> {
     attempts
         .iter()
         .map(|a| {
+            let order = convergence_order(&a.energies);
             let row = LoadStepRow {
                 step: converged + 1,
                 load_factor: a.to,
@@ -158,6 +160,8 @@ pub fn load_step_rows(attempts: &[StepReport]) -> Vec<LoadStepRow> {
                     residual_history: a.residuals.clone(),
                     energy_history: a.energies.clone(),
                     line_search: a.alphas.clone(),
+                    convergence_order: order.map(|(q, _)| q),
+                    quadratic_constant: order.map(|(_, c)| c),
                 },
                 krylov_iterations: a.krylov_iterations.clone(),
                 failure: a.failure.clone(),
