@@ -217,6 +217,14 @@ pub struct NewtonHistory {
     pub energy_history: Vec<f64>,
     /// Line-search step length per update.
     pub line_search: Vec<f64>,
+    /// The estimated order `q` of the last iterations of the first pass, and `C` of
+    /// `δ_n = C δ_{n−1}²`, from the corrections' energy norms
+    /// (see [`crate::hyper::convergence`]); absent with fewer than three
+    /// corrections above round-off.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub convergence_order: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quadratic_constant: Option<f64>,
 }
 
 /// One attempt at a load step (failed attempts are followed by a cut one).

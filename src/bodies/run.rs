@@ -12,6 +12,7 @@ use super::setup::BodiesSetup;
 use crate::case::bodies::BodiesCase;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
+use crate::hyper::convergence::convergence_order;
 use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
 };
@@ -169,6 +170,12 @@ pub fn load_step_rows(attempts: &[StepReport]) -> Vec<LoadStepRow> {
     attempts
         .iter()
         .map(|a| {
+            // The first Newton pass solves the step; later passes (recovered
+            // terms) start near its solution and are too short to tell.
+            let first = a.passes.first().map_or(a.energies.len(), |p| {
+                (p.newton_iterations + 1).min(a.energies.len())
+            });
+            let order = convergence_order(&a.energies[..first]);
             let row = LoadStepRow {
                 step: converged + 1,
                 load_factor: a.to,
@@ -179,6 +186,8 @@ pub fn load_step_rows(attempts: &[StepReport]) -> Vec<LoadStepRow> {
                     residual_history: a.residuals.clone(),
                     energy_history: a.energies.clone(),
                     line_search: a.alphas.clone(),
+                    convergence_order: order.map(|(q, _)| q),
+                    quadratic_constant: order.map(|(_, c)| c),
                 },
                 krylov_iterations: a.krylov_iterations.clone(),
                 passes: a.passes.clone(),

@@ -12,6 +12,7 @@
 //! - [`tangent`]: `K_T(u) = ∂R/∂u` matrix-free (a [`crate::backend::LinearOperator`]),
 //!   its diagonal, and assembled (faer).
 //! - [`newton`]: load steps, Newton–Raphson with a line search, step cutting.
+//! - [`convergence`]: the observed order of a step's last Newton iterations.
 //! - [`mirror`]: the GPU kernel of the inside-cell tangent (`shaders/hyper_tangent.wgsl`),
 //!   its data and its CPU mirror.
 //!
@@ -34,6 +35,7 @@
 //!                  &cgfem_gpu::progress::Silent, &mut solution)?;
 //! # Ok(()) }
 //! ```
+pub mod convergence;
 pub mod material;
 pub mod mirror;
 pub mod newton;
