@@ -151,13 +151,7 @@ impl ContactCoupling {
             friction: p.friction,
         }
     }
-}
 
-fn history(p: &Pair) -> Vec<PointHistory> {
-    p.history.lock().expect("contact history").clone()
-}
-
-impl ContactCoupling {
     /// Sets the pair's `T̂_N` from the slave body's recovered stress at `u`
     /// (module doc).
     fn refresh_pair(
@@ -185,6 +179,10 @@ impl ContactCoupling {
         }
         Ok(())
     }
+}
+
+fn history(p: &Pair) -> Vec<PointHistory> {
+    p.history.lock().expect("contact history").clone()
 }
 
 /// The pairs' tangents, summed.
