@@ -179,12 +179,13 @@ fn hertz_contact_radius_and_pressure_near_the_analytic_ones() {
     let a = (3.0 * force / (4.0 * e_star)).cbrt();
     let measured = (4.0 * num(&row["contact_area"]) / std::f64::consts::PI).sqrt();
     let p0 = 3.0 * force / (2.0 * std::f64::consts::PI * a * a);
-    let peak = num(&row["peak_pressure"]);
+    // The peak is the recovered one, max −T̂_N (the pointwise λ_N is noisy).
+    let peak = num(&row["peak_recovered_pressure"]);
     println!("hertz level 3: F = {force:.4}, a = {measured:.4} against {a:.4}, p = {peak:.4} against {p0:.4}");
-    // Measured −2.5% and +12% at level 3 (README, "Contact cases").
+    // Measured −4.6% and +6.5% at level 3 (README, "Contact cases").
     assert!(
         (measured / a - 1.0).abs() < 0.1,
         "a = {measured} against {a}"
     );
-    assert!((peak / p0 - 1.0).abs() < 0.2, "p = {peak} against {p0}");
+    assert!((peak / p0 - 1.0).abs() < 0.1, "p = {peak} against {p0}");
 }

@@ -3,9 +3,29 @@
 //! slave tag's boundary quadrature points), the master tag's surface, `k` and
 //! `μ` of the pair, the slave's `E`, and the points' histories.
 //!
-//! The recovered normal traction is not fed back yet: `T̂_N = 0`, the pure
-//! penalty method (`λ_N = min(0, κ g_N)`, `κ = k E / h_slave`). Histories (the
-//! friction anchors) advance at each converged load step. The ray search
+//! **Recovered normal traction** (`recovered_traction = true`, the default;
+//! `false` gives the pure penalty method `λ_N = min(0, κ g_N)`,
+//! `κ = k E / h_slave`). [`Coupling::refresh_recovered`] (called by Newton at
+//! the start of each step attempt and after each converged pass, see
+//! [`crate::hyper::newton`], *Recovered terms*) recovers the slave body's
+//! Cauchy stress `σ̂` by SPR ([`super::traction`]) on the patches of the
+//! cells holding the **active** slave points (`λ_N < 0` at `u` with the
+//! current `T̂_N`) and sets, per point,
+//! ```text
+//! T̂_N ← min(0, n1 · σ̂(X) n1)   active points
+//! T̂_N ← 0                      the others
+//! ```
+//! with `n1` the point's current normal. This is an Uzawa-type update of the
+//! augmented Lagrangian (`T̂_N` plays the multiplier, the stress the contact
+//! put into the slave body): at its fixed point `λ_N = T̂_N + κ g_N` with
+//! `T̂_N` the body's own normal stress, so `κ g_N → 0` as the FE stress meets
+//! the contact traction, whatever `κ`; `κ` mostly sets how fast the passes
+//! settle. Inactive points get no `T̂_N`, so a point stays out of contact
+//! until its own gap closes (`κ g_N < 0`), as in the pure penalty method; the
+//! clamp keeps a tensile recovered stress from ever pulling. `T̂_N` is held
+//! fixed inside each Newton pass and kept in the points' histories across
+//! steps. Histories (the friction anchors) advance at each converged load
+//! step. The ray search
 //! looks for master hits within half the smaller of the two bodies' bounding
 //! box diagonals. Each report row carries the contact residual's resultants
 //! on the slave and the master body (their force balance).
@@ -13,6 +33,7 @@
 use std::sync::Mutex;
 
 use super::problem::{Coupling, CouplingTangent};
+use super::traction::{normal_traction, StressSampler};
 use crate::case::bodies::BodiesCase;
 use crate::cells::Cells;
 use crate::contact::enforce::{
@@ -20,9 +41,11 @@ use crate::contact::enforce::{
     PointHistory, SlaveQuadraturePoint,
 };
 use crate::contact::{ContactRow, ContactTangent, Surface};
+use crate::error::Result;
 use crate::fem::dofs::DofMap;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::hyper::problem::HyperProblem;
 
 /// One pair, ready to enforce.
 struct Pair {
@@ -35,6 +58,8 @@ struct Pair {
     young: f64,
     friction: f64,
     search_radius: f64,
+    /// The slave body's stress sampler when `T̂_N` is recovered.
+    sampler: Option<StressSampler>,
     history: Mutex<Vec<PointHistory>>,
 }
 
@@ -84,6 +109,7 @@ impl ContactCoupling {
                     young: case.bodies[p.slave.body].spec.material.young,
                     friction: p.friction,
                     search_radius: 0.5 * diagonal(s.solid).min(diagonal(m.solid)),
+                    sampler: spec.recovered_traction.then(|| StressSampler::new(s.cells)),
                 }
             })
             .collect();
@@ -124,6 +150,34 @@ impl ContactCoupling {
             search_radius: p.search_radius,
             friction: p.friction,
         }
+    }
+
+    /// Sets the pair's `T̂_N` from the slave body's recovered stress at `u`
+    /// (module doc).
+    fn refresh_pair(
+        &self,
+        p: &Pair,
+        sampler: &StressSampler,
+        body: &HyperProblem,
+        u: &[f64],
+    ) -> Result<()> {
+        let mut h = p.history.lock().expect("contact history");
+        let e = contact_residual(&self.data(p), u, &h);
+        let active: Vec<usize> = (0..p.points.len())
+            .filter(|&i| e.points[i].pressure > 0.0)
+            .collect();
+        let mut cells: Vec<usize> = active.iter().map(|&i| p.points[i].cell).collect();
+        cells.sort_unstable();
+        cells.dedup();
+        let slave = &u[self.offsets[p.slave]..self.offsets[p.slave] + self.dofs[p.slave].ndofs()];
+        let sigma = sampler.recover(body, slave, &cells)?;
+        h.iter_mut().for_each(|x| x.recovered = 0.0);
+        for i in active {
+            let (x, n1) = (p.points[i].x, e.points[i].normal);
+            let s = sigma.eval(p.points[i].cell, x)?;
+            h[i].recovered = normal_traction(&s, n1).min(0.0);
+        }
+        Ok(())
     }
 }
 
@@ -168,11 +222,25 @@ impl Coupling for ContactCoupling {
             .map(|p| {
                 let mut h = p.history.lock().expect("contact history");
                 let e = contact_residual(&self.data(p), u, &h);
-                *h = e.converged_history(&vec![0.0; p.points.len()]);
+                let recovered: Vec<f64> = h.iter().map(|x| x.recovered).collect();
+                *h = e.converged_history(&recovered);
                 let force = |b: usize| self.resultant(b, &e.residual);
+                let peak = recovered.iter().map(|t| -t).fold(0.0, f64::max);
                 e.contact_row(&p.name, step)
                     .with_forces(force(p.slave), force(p.master))
+                    .with_recovered_peak(peak)
             })
             .collect()
+    }
+
+    fn refresh_recovered(&self, bodies: &[HyperProblem], u: &[f64], _t: f64) -> Result<bool> {
+        let mut any = false;
+        for p in &self.pairs {
+            if let Some(sampler) = &p.sampler {
+                self.refresh_pair(p, sampler, &bodies[p.slave], u)?;
+                any = true;
+            }
+        }
+        Ok(any)
     }
 }

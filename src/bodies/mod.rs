@@ -5,7 +5,9 @@
 //!   Lagrangian residual and matrix-free tangent on its block, the coupling
 //!   term of [`problem::Coupling`] (contact plugs in there), held dofs.
 //! - [`contact`]: the case's contact pairs as that coupling (the enforcement
-//!   of [`crate::contact::enforce`], pure penalty for now).
+//!   of [`crate::contact::enforce`], with the recovered normal traction).
+//! - [`traction`]: the slave body's recovered Cauchy stress (SPR) and
+//!   `T̂_N = n1 · σ̂ n1`.
 //! - [`setup`]: a [`crate::case::bodies::BodiesCase`] mapped to that problem.
 //! - [`output`]: the ParaView series (`solution.pvd`, one `<body>_<step>.vtu`
 //!   per body and converged load step).
@@ -16,3 +18,4 @@ pub mod output;
 pub mod problem;
 pub mod run;
 pub mod setup;
+pub mod traction;

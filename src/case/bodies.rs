@@ -56,6 +56,7 @@
 //! master = "lower.top"
 //! penalty = 30.0               # k of λ_N = min(0, T̂_N + (k E/h) g_N), as k1
 //! friction = 0.0               # Coulomb coefficient (0: frictionless)
+//! recovered_traction = true    # T̂_N recovered by SPR (false: pure penalty, T̂_N = 0)
 //! ```
 //!
 //! # Plane strain
@@ -301,10 +302,18 @@ pub struct ContactPairSpec {
     /// Coulomb friction coefficient (0: frictionless).
     #[serde(default)]
     pub friction: f64,
+    /// `T̂_N` recovered from the slave's stress (false: `T̂_N = 0`, pure
+    /// penalty).
+    #[serde(default = "default_recovered_traction")]
+    pub recovered_traction: bool,
 }
 
 fn default_penalty() -> f64 {
     30.0
+}
+
+fn default_recovered_traction() -> bool {
+    true
 }
 
 /// A body of a checked case: its spec and its solid.

@@ -9,6 +9,11 @@
 //! `peak_pressure = max_k p_k` and `max_penetration = max(0, max_k −g_k)`
 //! (all 0 for a pair without points).
 //!
+//! `peak_recovered_pressure = max_k −T̂_N,k` is the largest recovered normal
+//! traction (DESIGN §6) of the points, the smooth SPR estimate of the peak
+//! pressure (0 with the pure penalty method, `T̂_N = 0`); set by
+//! [`ContactRow::with_recovered_peak`].
+//!
 //! `slave_force` and `master_force` are the resultants `Σ R_c` of the contact
 //! residual over each body's dofs, per component (the force the contact
 //! exerts on the body is minus that): they balance, `slave_force +
@@ -36,6 +41,7 @@ pub struct ContactRow {
     pub contact_area: f64,
     pub peak_pressure: f64,
     pub max_penetration: f64,
+    pub peak_recovered_pressure: f64,
     pub slave_force: [f64; 3],
     pub master_force: [f64; 3],
 }
@@ -51,6 +57,7 @@ impl ContactRow {
             contact_area: active.map(|s| s.weight).sum(),
             peak_pressure: samples.iter().map(|s| s.pressure).fold(0.0, f64::max),
             max_penetration: samples.iter().map(|s| -s.gap).fold(0.0, f64::max),
+            peak_recovered_pressure: 0.0,
             slave_force: [0.0; 3],
             master_force: [0.0; 3],
         }
@@ -62,6 +69,14 @@ impl ContactRow {
         ContactRow {
             slave_force,
             master_force,
+            ..self
+        }
+    }
+
+    /// The row with the largest recovered pressure `max_k −T̂_N,k`.
+    pub fn with_recovered_peak(self, peak_recovered_pressure: f64) -> ContactRow {
+        ContactRow {
+            peak_recovered_pressure,
             ..self
         }
     }
@@ -94,6 +109,7 @@ mod tests {
                 contact_area: 0.75,
                 peak_pressure: 10.0,
                 max_penetration: 0.002,
+                peak_recovered_pressure: 0.0,
                 slave_force: [0.0; 3],
                 master_force: [0.0; 3],
             }
@@ -101,7 +117,7 @@ mod tests {
         let json = serde_json::to_string(&row).unwrap();
         assert_eq!(
             json,
-            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"peak_pressure":10.0,"max_penetration":0.002,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
+            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"peak_pressure":10.0,"max_penetration":0.002,"peak_recovered_pressure":0.0,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
         );
         let empty = ContactRow::from_samples("none", 0, &[]);
         assert_eq!(
@@ -118,5 +134,6 @@ mod tests {
             (forced.slave_force, forced.master_force, forced.normal_force),
             ([1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], 6.0)
         );
+        assert_eq!(forced.with_recovered_peak(9.5).peak_recovered_pressure, 9.5);
     }
 }

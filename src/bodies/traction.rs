@@ -1,0 +1,210 @@
+//! The recovered Cauchy stress of a hyperelastic body (DESIGN §5.1 on the
+//! reference configuration) and from it the recovered normal traction
+//! `T̂_N = n1 · σ̂ n1` of contact (DESIGN §6).
+//!
+//! **Samples.** At each volume quadrature point of the body (the 2×2×2 Gauss
+//! points of an inside cell; in a cut cell at most 16 of its cut-cell volume
+//! points, evenly strided through the rule, as the linear recovery of
+//! [`crate::fem::recovery::sample_positions`] does) the Cauchy stress of the
+//! current state, `σ = P Fᵀ / J`, stored as Voigt `(xx, yy, zz, yz, xz, xy)`
+//! at the point's **reference** position `X`.
+//!
+//! **Fit.** The generic SPR of [`crate::recovery::recover`] (degree 1, the
+//! Q1 vertex patches, enlarged ring by ring where a patch is thin) on the
+//! patches of the vertex nodes of the requested cells; `σ̂(X)` is its CPE
+//! blend in the cell holding `X`. Recovering on the reference grid keeps the
+//! patches the grid's, whatever the deformation; `σ̂` is still the current
+//! (Cauchy) stress, a function of the reference point.
+//!
+//! **Traction.** With `n1` the current unit normal of a slave point,
+//! `T̂_N = n1 · σ̂(X) n1` (negative in compression).
+
+use nalgebra::Matrix3;
+
+use crate::cells::{CellKind, Cells};
+use crate::element::{tensor_gauss_rule, ElementOrder};
+use crate::error::Result;
+use crate::fem::recovery::voigt_times;
+use crate::grid::Grid;
+use crate::hyper::material::PointState;
+use crate::hyper::problem::HyperProblem;
+use crate::hyper::residual::deformation_gradient;
+use crate::recovery::{recover, PatchSamples, Recovered, Sample, SprOptions};
+
+/// Sample points per inside cell (the 2×2×2 Gauss rule); a cut cell gives at
+/// most twice as many.
+const GAUSS_POINTS: usize = 8;
+
+/// What the stress recovery of one body needs from its cell classification:
+/// the cell kinds and, per cut cell, the sampled volume points (index into
+/// the cell's rule and reference position).
+#[derive(Clone, Debug)]
+pub struct StressSampler {
+    kinds: Vec<CellKind>,
+    cut_samples: Vec<Vec<(usize, [f64; 3])>>,
+}
+
+impl StressSampler {
+    /// The sampler of a body classified as `cells` (Q1 cut rules).
+    pub fn new(cells: &Cells) -> StressSampler {
+        let cut_samples = (0..cells.cut.len())
+            .map(|i| {
+                let pts = cells.volume_points(i);
+                let stride = pts.len().div_ceil(2 * GAUSS_POINTS).max(1);
+                pts.iter()
+                    .enumerate()
+                    .step_by(stride)
+                    .map(|(k, q)| (k, q.x))
+                    .collect()
+            })
+            .collect();
+        StressSampler {
+            kinds: cells.kinds.clone(),
+            cut_samples,
+        }
+    }
+
+    /// `σ̂` of `body` at its displacement `u` (the body's own dofs), on the
+    /// patches of the vertex nodes of `cells` (cells of the body's grid).
+    pub fn recover(&self, body: &HyperProblem, u: &[f64], cells: &[usize]) -> Result<Recovered<6>> {
+        let nodes = vertex_nodes(&body.grid, cells);
+        let samples = CauchySamples {
+            body,
+            u,
+            sampler: self,
+            gauss: tensor_gauss_rule(2).iter().map(|(xi, _)| *xi).collect(),
+        };
+        recover(
+            &body.grid,
+            &self.kinds,
+            &nodes,
+            ElementOrder::Q1.degree(),
+            &samples,
+            &SprOptions::default(),
+        )
+    }
+}
+
+/// The Q1 vertex nodes of `cells`, ascending and distinct.
+fn vertex_nodes(grid: &Grid, cells: &[usize]) -> Vec<usize> {
+    let mut nodes = Vec::with_capacity(8 * cells.len());
+    let mut v = [0usize; 8];
+    for &c in cells {
+        grid.cell_nodes(ElementOrder::Q1, c, &mut v);
+        nodes.extend_from_slice(&v);
+    }
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes
+}
+
+/// The Cauchy stress samples of one body state.
+struct CauchySamples<'a> {
+    body: &'a HyperProblem,
+    u: &'a [f64],
+    sampler: &'a StressSampler,
+    /// Reference coordinates of the inside rule, in the order of
+    /// [`HyperProblem::inside_rule`].
+    gauss: Vec<[f64; 3]>,
+}
+
+impl PatchSamples<6> for CauchySamples<'_> {
+    fn samples(&self, cell: usize, out: &mut Vec<Sample<6>>) {
+        let body = self.body;
+        let Ok(k) = body.cells.binary_search(&cell) else {
+            return;
+        };
+        let ue = body.gather(k, self.u);
+        let points = body.points(k);
+        let mut push = |rule_index: usize, x: [f64; 3]| {
+            let f = deformation_gradient(&ue, &points[rule_index]);
+            if let Some(s) = PointState::new(f) {
+                out.push((x, cauchy_voigt(&f, &body.material.stress(&s))));
+            }
+        };
+        match body.cut_index[k] {
+            None => {
+                let (lo, h) = (body.grid.cell_box(cell).lo, body.grid.h);
+                for (q, xi) in self.gauss.iter().enumerate() {
+                    push(q, [0, 1, 2].map(|a| lo[a] + h * xi[a]));
+                }
+            }
+            Some(i) => {
+                for &(q, x) in &self.sampler.cut_samples[i] {
+                    push(q, x);
+                }
+            }
+        }
+    }
+}
+
+/// `σ = P Fᵀ / J` in Voigt order `(xx, yy, zz, yz, xz, xy)`.
+pub fn cauchy_voigt(f: &Matrix3<f64>, p: &Matrix3<f64>) -> [f64; 6] {
+    let s = p * f.transpose() / f.determinant();
+    [
+        s[(0, 0)],
+        s[(1, 1)],
+        s[(2, 2)],
+        0.5 * (s[(1, 2)] + s[(2, 1)]),
+        0.5 * (s[(0, 2)] + s[(2, 0)]),
+        0.5 * (s[(0, 1)] + s[(1, 0)]),
+    ]
+}
+
+/// `n · σ n` for a Voigt stress.
+pub fn normal_traction(sigma: &[f64; 6], n: [f64; 3]) -> f64 {
+    let t = voigt_times(sigma, n);
+    (0..3).map(|i| n[i] * t[i]).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cells::cut_rule_points;
+    use crate::geometry::{Aabb, Geometry};
+    use crate::hyper::material::Material;
+    use crate::hyper::problem::Loads;
+
+    /// Patch test: under a homogeneous deformation `x = F0 X` of a ball the
+    /// FE stress is the same constant at every point, SPR reproduces it, and
+    /// `T̂_N` at every boundary point is the closed-form neo-Hookean
+    /// `n1 · σ n1`, `σ = μ/J (B − I) + λ ln J / J I`, `n1 ∝ cof(F0) N`.
+    #[test]
+    fn a_homogeneous_deformation_is_recovered_exactly() {
+        let geometry = Geometry::sphere([0.0; 3], 1.0).unwrap();
+        let bbox = Aabb::new([-1.0; 3], [1.0; 3]);
+        let grid = Grid::new(&bbox, 3, [0.13, 0.31, 0.07]).unwrap();
+        let cells = Cells::classify(&grid, &geometry, cut_rule_points(ElementOrder::Q1)).unwrap();
+        let material = Material::neo_hookean(1000.0, 0.3);
+        let body = HyperProblem::new(&grid, &cells, material, 0.0, &[], &Loads::default()).unwrap();
+        let f0 = Matrix3::new(1.1, 0.05, -0.03, 0.02, 0.92, 0.04, -0.01, 0.06, 1.05);
+        let u: Vec<f64> = body
+            .dofs
+            .active_to_node
+            .iter()
+            .flat_map(|&n| {
+                let x = grid.node_position(ElementOrder::Q1, n as usize);
+                let d = (f0 - Matrix3::identity()) * nalgebra::Vector3::from(x);
+                [d[0], d[1], d[2]]
+            })
+            .collect();
+        let sigma = StressSampler::new(&cells)
+            .recover(&body, &u, &cells.cut)
+            .unwrap();
+        let j = f0.determinant();
+        let exact = (f0 * f0.transpose() - Matrix3::identity()) * (material.mu / j)
+            + Matrix3::identity() * (material.lambda * j.ln() / j);
+        let cof = f0.try_inverse().unwrap().transpose() * j;
+        let mut checked = 0;
+        for (i, &c) in cells.cut.iter().enumerate() {
+            for p in cells.surface_points(i) {
+                let n1 = (cof * nalgebra::Vector3::from(p.n)).normalize();
+                let t_hat = normal_traction(&sigma.eval(c, p.x).unwrap(), n1.into());
+                let t = n1.dot(&(exact * n1));
+                assert!((t_hat - t).abs() < 1e-10 * exact.norm(), "{t_hat} vs {t}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000, "{checked} boundary points");
+    }
+}
