@@ -19,8 +19,10 @@
 //! The Dirichlet condition is the penalty part of the stabilised multiplier of
 //! DESIGN §3.1 (`β = k1 E`, the term `(β/h) ∫ N (u − g)`); at `u = 0` the
 //! tangent is exactly the linear operator `K + K_p` of [`crate::fem::operator`]
-//! (tested). The recovered-traction term `F_T` is not included yet: it belongs
-//! with the recovery on the current configuration that the contact work adds.
+//! (tested). The recovered traction of DESIGN §3.1 is not added on Dirichlet
+//! parts (pure penalty there); the contact's recovered normal traction is, by
+//! [`crate::bodies::traction`], through the passes of [`newton`] ("Recovered
+//! terms").
 //!
 //! Typical use (what a `run` of a hyperelastic case does):
 //! ```no_run
