@@ -104,9 +104,10 @@ pub fn run_bodies_case(
     match outcome.result {
         Ok(()) => {
             println!(
-                "  wrote {}, solution.pvd and {} body files",
+                "  wrote {}, solution.pvd, {} body files and {} contact point files",
                 dir.join("report.json").display(),
-                report.bodies.len() * report.converged_steps
+                report.bodies.len() * report.converged_steps,
+                report.contact.len()
             );
             Ok(())
         }

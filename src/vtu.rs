@@ -1,8 +1,9 @@
 //! VTK XML output for ParaView: `.vtu` UnstructuredGrid files with point and
-//! cell data, and `.pvd` collections that string them into a time series.
+//! cell data, `.vtp` PolyData point clouds (contact points), and `.pvd`
+//! collections that string them into a time series.
 //!
 //! This file owns the public data model ([`VtuMesh`], [`VtuCell`],
-//! [`DataArray`]), the checks run before anything is written, and the two
+//! [`DataArray`]), the checks run before anything is written, and the
 //! writers. Node reordering from our lexicographic numbering lives in
 //! `vtu/order.rs`; the XML text itself is assembled in `vtu/xml.rs`.
 //!
@@ -213,6 +214,29 @@ pub fn write_vtu(
     check_arrays("cell", cell_data, mesh.cells.len()).map_err(fail)?;
     let text = xml::unstructured_grid(mesh, point_data, cell_data, encoding);
     write_atomic(path, text.as_bytes())
+}
+
+/// Writes the point cloud `points` with `point_data` as the PolyData file
+/// `path` (`.vtp`, one vertex per point). Fails with [`Error::Io`] (and
+/// writes nothing) on a non-finite coordinate or an array of the wrong
+/// length, and when the file cannot be written.
+pub fn write_vtp_points(
+    path: &Path,
+    points: &[[f64; 3]],
+    point_data: &[DataArray],
+    encoding: VtuEncoding,
+) -> Result<()> {
+    let fail = |reason: String| Error::Io {
+        path: path.display().to_string(),
+        reason,
+    };
+    let cloud = VtuMesh::point_cloud(points.to_vec());
+    check_mesh(&cloud).map_err(fail)?;
+    check_arrays("point", point_data, points.len()).map_err(fail)?;
+    write_atomic(
+        path,
+        xml::poly_vertices(points, point_data, encoding).as_bytes(),
+    )
 }
 
 /// Writes the `.pvd` collection `path` listing `(time, file)` entries, each

@@ -39,6 +39,9 @@ fn run_with(name: &str, level: u32, solution: &str) -> Value {
     let report: Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert!(out.join(solution).exists(), "{name}: no {solution}");
+    if solution == "solution.pvd" {
+        assert_contact_points(&out, &report);
+    }
     std::fs::remove_dir_all(&out).unwrap();
     assert_eq!(report["status"], "ok");
     report
@@ -56,6 +59,27 @@ fn run_bodies(name: &str, level: u32) -> Value {
     let report = run_with(name, level, "solution.pvd");
     assert_eq!(report["converged_steps"], report["steps"], "{name}");
     report
+}
+
+/// Every contact row (rows come per step, pairs in case order) has its
+/// `.vtp` point cloud listed in the series, with the `gap`, `pressure`,
+/// `recovered_pressure` and `normal` arrays.
+fn assert_contact_points(out: &Path, report: &Value) {
+    let pvd = std::fs::read_to_string(out.join("solution.pvd")).unwrap();
+    let rows = report["contact"].as_array().unwrap();
+    let pairs = rows.iter().filter(|r| r["step"] == 1).count().max(1);
+    for (i, row) in rows.iter().enumerate() {
+        let file = format!("contact{}_{}.vtp", i % pairs, row["step"]);
+        assert!(pvd.contains(&file), "{file} not in the series");
+        let text = std::fs::read_to_string(out.join(&file)).unwrap();
+        assert!(text.contains("type=\"PolyData\""), "{file}");
+        for name in ["gap", "pressure", "recovered_pressure", "normal"] {
+            assert!(
+                text.contains(&format!("Name=\"{name}\"")),
+                "{file}: no {name}"
+            );
+        }
+    }
 }
 
 /// Per contact row: `|slave_force + master_force| / |slave_force|`.

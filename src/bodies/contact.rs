@@ -40,7 +40,7 @@ use crate::contact::enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
     PointHistory, SlaveQuadraturePoint,
 };
-use crate::contact::{ContactRow, ContactTangent, Surface};
+use crate::contact::{ContactPoints, ContactRow, ContactTangent, Surface};
 use crate::error::Result;
 use crate::fem::dofs::DofMap;
 use crate::geometry::Geometry;
@@ -229,6 +229,16 @@ impl Coupling for ContactCoupling {
                 e.contact_row(&p.name, step)
                     .with_forces(force(p.slave), force(p.master))
                     .with_recovered_peak(peak)
+            })
+            .collect()
+    }
+
+    fn contact_points(&self, u: &[f64]) -> Vec<ContactPoints> {
+        self.pairs
+            .iter()
+            .map(|p| {
+                let h = history(p);
+                contact_residual(&self.data(p), u, &h).contact_points(&p.name, &h)
             })
             .collect()
     }

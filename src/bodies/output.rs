@@ -5,23 +5,35 @@
 //! `von_mises` (of the Cauchy stress `σ = P Fᵀ / J` averaged over the cell's
 //! quadrature points, weights `w_q`) and `cell_class` (0 inside, 1 cut, as
 //! [`crate::cells::CellKind`]) — and `DIR/solution.pvd`, listing every file
-//! so far with its load factor as time and its body index as part.
+//! so far with its load factor as time and its body index as part. Each
+//! contact pair `i` adds `DIR/contact<i>_<k>.vtp`, its slave points in the
+//! current configuration with the point data `gap` (`NaN` where no master
+//! was found), `pressure` (`−λ_N`), `recovered_pressure` (`−T̂_N`) and
+//! `normal`, as the part after the bodies'.
 
 use std::path::{Path, PathBuf};
 
 use nalgebra::Matrix3;
 
 use super::setup::BodySetup;
+use crate::contact::ContactPoints;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::fem::output::von_mises;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::residual::point_fields;
-use crate::vtu::{write_pvd_parts, write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
+use crate::vtu::{
+    write_pvd_parts, write_vtp_points, write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh,
+};
 
 /// The file name of body `name` at load step `step`.
 pub fn body_file(name: &str, step: usize) -> String {
     format!("{name}_{step}.vtu")
+}
+
+/// The file of contact pair `i` (from 0, in case order) at load step `step`.
+pub fn contact_file(i: usize, step: usize) -> String {
+    format!("contact{i}_{step}.vtp")
 }
 
 /// Voigt `(xx, yy, zz, yz, xz, xy)` of a symmetric tensor.
@@ -107,6 +119,31 @@ impl Series {
             let file = PathBuf::from(body_file(&body.name, step));
             write_body(&dir.join(&file), body, p, parts[b])?;
             self.entries.push((t, b, file));
+        }
+        write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
+    }
+
+    /// Writes every contact pair's points of converged step `step` at load
+    /// factor `t` into `dir` (`contact<i>_<step>.vtp`, parts after the
+    /// bodies', `first_part` on) and rewrites `dir/solution.pvd`.
+    pub fn write_contact(
+        &mut self,
+        dir: &Path,
+        pairs: &[ContactPoints],
+        first_part: usize,
+        step: usize,
+        t: f64,
+    ) -> Result<()> {
+        for (i, c) in pairs.iter().enumerate() {
+            let file = PathBuf::from(contact_file(i, step));
+            let data = [
+                DataArray::scalars_f64("gap", c.gap.clone()),
+                DataArray::scalars_f64("pressure", c.pressure.clone()),
+                DataArray::scalars_f64("recovered_pressure", c.recovered_pressure.clone()),
+                DataArray::vectors("normal", &c.normal),
+            ];
+            write_vtp_points(&dir.join(&file), &c.x, &data, VtuEncoding::Binary)?;
+            self.entries.push((t, first_part + i, file));
         }
         write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
     }

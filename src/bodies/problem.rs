@@ -13,7 +13,7 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 use crate::backend::LinearOperator;
-use crate::contact::{ContactRow, ContactTangent};
+use crate::contact::{ContactPoints, ContactRow, ContactTangent};
 use crate::error::Result;
 use crate::gpu::hyper::GpuHyperBody;
 use crate::gpu::GpuContext;
@@ -72,6 +72,12 @@ pub trait Coupling: Sync {
     /// carries between steps (friction anchors, say; hence `&self` with
     /// interior mutability) and return the report's rows for the step.
     fn step_converged(&self, _u: &[f64], _step: usize) -> Vec<ContactRow> {
+        Vec::new()
+    }
+    /// The contact points at a converged `u`, per pair, for the ParaView
+    /// output (call before [`Coupling::step_converged`] advances the
+    /// histories).
+    fn contact_points(&self, _u: &[f64]) -> Vec<ContactPoints> {
         Vec::new()
     }
     /// Re-evaluates at `u` the terms the coupling recovers from the solution
@@ -140,6 +146,13 @@ impl BodiesProblem {
     /// The adapter the tangents run on, if any.
     pub fn device_name(&self) -> Option<&str> {
         self.devices.first().map(GpuHyperBody::adapter)
+    }
+
+    /// The coupling's contact points at `u` (none without a coupling).
+    pub fn contact_points(&self, u: &[f64]) -> Vec<ContactPoints> {
+        self.coupling
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.contact_points(u))
     }
 
     /// Tells the coupling that load step `step` converged at `u`; its rows.

@@ -84,21 +84,16 @@ pub fn run_setup(
     let mut contact = Vec::new();
     let problem = &setup.problem;
     let mut converged = |s: &HyperSolution| {
+        let points = problem.contact_points(&s.u);
         contact.extend(problem.step_converged(&s.u, s.converged_steps));
         match dir {
             Some(dir) => {
-                let parts: Vec<&[f64]> = (0..problem.bodies.len())
-                    .map(|b| problem.part(b, &s.u))
-                    .collect();
+                let nb = problem.bodies.len();
+                let parts: Vec<&[f64]> = (0..nb).map(|b| problem.part(b, &s.u)).collect();
                 let (bodies, problems) = (&setup.bodies, &problem.bodies);
-                series.write_step(
-                    dir,
-                    bodies,
-                    problems,
-                    &parts,
-                    s.converged_steps,
-                    s.load_factor,
-                )
+                let (step, t) = (s.converged_steps, s.load_factor);
+                series.write_step(dir, bodies, problems, &parts, step, t)?;
+                series.write_contact(dir, &points, nb, step, t)
             }
             None => Ok(()),
         }

@@ -52,7 +52,7 @@ use rayon::prelude::*;
 
 use super::enforce_local::{point_contact, Local};
 use super::enforce_tangent::ContactTangent;
-use super::report::{ContactRow, SlaveSample};
+use super::report::{ContactPoints, ContactRow, SlaveSample};
 use super::search::MasterSurface;
 use super::surface::Surface;
 use crate::cells::Cells;
@@ -199,6 +199,23 @@ impl Enforcement {
             })
             .collect();
         ContactRow::from_samples(pair, step, &samples)
+    }
+
+    /// The points of pair `pair` for the ParaView output, with the
+    /// recovered `T̂_N` of each point in `history`.
+    pub fn contact_points(&self, pair: &str, history: &[PointHistory]) -> ContactPoints {
+        ContactPoints {
+            pair: pair.to_string(),
+            x: self.points.iter().map(|p| p.x).collect(),
+            normal: self.points.iter().map(|p| p.normal).collect(),
+            gap: self
+                .points
+                .iter()
+                .map(|p| p.hit.map_or(f64::NAN, |(_, g)| g))
+                .collect(),
+            pressure: self.points.iter().map(|p| p.pressure).collect(),
+            recovered_pressure: history.iter().map(|h| -h.recovered).collect(),
+        }
     }
 
     /// The histories for the next step once this state has converged:

@@ -35,7 +35,7 @@ pub use enforce::{
     Enforcement, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,
 };
 pub use enforce_tangent::ContactTangent;
-pub use report::{ContactRow, SlaveSample};
+pub use report::{ContactPoints, ContactRow, SlaveSample};
 pub use search::{
     area_ratio, current_normal, slave_point, ContactPoint, MasterSurface, SlavePoint,
 };

@@ -31,6 +31,20 @@ pub struct SlaveSample {
     pub pressure: f64,
 }
 
+/// The slave points of one pair at a converged state, for the ParaView
+/// output: current position and normal, gap (`NaN` where the search found
+/// no master within its radius), pressure `−λ_N` and recovered pressure
+/// `−T̂_N` (compression positive).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContactPoints {
+    pub pair: String,
+    pub x: Vec<[f64; 3]>,
+    pub normal: Vec<[f64; 3]>,
+    pub gap: Vec<f64>,
+    pub pressure: Vec<f64>,
+    pub recovered_pressure: Vec<f64>,
+}
+
 /// `contact {pair, step, normal_force, contact_area, peak_pressure,
 /// max_penetration}` in `report.json`.
 #[derive(Clone, Debug, Serialize, PartialEq)]

@@ -183,6 +183,34 @@ fn point_cloud_has_one_vertex_cell_per_point() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+#[test]
+fn vtp_point_cloud_round_trips_with_its_vertices() {
+    let dir = scratch("vtp");
+    let path = dir.join("points.vtp");
+    let points = vec![[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [-1.0, 0.5, 1e-3]];
+    let gap = DataArray::scalars_f64("gap", vec![-1e-3, 0.0, 0.25]);
+    for encoding in [VtuEncoding::Binary, VtuEncoding::Ascii] {
+        write_vtp_points(&path, &points, std::slice::from_ref(&gap), encoding).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_well_formed(&text);
+        assert!(text.contains("type=\"PolyData\""));
+        assert!(text.contains("NumberOfVerts=\"3\""));
+        let arrays = data_arrays(&text);
+        let find = |name: &str| &arrays.iter().find(|(a, _)| a["Name"] == name).unwrap().1;
+        assert_eq!(*find("connectivity"), Read::I64(vec![0, 1, 2]));
+        assert_eq!(*find("offsets"), Read::I64(vec![1, 2, 3]));
+        assert_eq!(*find("gap"), expected(&gap));
+        let coords = DataArray::with("Points", 3, DataValues::F64(points.concat()));
+        assert_eq!(*find("Points"), expected(&coords));
+    }
+    let short = DataArray::scalars_f64("gap", vec![0.0; 2]);
+    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = write_vtp_points(&path, &points, &[short], VtuEncoding::Binary);
+    assert_rejected(&dir, bad, "'gap' has 2 values");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// Asserts that writing fails with an `Error::Io` naming `path` whose reason
 /// contains `needle`, and that the folder stays empty.
 fn assert_rejected(dir: &Path, result: Result<()>, needle: &str) {

@@ -1,4 +1,4 @@
-//! The XML text of `.vtu` and `.pvd` files: element layout, DataArray
+//! The XML text of `.vtu`, `.vtp` (point clouds) and `.pvd` files: element layout, DataArray
 //! encoding (inline base64 with a `UInt64` byte-count header, or ASCII),
 //! attribute escaping and a small base64 encoder. Inputs are checked by the
 //! caller (`vtu.rs`) before they get here.
@@ -31,6 +31,39 @@ pub(super) fn unstructured_grid(
     push_points(&mut s, mesh, encoding);
     push_cells(&mut s, mesh, encoding);
     s.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+    s
+}
+
+/// The whole `.vtp` document of a point cloud: one vertex per point.
+pub(super) fn poly_vertices(
+    points: &[[f64; 3]],
+    point_data: &[DataArray],
+    encoding: VtuEncoding,
+) -> String {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n");
+    s.push_str(
+        "<VTKFile type=\"PolyData\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    s.push_str("  <PolyData>\n");
+    let _ = writeln!(
+        s,
+        "    <Piece NumberOfPoints=\"{0}\" NumberOfVerts=\"{0}\" NumberOfLines=\"0\" \
+         NumberOfStrips=\"0\" NumberOfPolys=\"0\">",
+        points.len()
+    );
+    push_data_section(&mut s, "PointData", point_data, encoding);
+    let coords = points.iter().flatten().copied().collect();
+    s.push_str("      <Points>\n");
+    push_array(&mut s, "Points", 3, &DataValues::F64(coords), encoding);
+    s.push_str("      </Points>\n");
+    let connectivity: Vec<i64> = (0..points.len() as i64).collect();
+    let offsets: Vec<i64> = (1..=points.len() as i64).collect();
+    s.push_str("      <Verts>\n");
+    push_i64_array(&mut s, "connectivity", &connectivity, encoding);
+    push_i64_array(&mut s, "offsets", &offsets, encoding);
+    s.push_str("      </Verts>\n");
+    s.push_str("    </Piece>\n  </PolyData>\n</VTKFile>\n");
     s
 }
 
