@@ -146,10 +146,12 @@ impl ElasticOperator {
             scratch: Scratch::default(),
         };
         if let CutData::Forms(forms) = &op.cut {
+            let inside = Q1Forms::inside(&op.basis, op.lame, grid.h);
             op.fast = Some(FastApply::new(
                 grid,
                 &op.cell_data(forms),
                 &op.dofs.active_to_node,
+                inside,
             ));
         }
         op

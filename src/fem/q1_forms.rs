@@ -143,6 +143,17 @@ impl Q1Forms {
         }
     }
 
+    /// The form of the whole (inside) cell, `h K_ref`, in every lane of one
+    /// batch: the full-cell Gauss rule as stiffness weights, no mass.
+    pub fn inside(basis: &FitBasis, lame: (f64, f64), h: f64) -> Q1Forms {
+        let nq = basis.num_points();
+        let mut data = vec![0.0; 2 * nq * LANES];
+        for cell in data.chunks_exact_mut(2 * nq) {
+            basis.add_cell_rule(h * h * h, &mut cell[..nq]);
+        }
+        Q1Forms::new(basis, &CutWeights { nq, data }, lame, h)
+    }
+
     /// Bytes of the forms.
     pub fn bytes(&self) -> usize {
         8 * LANES * self.data.len()
@@ -205,6 +216,23 @@ impl Q1Forms {
     where
         G: Fn(usize, &mut [f64]) + Sync,
     {
+        self.apply_batches::<false, G>(gather, z);
+    }
+
+    /// `z[24 s .. 24 (s+1)] = K x_s` for cells `s = 0, 1, …` with the one
+    /// massless matrix `K` of the first batch (as [`Q1Forms::inside`] makes).
+    pub fn apply_uniform<G>(&self, gather: G, z: &mut [f64])
+    where
+        G: Fn(usize, &mut [f64]) + Sync,
+    {
+        self.apply_batches::<true, G>(gather, z);
+    }
+
+    /// [`Q1Forms::apply`], or with `UNIFORM` [`Q1Forms::apply_uniform`].
+    fn apply_batches<const UNIFORM: bool, G>(&self, gather: G, z: &mut [f64])
+    where
+        G: Fn(usize, &mut [f64]) + Sync,
+    {
         let per_task = LANES * BATCHES_PER_TASK;
         z.par_chunks_mut(24 * per_task)
             .enumerate()
@@ -212,21 +240,26 @@ impl Q1Forms {
                 #[cfg(target_arch = "x86_64")]
                 if self.fma {
                     // SAFETY: `fma` is set only when the CPU reports AVX2 and FMA.
-                    unsafe { self.task_fma(&gather, t * per_task, zt) };
+                    unsafe { self.task_fma::<UNIFORM, G>(&gather, t * per_task, zt) };
                     return;
                 }
-                self.task::<false, G>(&gather, t * per_task, zt);
+                self.task::<false, UNIFORM, G>(&gather, t * per_task, zt);
             });
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn task_fma<G: Fn(usize, &mut [f64])>(&self, gather: &G, first: usize, z: &mut [f64]) {
-        self.task::<true, G>(gather, first, z);
+    fn task_fma<const UNIFORM: bool, G: Fn(usize, &mut [f64])>(
+        &self,
+        gather: &G,
+        first: usize,
+        z: &mut [f64],
+    ) {
+        self.task::<true, UNIFORM, G>(gather, first, z);
     }
 
     #[inline(always)]
-    fn task<const FMA: bool, G: Fn(usize, &mut [f64])>(
+    fn task<const FMA: bool, const UNIFORM: bool, G: Fn(usize, &mut [f64])>(
         &self,
         gather: &G,
         first: usize,
@@ -234,7 +267,7 @@ impl Q1Forms {
     ) {
         for (b, zb) in z.chunks_mut(24 * LANES).enumerate() {
             let s0 = first + b * LANES;
-            let b0 = s0 / LANES;
+            let b0 = if UNIFORM { 0 } else { s0 / LANES };
             let form: &[V; FORM_LEN] = self.data[b0 * FORM_LEN..(b0 + 1) * FORM_LEN]
                 .try_into()
                 .expect("a whole batch");
@@ -248,7 +281,7 @@ impl Q1Forms {
                     }
                 }
             }
-            let f = self.batch::<FMA>(form, &u);
+            let f = self.batch::<FMA, UNIFORM>(form, &u);
             for (l, zl) in zb.chunks_exact_mut(24).enumerate() {
                 for a in 0..8 {
                     for i in 0..3 {
@@ -294,9 +327,13 @@ impl Q1Forms {
     }
 
     /// `f_i = (K x)_i` for one batch: `form` its lane-interleaved forms, `u[j][a]`
-    /// component `j` of node `a`.
+    /// component `j` of node `a`; the mass is left out when `MASSLESS`.
     #[inline(always)]
-    fn batch<const FMA: bool>(&self, form: &[V; FORM_LEN], u: &[[V; 8]; 3]) -> [[V; 8]; 3] {
+    fn batch<const FMA: bool, const MASSLESS: bool>(
+        &self,
+        form: &[V; FORM_LEN],
+        u: &[[V; 8]; 3],
+    ) -> [[V; 8]; 3] {
         // diff[e][j][β]: differences of component j along e.
         let mut diff = [[[[0.0; LANES]; 4]; 3]; 3];
         for (e, de) in diff.iter_mut().enumerate() {
@@ -311,6 +348,9 @@ impl Q1Forms {
         self.direction::<FMA, 0>(form, &diff, &mut f);
         self.direction::<FMA, 1>(form, &diff, &mut f);
         self.direction::<FMA, 2>(form, &diff, &mut f);
+        if MASSLESS {
+            return f;
+        }
         for a in 0..8 {
             for b in 0..8 {
                 let m = form[MASS + sym(8, a, b)];
