@@ -36,13 +36,16 @@ use rayon::prelude::*;
 
 use super::operator::{INSIDE, OUTSIDE};
 use super::q1_forms::Q1Forms;
-use super::stencil::{Run, Stencil, TILE};
+use super::stencil::{prefetch, Run, Stencil, TILE};
 use crate::grid::Grid;
 
 /// Work per chunk, in interior-node equivalents.
 const CHUNK_COST: usize = 1024;
 /// A boundary node costs about this many interior nodes.
 const BOUNDARY_COST: usize = 2;
+/// How many boundary nodes ahead of its gather a node's cell products are
+/// prefetched.
+const PREFETCH_AHEAD: usize = 8;
 /// A link to no cell product (an outside cell, or none).
 const NONE: u32 = u32::MAX;
 
@@ -260,23 +263,12 @@ impl Context<'_> {
 
     /// `z_c = K_c x_c` for every cut cell, in SIMD batches, in parallel.
     fn cut_cells(&self, z: &mut [f64]) {
-        let gather = |s: usize, xe: &mut [f64]| self.cell_x(&self.plan.cut_nodes[s], xe);
-        self.m.forms.apply(gather, z);
+        self.m.forms.apply(&self.plan.cut_nodes, self.x, z);
     }
 
     /// `z_c = h K_ref x_c` for every rim cell, in SIMD batches, in parallel.
     fn rim_cells(&self, z: &mut [f64]) {
-        let gather = |s: usize, xe: &mut [f64]| self.cell_x(&self.plan.rim_nodes[s], xe);
-        self.plan.inside.apply_uniform(gather, z);
-    }
-
-    /// `xe` = the 24 dofs of the active nodes `nodes` (a cell's, local order).
-    #[inline(always)]
-    fn cell_x(&self, nodes: &[u32; 8], xe: &mut [f64]) {
-        for (xq, &a) in xe.chunks_exact_mut(3).zip(nodes) {
-            let a = a as usize;
-            xq.copy_from_slice(&self.x[3 * a..3 * a + 3]);
-        }
+        self.plan.inside.apply_uniform(&self.plan.rim_nodes, self.x, z);
     }
 
     #[inline(always)]
@@ -286,6 +278,11 @@ impl Context<'_> {
         plan.stencil
             .apply_runs::<FMA>(runs, self.xs, plan.stride(), y, c.lo);
         for b in c.boundary.clone() {
+            if let Some(ahead) = plan.links.get(b + PREFETCH_AHEAD) {
+                for &offset in ahead {
+                    prefetch(&self.z[offset as usize..][..3]);
+                }
+            }
             let a = plan.boundary[b] as usize;
             let (mut o0, mut o1, mut o2) = (0.0, 0.0, 0.0);
             for &offset in &plan.links[b] {

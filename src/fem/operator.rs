@@ -275,18 +275,30 @@ impl ElasticOperator {
     /// `z[ne s .. ne (s+1)] = K_s x_s` for every cut cell `s`.
     fn cut_products(&self, x: &[f64], z: &mut [f64]) {
         let npc = self.dofs.order.nodes_per_cell();
-        let gather = |s: usize, xe: &mut [f64]| {
+        let cell_nodes = |s: usize| {
             let mut nodes = [0usize; 27];
-            let nodes = &mut nodes[..npc];
             self.dofs
-                .cell_active_nodes(&self.grid, self.own_cells[s], nodes);
-            for (m, &an) in nodes.iter().enumerate() {
-                xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
-            }
+                .cell_active_nodes(&self.grid, self.own_cells[s], &mut nodes[..npc]);
+            nodes
         };
         match &self.cut {
-            CutData::Forms(forms) => forms.apply(gather, z),
-            CutData::Weights { weights, kernel } => kernel.apply(weights, gather, z),
+            CutData::Forms(forms) => {
+                let nodes: Vec<[u32; 8]> = (0..self.own_cells.len())
+                    .map(|s| {
+                        let nodes = cell_nodes(s);
+                        std::array::from_fn(|q| nodes[q] as u32)
+                    })
+                    .collect();
+                forms.apply(&nodes, x, z);
+            }
+            CutData::Weights { weights, kernel } => {
+                let gather = |s: usize, xe: &mut [f64]| {
+                    for (m, &an) in cell_nodes(s)[..npc].iter().enumerate() {
+                        xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
+                    }
+                };
+                kernel.apply(weights, gather, z);
+            }
         }
     }
 
