@@ -268,7 +268,9 @@ impl Context<'_> {
 
     /// `z_c = h K_ref x_c` for every rim cell, in SIMD batches, in parallel.
     fn rim_cells(&self, z: &mut [f64]) {
-        self.plan.inside.apply_uniform(&self.plan.rim_nodes, self.x, z);
+        self.plan
+            .inside
+            .apply_uniform(&self.plan.rim_nodes, self.x, z);
     }
 
     #[inline(always)]

@@ -42,8 +42,10 @@ pub const LANES: usize = 4;
 pub const FORM_LEN: usize = 114;
 /// Batches per rayon task.
 const BATCHES_PER_TASK: usize = 32;
-/// How many cells ahead of its gather a cell's dofs are prefetched.
+/// How many cells ahead of its gather a cell's dofs are prefetched, and
+/// how many batches ahead of its product a batch's forms.
 const PREFETCH_AHEAD: usize = 12;
+const FORM_AHEAD: usize = 2;
 /// Offsets of the parts of a form.
 const DIAG: usize = 0;
 const MIXED: usize = 30;
@@ -294,6 +296,9 @@ impl Q1Forms {
         }
         for (b, (zb, ub)) in z.chunks_mut(24 * LANES).zip(&u).enumerate() {
             let b0 = if UNIFORM { 0 } else { first + b };
+            if !UNIFORM {
+                self.prefetch_form(b0 + FORM_AHEAD);
+            }
             let form: &[V; FORM_LEN] = self.data[b0 * FORM_LEN..(b0 + 1) * FORM_LEN]
                 .try_into()
                 .expect("a whole batch");
@@ -304,6 +309,18 @@ impl Q1Forms {
                         zl[3 * a + i] = f[i][a][l];
                     }
                 }
+            }
+        }
+    }
+
+    /// Prefetches the forms of batch `b` (if there is one): a form is read
+    /// once per apply, from memory.
+    #[inline(always)]
+    fn prefetch_form(&self, b: usize) {
+        if let Some(form) = self.data.get(b * FORM_LEN..(b + 1) * FORM_LEN) {
+            // Two entries (64 bytes) a cache line.
+            for v in form.iter().step_by(2) {
+                prefetch(v);
             }
         }
     }
@@ -440,66 +457,5 @@ fn cell_form(basis: &FitBasis, w: &CutWeights, s: usize, s2: f64) -> [f64; FORM_
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::fem::cut_apply::CutKernel;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    /// Random weights of `cells` cells (random rules inside the unit cube).
-    fn random_weights(basis: &FitBasis, cells: usize, rng: &mut ChaCha8Rng) -> CutWeights {
-        let nq = basis.num_points();
-        let mut data = vec![0.0; 2 * nq * cells];
-        for cw in data.chunks_exact_mut(2 * nq) {
-            let (wk, wm) = cw.split_at_mut(nq);
-            for _ in 0..12 {
-                let x = [0; 3].map(|_| rng.gen::<f64>());
-                basis.add_point(x, rng.gen::<f64>(), wk);
-                let y = [0; 3].map(|_| rng.gen::<f64>());
-                basis.add_point(y, rng.gen::<f64>(), wm);
-            }
-        }
-        CutWeights { nq, data }
-    }
-
-    /// The factored forms against the weights: expansion, diagonal, and the
-    /// batched apply against the generic sum-factorised kernel.
-    #[test]
-    fn forms_equal_the_weights_matrices_and_kernel() {
-        let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let basis = FitBasis::new(ElementOrder::Q1);
-        let (lame, h) = ((1.7, 0.9), 0.25);
-        let cells = 11;
-        let w = random_weights(&basis, cells, &mut rng);
-        let mut forms = Q1Forms::new(&basis, &w, lame, h);
-        let mut w2 = w.clone();
-        for s in [2, 7] {
-            forms.add_cell_mass(s, 0.3);
-            w2.add_cell_mass(&basis, s, 0.3);
-        }
-        for s in 0..cells {
-            let (wk, wm) = w2.cell(s);
-            let dense = basis.expand(wk, wm, lame, 1.0 / h);
-            let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for (a, b) in forms.expand(s).iter().zip(&dense) {
-                assert!((a - b).abs() <= 1e-14 * scale, "cell {s}: {a} vs {b}");
-            }
-            let diag = basis.diagonal(wk, wm, lame, 1.0 / h);
-            for (a, b) in forms.diagonal(s).iter().zip(&diag) {
-                assert!((a - b).abs() <= 1e-14 * scale);
-            }
-        }
-        let x: Vec<f64> = (0..24 * cells).map(|_| rng.gen_range(-1.0..1.0)).collect();
-        let gather = |s: usize, xe: &mut [f64]| xe.copy_from_slice(&x[24 * s..24 * s + 24]);
-        let nodes: Vec<[u32; 8]> = (0..cells as u32)
-            .map(|s| std::array::from_fn(|q| 8 * s + q as u32))
-            .collect();
-        let (mut z1, mut z2) = (vec![0.0; 24 * cells], vec![0.0; 24 * cells]);
-        forms.apply(&nodes, &x, &mut z1);
-        CutKernel::new(&basis, lame, h).apply(&w2, gather, &mut z2);
-        let scale = z2.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (a, b) in z1.iter().zip(&z2) {
-            assert!((a - b).abs() <= 1e-13 * scale, "{a} vs {b}");
-        }
-    }
-}
+#[path = "q1_forms_tests.rs"]
+mod tests;
