@@ -42,10 +42,8 @@ pub const LANES: usize = 4;
 pub const FORM_LEN: usize = 114;
 /// Batches per rayon task.
 const BATCHES_PER_TASK: usize = 32;
-/// How many cells ahead of its gather a cell's dofs are prefetched, and
-/// how many batches ahead of its product a batch's forms.
+/// How many cells ahead of its gather a cell's dofs are prefetched.
 const PREFETCH_AHEAD: usize = 12;
-const FORM_AHEAD: usize = 2;
 /// Offsets of the parts of a form.
 const DIAG: usize = 0;
 const MIXED: usize = 30;
@@ -296,9 +294,6 @@ impl Q1Forms {
         }
         for (b, (zb, ub)) in z.chunks_mut(24 * LANES).zip(&u).enumerate() {
             let b0 = if UNIFORM { 0 } else { first + b };
-            if !UNIFORM {
-                self.prefetch_form(b0 + FORM_AHEAD);
-            }
             let form: &[V; FORM_LEN] = self.data[b0 * FORM_LEN..(b0 + 1) * FORM_LEN]
                 .try_into()
                 .expect("a whole batch");
@@ -309,18 +304,6 @@ impl Q1Forms {
                         zl[3 * a + i] = f[i][a][l];
                     }
                 }
-            }
-        }
-    }
-
-    /// Prefetches the forms of batch `b` (if there is one): a form is read
-    /// once per apply, from memory.
-    #[inline(always)]
-    fn prefetch_form(&self, b: usize) {
-        if let Some(form) = self.data.get(b * FORM_LEN..(b + 1) * FORM_LEN) {
-            // Two entries (64 bytes) a cache line.
-            for v in form.iter().step_by(2) {
-                prefetch(v);
             }
         }
     }
