@@ -26,7 +26,11 @@
 //! cell stores `T^{dd}` (symmetric, 10 each), `T^{01}, T^{02}, T^{12}` (16
 //! each) and `M` (symmetric, 36): 114 numbers, exact rearrangements of its
 //! weights. The apply works on [`LANES`] cells at once, one per SIMD lane,
-//! the forms stored lane-interleaved per batch.
+//! the forms stored lane-interleaved per batch. Each rayon task first
+//! gathers its cells' dofs through their node indices (prefetched a few
+//! cells ahead: the nodes are scattered), then computes its batches. The
+//! whole cell has a form too ([`Q1Forms::inside`]), which
+//! [`Q1Forms::apply_uniform`] applies to any number of inside cells.
 
 use rayon::prelude::*;
 
