@@ -65,6 +65,17 @@ fn fast_apply_matches_gather_and_assembled_on_the_sphere() {
 }
 
 #[test]
+fn fast_apply_matches_on_long_runs_with_two_threads() {
+    // Level 5: runs of interior nodes span several 12-node tiles and their
+    // 4-node tails; two threads split the cell products and the chunks.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    pool.install(|| check("sphere", &sphere(&[]), 5, 31));
+}
+
+#[test]
 fn fast_apply_reads_cut_matrices_changed_after_construction() {
     // The S-term is added to the pathological cut cells after the plan exists.
     let case = sphere(&[

@@ -19,11 +19,13 @@
 //!    and, at the same time, compute `z_c = K_c x_c` (24 entries) for every
 //!    cut cell `c` in slot order from its form, read front to back (at
 //!    apply time, so terms added by `add_cut_cell_mass` after the plan was
-//!    built are applied), and `z_c = h K_ref x_c` for every rim cell, both
-//!    in SIMD batches of cells.
+//!    built are applied), and `z_c = h K_ref x_c` for every rim cell from
+//!    the factored form of the whole cell ([`Q1Forms::inside`]), both in SIMD
+//!    batches of cells gathered through the cells' stored active node indices.
 //! 2. Per chunk: the stencil on its runs from `xs`; for its boundary nodes,
-//!    the sum of `z_c[3l .. 3l+3]` over the cells around them. Both write `y`
-//!    in place, interleaved.
+//!    the sum of `z_c[3l .. 3l+3]` over the cells around them (a link to no
+//!    cell reads a zero triple at the end of `z`). Both write `y` in place,
+//!    interleaved.
 //!
 //! Where the CPU has AVX2 and FMA (checked at run time) the chunk kernel is
 //! compiled for them; elsewhere it is the portable build of the same code.
@@ -34,18 +36,18 @@ use rayon::prelude::*;
 
 use super::operator::{INSIDE, OUTSIDE};
 use super::q1_forms::Q1Forms;
-use super::stencil::{madd, Run, Stencil, TILE};
+use super::stencil::{prefetch, Run, Stencil, TILE};
 use crate::grid::Grid;
 
 /// Work per chunk, in interior-node equivalents.
 const CHUNK_COST: usize = 1024;
 /// A boundary node costs about this many interior nodes.
 const BOUNDARY_COST: usize = 2;
+/// How many boundary nodes ahead of its gather a node's cell products are
+/// prefetched.
+const PREFETCH_AHEAD: usize = 8;
 /// A link to no cell product (an outside cell, or none).
 const NONE: u32 = u32::MAX;
-/// Rim cells per SIMD batch, and batches per rayon task.
-const LANES: usize = 4;
-const RIM_BATCHES_PER_TASK: usize = 32;
 
 /// The operator data the apply reads (borrowed from the operator).
 pub struct CellData<'a> {
@@ -76,24 +78,26 @@ pub struct FastApply {
     /// Active indices of the boundary nodes, ascending.
     boundary: Vec<u32>,
     /// Per boundary node, per cell `cc` around it (cell `(i−1+ci, j−1+cj,
-    /// k−1+ck)`, `cc = ci + 2 cj + 4 ck`): the index of the cell's product in
-    /// `z` (cut cells in slot order, then rim cells), or [`NONE`].
+    /// k−1+ck)`, `cc = ci + 2 cj + 4 ck`): the offset in `z` of the node's
+    /// triple `z_c[3l .. 3l+3]` (`l = 7 − cc`; cut cells in slot order, then
+    /// rim cells), or of the zero triple after them for no cell.
     links: Vec<[u32; 8]>,
-    /// The corner node (lowest lattice index) of each cut cell, in slot
-    /// order, and of each rim cell.
-    cut_corners: Vec<u32>,
-    rim: Vec<u32>,
+    /// The active indices of the 8 nodes (local order) of each cut cell, in
+    /// slot order, and of each rim cell.
+    cut_nodes: Vec<[u32; 8]>,
+    rim_nodes: Vec<[u32; 8]>,
+    /// The whole cell's factored form (the rim cells' products).
+    inside: Q1Forms,
     chunks: Vec<Chunk>,
-    /// Cells per axis.
-    n: [usize; 3],
     num_active: usize,
     num_cut: usize,
     fma: bool,
 }
 
 impl FastApply {
-    /// The plan for a Q1 operator on `grid`.
-    pub fn new(grid: &Grid, m: &CellData, active_to_node: &[u32]) -> FastApply {
+    /// The plan for a Q1 operator on `grid`, `inside` the factored form of
+    /// its whole cell.
+    pub fn new(grid: &Grid, m: &CellData, active_to_node: &[u32], inside: Q1Forms) -> FastApply {
         let mut runs: Vec<Run> = Vec::new();
         let mut boundary = Vec::new();
         let nn = [grid.n[0] + 1, grid.n[1] + 1];
@@ -121,21 +125,40 @@ impl FastApply {
         }
         let chunks = chunks(&runs, &boundary, active_to_node.len());
         let (links, rim_cells) = links(grid, m, active_to_node, &boundary);
-        let corner = |c: usize| {
+        let cell_nodes = |c: usize| -> [u32; 8] {
             let [nx, ny] = [grid.n[0], grid.n[1]];
-            node(c % nx, (c / nx) % ny, c / (nx * ny)) as u32
+            let corner = node(c % nx, (c / nx) % ny, c / (nx * ny));
+            std::array::from_fn(|q| {
+                let nq = corner + node(q & 1, (q >> 1) & 1, q >> 2);
+                let a = m.node_to_active[nq];
+                assert!(
+                    (a as usize) < active_to_node.len(),
+                    "cell {c}: inactive node"
+                );
+                a
+            })
         };
-        let cut_corners = m.own_cells.iter().map(|&c| corner(c)).collect();
-        let rim = rim_cells.iter().map(|&c| corner(c as usize)).collect();
+        let cut_nodes = m.own_cells.iter().map(|&c| cell_nodes(c)).collect();
+        let rim_nodes = rim_cells.iter().map(|&c| cell_nodes(c as usize)).collect();
+        let z_zero = 24 * (m.own_cells.len() + rim_cells.len());
+        let links = links
+            .into_iter()
+            .map(|cells| {
+                std::array::from_fn(|cc| match cells[cc] {
+                    NONE => z_zero as u32,
+                    zi => 24 * zi + 3 * (7 - cc as u32),
+                })
+            })
+            .collect();
         FastApply {
             stencil: Stencil::new(m.inside),
             runs,
             boundary,
             links,
-            cut_corners,
-            rim,
+            cut_nodes,
+            rim_nodes,
+            inside,
             chunks,
-            n: grid.n,
             num_active: active_to_node.len(),
             num_cut: m.own_cells.len(),
             fma: fma_available(),
@@ -143,13 +166,14 @@ impl FastApply {
     }
 
     /// Bytes of plan data (stencil, runs, boundary list, links, cell
-    /// corners, chunks).
+    /// nodes, the whole cell's form, chunks).
     pub fn bytes(&self) -> usize {
         self.stencil.bytes()
             + self.runs.len() * std::mem::size_of::<Run>()
             + self.boundary.len() * 4
             + self.links.len() * 32
-            + (self.cut_corners.len() + self.rim.len()) * 4
+            + (self.cut_nodes.len() + self.rim_nodes.len()) * 32
+            + self.inside.bytes()
             + self.chunks.len() * std::mem::size_of::<Chunk>()
     }
 
@@ -160,12 +184,13 @@ impl FastApply {
 
     /// Number of rim cells (inside cells with a boundary node).
     pub fn num_rim(&self) -> usize {
-        self.rim.len()
+        self.rim_nodes.len()
     }
 
-    /// Length of the scratch [`Self::apply`] needs: `xs` and the `z_c`.
+    /// Length of the scratch [`Self::apply`] needs: `xs`, the `z_c` and a
+    /// zero triple.
     pub fn scratch_len(&self) -> usize {
-        3 * self.stride() + 24 * (self.num_cut + self.rim.len())
+        3 * self.stride() + 24 * (self.num_cut + self.rim_nodes.len()) + 3
     }
 
     fn stride(&self) -> usize {
@@ -188,6 +213,8 @@ impl FastApply {
             || deinterleave(x, xs, stride, self.num_active),
             || {
                 let (zc, zr) = z.split_at_mut(24 * self.num_cut);
+                let (zr, zero) = zr.split_at_mut(24 * self.rim_nodes.len());
+                zero.fill(0.0);
                 rayon::join(|| ctx.cut_cells(zc), || ctx.rim_cells(zr));
             },
         );
@@ -236,75 +263,14 @@ impl Context<'_> {
 
     /// `z_c = K_c x_c` for every cut cell, in SIMD batches, in parallel.
     fn cut_cells(&self, z: &mut [f64]) {
-        let gather = |s: usize, xe: &mut [f64]| {
-            xe.copy_from_slice(&self.cell_x(self.plan.cut_corners[s] as usize));
-        };
-        self.m.forms.apply(gather, z);
+        self.m.forms.apply(&self.plan.cut_nodes, self.x, z);
     }
 
     /// `z_c = h K_ref x_c` for every rim cell, in SIMD batches, in parallel.
     fn rim_cells(&self, z: &mut [f64]) {
-        let per_task = LANES * RIM_BATCHES_PER_TASK;
-        z.par_chunks_mut(24 * per_task)
-            .enumerate()
-            .for_each(|(t, zt)| {
-                #[cfg(target_arch = "x86_64")]
-                if self.plan.fma {
-                    // SAFETY: `fma` is set only when the CPU reports AVX2 and FMA.
-                    unsafe { self.rim_block_fma(t * per_task, zt) };
-                    return;
-                }
-                self.rim_block::<false>(t * per_task, zt);
-            });
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn rim_block_fma(&self, first: usize, z: &mut [f64]) {
-        self.rim_block::<true>(first, z);
-    }
-
-    /// `z = h K_ref x_c` for the rim cells `first, first + 1, …`, [`LANES`]
-    /// cells at a time (one per SIMD lane).
-    #[inline(always)]
-    fn rim_block<const FMA: bool>(&self, first: usize, z: &mut [f64]) {
-        for (b, zb) in z.chunks_mut(24 * LANES).enumerate() {
-            let mut u = [[0.0; LANES]; 24];
-            for l in 0..zb.len() / 24 {
-                let xe = self.cell_x(self.plan.rim[first + b * LANES + l] as usize);
-                for (uk, xk) in u.iter_mut().zip(xe) {
-                    uk[l] = xk;
-                }
-            }
-            let mut out = [[0.0; LANES]; 24];
-            for (o, row) in out.iter_mut().zip(self.m.inside.chunks_exact(24)) {
-                for (uk, kv) in u.iter().zip(row) {
-                    for l in 0..LANES {
-                        o[l] = madd::<FMA>(*kv, uk[l], o[l]);
-                    }
-                }
-            }
-            for (l, zl) in zb.chunks_exact_mut(24).enumerate() {
-                for (zr, o) in zl.iter_mut().zip(&out) {
-                    *zr = o[l];
-                }
-            }
-        }
-    }
-
-    /// The 24 dofs of the nodes of the cell with corner node `corner`, in
-    /// local order.
-    #[inline(always)]
-    fn cell_x(&self, corner: usize) -> [f64; 24] {
-        let [nx, ny, _] = self.plan.n;
-        let (mx, my) = (nx + 1, ny + 1);
-        let mut xe = [0.0; 24];
-        for q in 0..8 {
-            let nq = corner + (q & 1) + mx * (((q >> 1) & 1) + my * (q >> 2));
-            let aq = self.m.node_to_active[nq] as usize;
-            xe[3 * q..3 * q + 3].copy_from_slice(&self.x[3 * aq..3 * aq + 3]);
-        }
-        xe
+        self.plan
+            .inside
+            .apply_uniform(&self.plan.rim_nodes, self.x, z);
     }
 
     #[inline(always)]
@@ -314,17 +280,18 @@ impl Context<'_> {
         plan.stencil
             .apply_runs::<FMA>(runs, self.xs, plan.stride(), y, c.lo);
         for b in c.boundary.clone() {
-            let a = plan.boundary[b] as usize;
-            let mut out = [0.0; 3];
-            for (cc, &zi) in plan.links[b].iter().enumerate() {
-                if zi != NONE {
-                    let zl = &self.z[24 * zi as usize + 3 * (7 - cc)..];
-                    for (o, v) in out.iter_mut().zip(zl) {
-                        *o += v;
-                    }
+            if let Some(ahead) = plan.links.get(b + PREFETCH_AHEAD) {
+                for &offset in ahead {
+                    prefetch(&self.z[offset as usize..][..3]);
                 }
             }
-            y[3 * (a - c.lo)..3 * (a - c.lo) + 3].copy_from_slice(&out);
+            let a = plan.boundary[b] as usize;
+            let (mut o0, mut o1, mut o2) = (0.0, 0.0, 0.0);
+            for &offset in &plan.links[b] {
+                let zl = &self.z[offset as usize..offset as usize + 3];
+                (o0, o1, o2) = (o0 + zl[0], o1 + zl[1], o2 + zl[2]);
+            }
+            y[3 * (a - c.lo)..3 * (a - c.lo) + 3].copy_from_slice(&[o0, o1, o2]);
         }
     }
 }

@@ -1,5 +1,6 @@
 //! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
 //! assembled), right-hand sides, the discrete field and its error norms.
+pub mod assembled;
 pub mod checks;
 pub mod cut_apply;
 pub mod dofs;

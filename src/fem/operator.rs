@@ -26,6 +26,7 @@ use rayon::prelude::*;
 
 use std::sync::Mutex;
 
+pub use super::assembled::AssembledOperator;
 use super::cut_apply::CutKernel;
 use super::dofs::{node_cells, DofMap};
 use super::fast_apply::{CellData, FastApply};
@@ -146,10 +147,12 @@ impl ElasticOperator {
             scratch: Scratch::default(),
         };
         if let CutData::Forms(forms) = &op.cut {
+            let inside = Q1Forms::inside(&op.basis, op.lame, grid.h);
             op.fast = Some(FastApply::new(
                 grid,
                 &op.cell_data(forms),
                 &op.dofs.active_to_node,
+                inside,
             ));
         }
         op
@@ -273,18 +276,30 @@ impl ElasticOperator {
     /// `z[ne s .. ne (s+1)] = K_s x_s` for every cut cell `s`.
     fn cut_products(&self, x: &[f64], z: &mut [f64]) {
         let npc = self.dofs.order.nodes_per_cell();
-        let gather = |s: usize, xe: &mut [f64]| {
+        let cell_nodes = |s: usize| {
             let mut nodes = [0usize; 27];
-            let nodes = &mut nodes[..npc];
             self.dofs
-                .cell_active_nodes(&self.grid, self.own_cells[s], nodes);
-            for (m, &an) in nodes.iter().enumerate() {
-                xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
-            }
+                .cell_active_nodes(&self.grid, self.own_cells[s], &mut nodes[..npc]);
+            nodes
         };
         match &self.cut {
-            CutData::Forms(forms) => forms.apply(gather, z),
-            CutData::Weights { weights, kernel } => kernel.apply(weights, gather, z),
+            CutData::Forms(forms) => {
+                let nodes: Vec<[u32; 8]> = (0..self.own_cells.len())
+                    .map(|s| {
+                        let nodes = cell_nodes(s);
+                        std::array::from_fn(|q| nodes[q] as u32)
+                    })
+                    .collect();
+                forms.apply(&nodes, x, z);
+            }
+            CutData::Weights { weights, kernel } => {
+                let gather = |s: usize, xe: &mut [f64]| {
+                    for (m, &an) in cell_nodes(s)[..npc].iter().enumerate() {
+                        xe[3 * m..3 * m + 3].copy_from_slice(&x[3 * an..3 * an + 3]);
+                    }
+                };
+                kernel.apply(weights, gather, z);
+            }
         }
     }
 
@@ -454,45 +469,6 @@ impl LinearOperator for ElasticOperator {
             }
         });
         d
-    }
-}
-
-/// The assembled operator, applied with faer's sparse × dense product.
-pub struct AssembledOperator(pub faer::sparse::SparseColMat<usize, f64>);
-
-impl LinearOperator for AssembledOperator {
-    fn nrows(&self) -> usize {
-        self.0.nrows()
-    }
-
-    fn apply(&self, x: &[f64], y: &mut [f64]) {
-        let n = self.0.nrows();
-        let xs = faer::MatRef::from_column_major_slice(x, n, 1);
-        let ys = faer::MatMut::from_column_major_slice_mut(y, n, 1);
-        // A is symmetric: Aᵀ x, computed column by column, is A x.
-        faer::sparse::linalg::matmul::sparse_dense_matmul(
-            ys,
-            faer::Accum::Replace,
-            self.0.as_ref(),
-            xs,
-            1.0,
-            faer::Par::Seq,
-        );
-    }
-
-    fn diagonal(&self) -> Vec<f64> {
-        let a = self.0.as_ref();
-        (0..a.ncols())
-            .map(|j| {
-                let rows = a.row_idx_of_col_raw(j);
-                let vals = a.val_of_col(j);
-                rows.iter()
-                    .zip(vals)
-                    .filter(|(r, _)| **r == j)
-                    .map(|(_, v)| *v)
-                    .sum()
-            })
-            .collect()
     }
 }
 

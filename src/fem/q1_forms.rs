@@ -26,13 +26,17 @@
 //! cell stores `T^{dd}` (symmetric, 10 each), `T^{01}, T^{02}, T^{12}` (16
 //! each) and `M` (symmetric, 36): 114 numbers, exact rearrangements of its
 //! weights. The apply works on [`LANES`] cells at once, one per SIMD lane,
-//! the forms stored lane-interleaved per batch.
+//! the forms stored lane-interleaved per batch. Each rayon task first
+//! gathers its cells' dofs through their node indices (prefetched a few
+//! cells ahead: the nodes are scattered), then computes its batches. The
+//! whole cell has a form too ([`Q1Forms::inside`]), which
+//! [`Q1Forms::apply_uniform`] applies to any number of inside cells.
 
 use rayon::prelude::*;
 
 use super::fast_apply::fma_available;
 use super::moment_fit::{CutWeights, FitBasis};
-use super::stencil::madd;
+use super::stencil::{madd, prefetch};
 use crate::element::reference::reference_mass;
 use crate::element::ElementOrder;
 
@@ -42,12 +46,29 @@ pub const LANES: usize = 4;
 pub const FORM_LEN: usize = 114;
 /// Batches per rayon task.
 const BATCHES_PER_TASK: usize = 32;
+/// How many cells ahead of its gather a cell's dofs are prefetched.
+const PREFETCH_AHEAD: usize = 12;
 /// Offsets of the parts of a form.
 const DIAG: usize = 0;
 const MIXED: usize = 30;
 const MASS: usize = 78;
 
 type V = [f64; LANES];
+
+/// Index of `M_ab` in a form.
+const MASS_INDEX: [[usize; 8]; 8] = {
+    let mut t = [[0; 8]; 8];
+    let mut a = 0;
+    while a < 8 {
+        let mut b = 0;
+        while b < 8 {
+            t[a][b] = MASS + sym(8, a, b);
+            b += 1;
+        }
+        a += 1;
+    }
+    t
+};
 
 /// Packed index of `(r, c)` in a symmetric `n × n` matrix (upper triangle).
 const fn sym(n: usize, r: usize, c: usize) -> usize {
@@ -143,6 +164,17 @@ impl Q1Forms {
         }
     }
 
+    /// The form of the whole (inside) cell, `h K_ref`, in every lane of one
+    /// batch: the full-cell Gauss rule as stiffness weights, no mass.
+    pub fn inside(basis: &FitBasis, lame: (f64, f64), h: f64) -> Q1Forms {
+        let nq = basis.num_points();
+        let mut data = vec![0.0; 2 * nq * LANES];
+        for cell in data.chunks_exact_mut(2 * nq) {
+            basis.add_cell_rule(h * h * h, &mut cell[..nq]);
+        }
+        Q1Forms::new(basis, &CutWeights { nq, data }, lame, h)
+    }
+
     /// Bytes of the forms.
     pub fn bytes(&self) -> usize {
         8 * LANES * self.data.len()
@@ -199,56 +231,77 @@ impl Q1Forms {
         out
     }
 
-    /// `z[24 s .. 24 (s+1)] = K_s x_s` for every cell, `gather(s, xe)`
-    /// filling the cell's 24 dofs (node-major) from `x`.
-    pub fn apply<G>(&self, gather: G, z: &mut [f64])
-    where
-        G: Fn(usize, &mut [f64]) + Sync,
-    {
+    /// `z[24 s .. 24 (s+1)] = K_s x_s` for every cell `s`, whose 8 nodes
+    /// (local order) have the dofs `x[3 nodes[s][q] ..][.. 3]`.
+    pub fn apply(&self, nodes: &[[u32; 8]], x: &[f64], z: &mut [f64]) {
+        self.apply_batches::<false>(nodes, x, z);
+    }
+
+    /// [`Q1Forms::apply`] with the one massless matrix `K` of the first
+    /// batch for every cell (as [`Q1Forms::inside`] makes).
+    pub fn apply_uniform(&self, nodes: &[[u32; 8]], x: &[f64], z: &mut [f64]) {
+        self.apply_batches::<true>(nodes, x, z);
+    }
+
+    /// [`Q1Forms::apply`], or with `UNIFORM` [`Q1Forms::apply_uniform`].
+    fn apply_batches<const UNIFORM: bool>(&self, nodes: &[[u32; 8]], x: &[f64], z: &mut [f64]) {
+        assert_eq!(z.len(), 24 * nodes.len());
         let per_task = LANES * BATCHES_PER_TASK;
         z.par_chunks_mut(24 * per_task)
+            .zip(nodes.par_chunks(per_task))
             .enumerate()
-            .for_each(|(t, zt)| {
+            .for_each(|(t, (zt, nt))| {
                 #[cfg(target_arch = "x86_64")]
                 if self.fma {
                     // SAFETY: `fma` is set only when the CPU reports AVX2 and FMA.
-                    unsafe { self.task_fma(&gather, t * per_task, zt) };
+                    unsafe { self.task_fma::<UNIFORM>(t * BATCHES_PER_TASK, nt, x, zt) };
                     return;
                 }
-                self.task::<false, G>(&gather, t * per_task, zt);
+                self.task::<false, UNIFORM>(t * BATCHES_PER_TASK, nt, x, zt);
             });
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn task_fma<G: Fn(usize, &mut [f64])>(&self, gather: &G, first: usize, z: &mut [f64]) {
-        self.task::<true, G>(gather, first, z);
-    }
-
-    #[inline(always)]
-    fn task<const FMA: bool, G: Fn(usize, &mut [f64])>(
+    fn task_fma<const UNIFORM: bool>(
         &self,
-        gather: &G,
         first: usize,
+        nodes: &[[u32; 8]],
+        x: &[f64],
         z: &mut [f64],
     ) {
-        for (b, zb) in z.chunks_mut(24 * LANES).enumerate() {
-            let s0 = first + b * LANES;
-            let b0 = s0 / LANES;
+        self.task::<true, UNIFORM>(first, nodes, x, z);
+    }
+
+    /// The batches `first, first + 1, …` of cells `nodes`: all their dofs
+    /// gathered first (independent loads, many in flight), then the products.
+    #[inline(always)]
+    fn task<const FMA: bool, const UNIFORM: bool>(
+        &self,
+        first: usize,
+        nodes: &[[u32; 8]],
+        x: &[f64],
+        z: &mut [f64],
+    ) {
+        let mut u = [[[[0.0; LANES]; 8]; 3]; BATCHES_PER_TASK];
+        for (s, cell) in nodes.iter().enumerate() {
+            if let Some(ahead) = nodes.get(s + PREFETCH_AHEAD) {
+                prefetch_nodes(ahead, x);
+            }
+            let ub = &mut u[s / LANES];
+            for (a, &node) in cell.iter().enumerate() {
+                let xa = &x[3 * node as usize..3 * node as usize + 3];
+                for (j, &v) in xa.iter().enumerate() {
+                    ub[j][a][s % LANES] = v;
+                }
+            }
+        }
+        for (b, (zb, ub)) in z.chunks_mut(24 * LANES).zip(&u).enumerate() {
+            let b0 = if UNIFORM { 0 } else { first + b };
             let form: &[V; FORM_LEN] = self.data[b0 * FORM_LEN..(b0 + 1) * FORM_LEN]
                 .try_into()
                 .expect("a whole batch");
-            let mut u = [[[0.0; LANES]; 8]; 3];
-            let mut xe = [0.0; 24];
-            for l in 0..zb.len() / 24 {
-                gather(s0 + l, &mut xe);
-                for a in 0..8 {
-                    for j in 0..3 {
-                        u[j][a][l] = xe[3 * a + j];
-                    }
-                }
-            }
-            let f = self.batch::<FMA>(form, &u);
+            let f = self.batch::<FMA, UNIFORM>(form, ub);
             for (l, zl) in zb.chunks_exact_mut(24).enumerate() {
                 for a in 0..8 {
                     for i in 0..3 {
@@ -294,9 +347,13 @@ impl Q1Forms {
     }
 
     /// `f_i = (K x)_i` for one batch: `form` its lane-interleaved forms, `u[j][a]`
-    /// component `j` of node `a`.
+    /// component `j` of node `a`; the mass is left out when `MASSLESS`.
     #[inline(always)]
-    fn batch<const FMA: bool>(&self, form: &[V; FORM_LEN], u: &[[V; 8]; 3]) -> [[V; 8]; 3] {
+    fn batch<const FMA: bool, const MASSLESS: bool>(
+        &self,
+        form: &[V; FORM_LEN],
+        u: &[[V; 8]; 3],
+    ) -> [[V; 8]; 3] {
         // diff[e][j][β]: differences of component j along e.
         let mut diff = [[[[0.0; LANES]; 4]; 3]; 3];
         for (e, de) in diff.iter_mut().enumerate() {
@@ -311,17 +368,31 @@ impl Q1Forms {
         self.direction::<FMA, 0>(form, &diff, &mut f);
         self.direction::<FMA, 1>(form, &diff, &mut f);
         self.direction::<FMA, 2>(form, &diff, &mut f);
+        if MASSLESS {
+            return f;
+        }
         for a in 0..8 {
+            let mut acc = [f[0][a], f[1][a], f[2][a]];
             for b in 0..8 {
-                let m = form[MASS + sym(8, a, b)];
-                for (fi, ui) in f.iter_mut().zip(u) {
-                    for l in 0..LANES {
-                        fi[a][l] = madd::<FMA>(m[l], ui[b][l], fi[a][l]);
-                    }
+                let m = &form[MASS_INDEX[a][b]];
+                for (acc, ui) in acc.iter_mut().zip(u) {
+                    *acc = std::array::from_fn(|l| madd::<FMA>(m[l], ui[b][l], acc[l]));
                 }
+            }
+            for (fi, acc) in f.iter_mut().zip(acc) {
+                fi[a] = acc;
             }
         }
         f
+    }
+}
+
+/// Asks the CPU to fetch the dofs of the nodes `cell` into its caches (the
+/// cells' nodes are scattered: the hardware prefetchers do not find them).
+#[inline(always)]
+fn prefetch_nodes(cell: &[u32; 8], x: &[f64]) {
+    for &node in cell {
+        prefetch(&x[3 * node as usize..][..3]);
     }
 }
 
@@ -373,63 +444,5 @@ fn cell_form(basis: &FitBasis, w: &CutWeights, s: usize, s2: f64) -> [f64; FORM_
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::fem::cut_apply::CutKernel;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    /// Random weights of `cells` cells (random rules inside the unit cube).
-    fn random_weights(basis: &FitBasis, cells: usize, rng: &mut ChaCha8Rng) -> CutWeights {
-        let nq = basis.num_points();
-        let mut data = vec![0.0; 2 * nq * cells];
-        for cw in data.chunks_exact_mut(2 * nq) {
-            let (wk, wm) = cw.split_at_mut(nq);
-            for _ in 0..12 {
-                let x = [0; 3].map(|_| rng.gen::<f64>());
-                basis.add_point(x, rng.gen::<f64>(), wk);
-                let y = [0; 3].map(|_| rng.gen::<f64>());
-                basis.add_point(y, rng.gen::<f64>(), wm);
-            }
-        }
-        CutWeights { nq, data }
-    }
-
-    /// The factored forms against the weights: expansion, diagonal, and the
-    /// batched apply against the generic sum-factorised kernel.
-    #[test]
-    fn forms_equal_the_weights_matrices_and_kernel() {
-        let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let basis = FitBasis::new(ElementOrder::Q1);
-        let (lame, h) = ((1.7, 0.9), 0.25);
-        let cells = 11;
-        let w = random_weights(&basis, cells, &mut rng);
-        let mut forms = Q1Forms::new(&basis, &w, lame, h);
-        let mut w2 = w.clone();
-        for s in [2, 7] {
-            forms.add_cell_mass(s, 0.3);
-            w2.add_cell_mass(&basis, s, 0.3);
-        }
-        for s in 0..cells {
-            let (wk, wm) = w2.cell(s);
-            let dense = basis.expand(wk, wm, lame, 1.0 / h);
-            let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for (a, b) in forms.expand(s).iter().zip(&dense) {
-                assert!((a - b).abs() <= 1e-14 * scale, "cell {s}: {a} vs {b}");
-            }
-            let diag = basis.diagonal(wk, wm, lame, 1.0 / h);
-            for (a, b) in forms.diagonal(s).iter().zip(&diag) {
-                assert!((a - b).abs() <= 1e-14 * scale);
-            }
-        }
-        let x: Vec<f64> = (0..24 * cells).map(|_| rng.gen_range(-1.0..1.0)).collect();
-        let gather = |s: usize, xe: &mut [f64]| xe.copy_from_slice(&x[24 * s..24 * s + 24]);
-        let (mut z1, mut z2) = (vec![0.0; 24 * cells], vec![0.0; 24 * cells]);
-        forms.apply(gather, &mut z1);
-        CutKernel::new(&basis, lame, h).apply(&w2, gather, &mut z2);
-        let scale = z2.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (a, b) in z1.iter().zip(&z2) {
-            assert!((a - b).abs() <= 1e-13 * scale, "{a} vs {b}");
-        }
-    }
-}
+#[path = "q1_forms_tests.rs"]
+mod tests;
