@@ -99,6 +99,10 @@ impl NonlinearProblem for HyperProblem {
     fn tangent<'a>(&'a self, u: &[f64], _t: f64) -> Option<Box<dyn LinearOperator + 'a>> {
         TangentOperator::new(self, u).map(|k| Box::new(k) as Box<dyn LinearOperator + 'a>)
     }
+
+    fn refresh_recovered(&self, u: &[f64], _t: f64) -> Result<bool> {
+        self.refresh_s_term(u)
+    }
 }
 
 /// Solves `K_T Δu = rhs` on some backend, warm-started at `du`.

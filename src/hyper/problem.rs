@@ -16,6 +16,7 @@ use crate::fem::rhs::add_point_load;
 use crate::grid::Grid;
 
 use super::material::Material;
+use super::stabilisation::STerm;
 
 /// Nodes of a Q1 cell.
 pub const NODES: usize = 8;
@@ -86,6 +87,8 @@ pub struct HyperProblem {
     penalty_start: Vec<usize>,
     /// `f_ext` at load factor 1.
     pub external: Vec<f64>,
+    /// The S-stabilisation of the pathological cells, if switched on.
+    pub s_term: Option<STerm>,
 }
 
 impl HyperProblem {
@@ -142,6 +145,7 @@ impl HyperProblem {
             penalty: Vec::new(),
             penalty_start: vec![0],
             external: Vec::new(),
+            s_term: None,
         };
         for (c, kind) in cells.kinds.iter().enumerate() {
             let cut = match kind {
@@ -180,6 +184,21 @@ impl HyperProblem {
         }
         p.external = external_loads(grid, cells, &p.dofs, loads);
         Ok(p)
+    }
+
+    /// Switches the S-term on (`k2 > 0`) with weight `k2 E` and threshold
+    /// `a`, on the `cells` the problem was set up on; `k2 = 0` switches it off.
+    pub fn set_s_term(&mut self, cells: &Cells, k2: f64, young: f64, a: f64) {
+        self.s_term = (k2 > 0.0).then(|| STerm::new(self, cells, k2 * young, a));
+    }
+
+    /// Re-evaluates the S-term's recovered displacement at `u`; `false` when
+    /// there is nothing to recover (no S-term, or Ω* empty).
+    pub fn refresh_s_term(&self, u: &[f64]) -> Result<bool> {
+        match &self.s_term {
+            Some(s) if !s.omega_star.is_empty() => s.refresh(self, u).map(|()| true),
+            _ => Ok(false),
+        }
     }
 
     /// Number of unknowns.
