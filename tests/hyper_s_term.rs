@@ -44,7 +44,7 @@ fn sphere(level: u32, a: f64) -> HyperProblem {
         &Loads::default(),
     )
     .unwrap();
-    p.set_s_term(&cells, K2, E, a);
+    p.set_s_term(&cells, &g, K2, E, a);
     p
 }
 
@@ -85,7 +85,7 @@ fn twisted_ring_cells(level: u32, angle: f64, k2: f64, a: f64) -> (HyperProblem,
         &Loads::default(),
     )
     .unwrap();
-    p.set_s_term(&cells, k2, E, a);
+    p.set_s_term(&cells, &g, k2, E, a);
     (p, cells)
 }
 

@@ -186,6 +186,6 @@ fn body_problem(
     let beta = st.k1 * spec.material.young;
     let m = material(case, i);
     let mut p = HyperProblem::new_restricted(grid, cells, m, beta, &dirichlet, &regions, &loads)?;
-    p.set_s_term(cells, st.k2, spec.material.young, st.a);
+    p.set_s_term(cells, solid, st.k2, spec.material.young, st.a);
     Ok(p)
 }

@@ -4,7 +4,9 @@
 //! vector at load factor 1.
 //!
 //! Inside cells share one rule (2×2×2 Gauss, weights `h³ w`); cut cells carry
-//! their own points from the cut-cell quadrature of [`Cells`]. Q1 only.
+//! their own points from the cut-cell quadrature of [`Cells`]. Q1 only. The
+//! S-term of the pathological cells ([`super::stabilisation`]) is optional
+//! ([`HyperProblem::set_s_term`]).
 
 use std::sync::Arc;
 
@@ -13,6 +15,7 @@ use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOr
 use crate::error::{Error, Result};
 use crate::fem::dofs::DofMap;
 use crate::fem::rhs::add_point_load;
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 
 use super::material::Material;
@@ -187,9 +190,10 @@ impl HyperProblem {
     }
 
     /// Switches the S-term on (`k2 > 0`) with weight `k2 E` and threshold
-    /// `a`, on the `cells` the problem was set up on; `k2 = 0` switches it off.
-    pub fn set_s_term(&mut self, cells: &Cells, k2: f64, young: f64, a: f64) {
-        self.s_term = (k2 > 0.0).then(|| STerm::new(self, cells, k2 * young, a));
+    /// `a`, on the `cells` of `solid` the problem was set up on; `k2 = 0`
+    /// switches it off.
+    pub fn set_s_term(&mut self, cells: &Cells, solid: &Geometry, k2: f64, young: f64, a: f64) {
+        self.s_term = (k2 > 0.0).then(|| STerm::new(self, cells, solid, k2 * young, a));
     }
 
     /// Re-evaluates the S-term's recovered displacement at `u`; `false` when

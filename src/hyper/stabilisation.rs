@@ -29,11 +29,13 @@
 //! `S` towards a field that is not the body's equilibrium; a plain fit of the
 //! complete quadratic still reproduces every field of that space exactly.
 //!
-//! Sample points: the 3×3×3 Gauss points of inside cells and, in cut cells,
-//! at most 54 of their volume points (evenly strided). Three points per axis,
-//! not the element's two, because a plane-strain slab is one cell thick: with
-//! two sample levels in z the `ζ²` term of the quadratic is undetermined and
-//! every patch would be rejected.
+//! Sample points: the 3×3×3 Gauss points of inside cells; in cut cells, at
+//! most 54 of their volume points (evenly strided) and those of the cell's
+//! 3×3×3 Gauss points that lie in the body. Three levels per axis, not the
+//! element's two, because a plane-strain slab is one cell thick: with two
+//! sample levels in z (which is all the cut cells' rule has, q = 2) the `ζ²`
+//! term of the quadratic is undetermined, and a patch of cut cells only (a
+//! corner of a slab) would be rejected at every ring.
 
 use std::sync::{PoisonError, RwLock, RwLockReadGuard};
 
@@ -45,6 +47,7 @@ use crate::cells::{CellKind, Cells};
 use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::fem::stabilisation::{cell_s_matrix, pathological_cells};
+use crate::geometry::Geometry;
 use crate::recovery::{recover, Recovered, Sample, SprOptions};
 
 /// Gauss points per axis of the sample rule and of the `f_c` integral.
@@ -74,9 +77,15 @@ pub struct STerm {
 }
 
 impl STerm {
-    /// The S-term of `problem` (set up on `cells`) with weight `k2 E`
-    /// (`k2_young`) and threshold `a`.
-    pub fn new(problem: &HyperProblem, cells: &Cells, k2_young: f64, a: f64) -> STerm {
+    /// The S-term of `problem` (set up on `cells` of `solid`) with weight
+    /// `k2 E` (`k2_young`) and threshold `a`.
+    pub fn new(
+        problem: &HyperProblem,
+        cells: &Cells,
+        solid: &Geometry,
+        k2_young: f64,
+        a: f64,
+    ) -> STerm {
         let h = problem.grid.h;
         let factor = k2_young / (h * h);
         let omega_star = pathological_cells(cells, a);
@@ -94,12 +103,19 @@ impl STerm {
             slot[k] = Some(s);
         }
         let max_points = 2 * RULE_POINTS.pow(3);
+        let rule = tensor_gauss_rule(RULE_POINTS);
         let mut cut_samples = Vec::new();
         let mut cut_sample_start = vec![0];
-        for i in 0..cells.cut.len() {
+        for (i, &c) in cells.cut.iter().enumerate() {
             let pts = cells.volume_points(i);
             let stride = pts.len().div_ceil(max_points).max(1);
             cut_samples.extend(pts.iter().step_by(stride).map(|q| q.x));
+            let lo = problem.grid.cell_box(c).lo;
+            cut_samples.extend(
+                rule.iter()
+                    .map(|(xi, _)| [0, 1, 2].map(|a| lo[a] + h * xi[a]))
+                    .filter(|&x| solid.inside(x)),
+            );
             cut_sample_start.push(cut_samples.len());
         }
         STerm {
