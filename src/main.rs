@@ -17,6 +17,7 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
+use cgfem_gpu::solver::KrylovMethod;
 use cli_progress::Terminal;
 use cli_run::{run_case, Device, Outputs};
 
@@ -375,7 +376,8 @@ fn reproduce(
     }
     if what == "table2" || what == "all" {
         let case = BodiesCase::from_str_with("cases/annuli_contact.toml", ANNULI_CASE, &[])?;
-        let rows = reproduce::table2(&case, &or(&[3, 4, 5]), &dir, progress)?;
+        let methods = [KrylovMethod::Cgs, KrylovMethod::BiCgStab];
+        let rows = reproduce::table2(&case, &or(&[3, 4, 5]), &methods, &dir, progress)?;
         println!(
             "table2: {} rows; wrote {}/table2.{{json,md,svg}}",
             rows.len(),

@@ -181,12 +181,17 @@ fn s_residual_tangent_and_energy_match_finite_differences() {
         assert!(((d[i] - d0[i]) - (y[i] - y0[i])).abs() < 1e-9 * (d[i] - d0[i]).abs());
         unit[i] = 0.0;
     }
+    // Π_S is quadratic: central differences are exact but for the round-off
+    // of the two total energies, which a larger step keeps small.
     let pi_s = |w: &[f64]| energy(&p, w, 1.0).unwrap() - energy(&bare, w, 1.0).unwrap();
-    let de = (pi_s(&shifted(1.0)) - pi_s(&shifted(-1.0))) / (2.0 * eps);
+    let big = 1e-2;
+    let at =
+        |sign: f64| -> Vec<f64> { u.iter().zip(&v).map(|(x, d)| x + sign * big * d).collect() };
+    let de = (pi_s(&at(1.0)) - pi_s(&at(-1.0))) / (2.0 * big);
     let rs = s_residual(&p, &bare, &u);
     let rv: f64 = rs.iter().zip(&v).map(|(a, b)| a * b).sum();
     assert!(
-        (de - rv).abs() < 1e-6 * rv.abs(),
+        (de - rv).abs() < 1e-7 * rv.abs(),
         "dΠ_S = {de}, R_S·v = {rv}"
     );
 }

@@ -6,6 +6,7 @@
 use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::reproduce::table2::{paper_iterations, table2, K2};
+use cgfem_gpu::solver::KrylovMethod;
 
 const CASE: &str = include_str!("../cases/annuli_contact.toml");
 
@@ -13,7 +14,7 @@ const CASE: &str = include_str!("../cases/annuli_contact.toml");
 fn table2_at_level_3_is_consistent() {
     let case = BodiesCase::from_str_with("cases/annuli_contact.toml", CASE, &[]).unwrap();
     let out = std::env::temp_dir().join(format!("cgfem-table2-{}", std::process::id()));
-    let rows = table2(&case, &[3], &out, &Silent).unwrap();
+    let rows = table2(&case, &[3], &[KrylovMethod::Cgs], &out, &Silent).unwrap();
     assert_eq!(rows.len(), 2);
     let (without, with) = (&rows[0], &rows[1]);
     assert_eq!((without.k2, with.k2), (0.0, K2));
@@ -36,6 +37,12 @@ fn table2_at_level_3_is_consistent() {
             .map(|p| p.krylov_iterations)
             .sum();
         assert_eq!(r.krylov_iterations, passes);
+        let solves: usize = r.steps.iter().map(|s| s.krylov_iterations.len()).sum();
+        assert_eq!(r.solves, solves);
+        assert!(
+            r.solves > r.newton_iterations,
+            "one solve more than updates per pass"
+        );
         let newton: usize = r.steps.iter().map(|s| s.newton.iterations).sum();
         assert_eq!(r.newton_iterations, newton);
         assert_eq!(
@@ -58,7 +65,7 @@ fn table2_at_level_3_is_consistent() {
         serde_json::from_str(&std::fs::read_to_string(out.join("table2.json")).unwrap()).unwrap();
     assert_eq!(json["rows"].as_array().unwrap().len(), 2);
     let md = std::fs::read_to_string(out.join("table2.md")).unwrap();
-    assert!(md.contains("| 3 | without |") && md.contains("| 3 | with |"));
+    assert!(md.contains("| cgs | 3 | without |") && md.contains("| cgs | 3 | with |"));
     assert!(std::fs::read_to_string(out.join("table2.svg"))
         .unwrap()
         .contains("<svg"));
