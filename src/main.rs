@@ -12,10 +12,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
+use cgfem_gpu::solver::KrylovMethod;
 use cli_progress::Terminal;
 use cli_run::{run_case, Device, Outputs};
 
@@ -75,9 +77,10 @@ enum Command {
     /// Regenerate a result of the paper beside the paper's figures:
     /// DIR/<what>.json, .md and .svg.
     Reproduce {
-        /// What to reproduce: table1, fig3, cut-sweep or all.
+        /// What to reproduce: table1, fig3, cut-sweep, table2 or all.
         what: String,
-        /// Levels to run (default: table1 4 5; fig3 2 3 4 5; cut-sweep 4 5 6).
+        /// Levels to run (default: table1 4 5; fig3 2 3 4 5; cut-sweep 4 5 6;
+        /// table2 3 4 5).
         #[arg(long = "level")]
         levels: Vec<u32>,
         /// Output folder (default: out/reproduce).
@@ -331,7 +334,7 @@ fn reproduce(
             levels.to_vec()
         }
     };
-    let known = ["table1", "fig3", "cut-sweep", "all"];
+    let known = ["table1", "fig3", "cut-sweep", "table2", "all"];
     if !known.contains(&what) {
         return Err(cgfem_gpu::Error::CaseFile {
             file: "(command line)".into(),
@@ -373,8 +376,21 @@ fn reproduce(
             dir.display()
         );
     }
+    if what == "table2" || what == "all" {
+        let case = BodiesCase::from_str_with("cases/annuli_contact.toml", ANNULI_CASE, &[])?;
+        let methods = [KrylovMethod::Cgs, KrylovMethod::BiCgStab];
+        let rows = reproduce::table2(&case, &or(&[3, 4, 5]), &methods, &dir, progress)?;
+        println!(
+            "table2: {} rows; wrote {}/table2.{{json,md,svg}}",
+            rows.len(),
+            dir.display()
+        );
+    }
     Ok(())
 }
+
+/// The contact problem of Table 2, built in.
+const ANNULI_CASE: &str = include_str!("../cases/annuli_contact.toml");
 
 /// `cgfem-gpu info`.
 fn info() {

@@ -193,11 +193,18 @@ impl NonlinearProblem for BodiesProblem {
         Some(r)
     }
 
+    /// Every body's S-term and the coupling's recovered terms, all of them
+    /// (no short cut): `true` when any has some.
     fn refresh_recovered(&self, u: &[f64], t: f64) -> Result<bool> {
-        match &self.coupling {
-            Some(c) => c.refresh_recovered(&self.bodies, u, t),
-            None => Ok(false),
+        let mut any = false;
+        for (b, body) in self.bodies.iter().enumerate() {
+            any |= body.refresh_s_term(self.part(b, u))?;
         }
+        let coupling = match &self.coupling {
+            Some(c) => c.refresh_recovered(&self.bodies, u, t)?,
+            None => false,
+        };
+        Ok(any || coupling)
     }
 
     fn tangent<'a>(&'a self, u: &[f64], t: f64) -> Option<Box<dyn LinearOperator + 'a>> {

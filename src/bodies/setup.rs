@@ -1,7 +1,8 @@
 //! From a [`BodiesCase`] to a [`BodiesProblem`]: per body its grid (`--level`
 //! sets every body's), its solid (clipped for plane strain), the cell
 //! classification with the Q1 cut rules, the hyperelastic material, the
-//! penalty `β = k1 E`, the Dirichlet conditions per component (restricted to
+//! penalty `β = k1 E`, the S-term of the pathological cells (`k2`, `A`; off
+//! for `k2 = 0`), the Dirichlet conditions per component (restricted to
 //! their region at the surface quadrature points), the tractions, and the
 //! held `u_z` of plane-strain bodies; and the Newton options of the case.
 //! The case's contact pairs, if any, are the problem's coupling
@@ -181,7 +182,10 @@ fn body_problem(
         body: None,
         tractions,
     };
-    let beta = case.spec.stabilisation.k1 * spec.material.young;
+    let st = &case.spec.stabilisation;
+    let beta = st.k1 * spec.material.young;
     let m = material(case, i);
-    HyperProblem::new_restricted(grid, cells, m, beta, &dirichlet, &regions, &loads)
+    let mut p = HyperProblem::new_restricted(grid, cells, m, beta, &dirichlet, &regions, &loads)?;
+    p.set_s_term(cells, solid, st.k2, spec.material.young, st.a);
+    Ok(p)
 }

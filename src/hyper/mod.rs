@@ -11,6 +11,8 @@
 //!   and the potential energy it derives from.
 //! - [`tangent`]: `K_T(u) = ∂R/∂u` matrix-free (a [`crate::backend::LinearOperator`]),
 //!   its diagonal, and assembled (faer).
+//! - [`stabilisation`]: the S-term of the pathological cells, `R_S` and
+//!   `K_S` with the recovered displacement held fixed between Newton passes.
 //! - [`newton`]: load steps, Newton–Raphson with a line search, step cutting.
 //! - [`convergence`]: the observed order of a step's last Newton iterations.
 //! - [`mirror`]: the GPU kernel of the inside-cell tangent (`shaders/hyper_tangent.wgsl`),
@@ -43,4 +45,5 @@ pub mod mirror;
 pub mod newton;
 pub mod problem;
 pub mod residual;
+pub mod stabilisation;
 pub mod tangent;

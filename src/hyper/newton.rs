@@ -99,6 +99,10 @@ impl NonlinearProblem for HyperProblem {
     fn tangent<'a>(&'a self, u: &[f64], _t: f64) -> Option<Box<dyn LinearOperator + 'a>> {
         TangentOperator::new(self, u).map(|k| Box::new(k) as Box<dyn LinearOperator + 'a>)
     }
+
+    fn refresh_recovered(&self, u: &[f64], _t: f64) -> Result<bool> {
+        self.refresh_s_term(u)
+    }
 }
 
 /// Solves `K_T Δu = rhs` on some backend, warm-started at `du`.
@@ -225,7 +229,8 @@ pub struct StepReport {
     pub energies: Vec<f64>,
     /// Line-search step length per update `u_k → u_{k+1}`.
     pub alphas: Vec<f64>,
-    /// Krylov iterations per linear solve.
+    /// Krylov iterations per linear solve (a failed solve's included, as
+    /// the last entry of a failed attempt).
     pub krylov_iterations: Vec<usize>,
     /// The Newton passes of the fixed point on recovered terms (one pass
     /// without such terms); the histories above are theirs, concatenated.
@@ -517,9 +522,18 @@ fn newton_step(
             .ok_or_else(|| diverged("an element is inverted at the linearisation point"))?;
         let rhs: Vec<f64> = r.iter().map(|v| -v).collect();
         let mut du = vec![0.0; u.len()];
-        let stats = solver
-            .solve(tangent.as_ref(), &rhs, &mut du, &opts.krylov)
-            .map_err(|e| StepFailure::Diverged(format!("linear solve: {e}")))?;
+        let stats = match solver.solve(tangent.as_ref(), &rhs, &mut du, &opts.krylov) {
+            Ok(stats) => stats,
+            Err(e) => {
+                // A failed solve's iterations were spent too: they count.
+                if let Error::MaxIterations { iterations, .. }
+                | Error::Breakdown { iterations, .. } = &e
+                {
+                    report.krylov_iterations.push(*iterations);
+                }
+                return Err(StepFailure::Diverged(format!("linear solve: {e}")));
+            }
+        };
         ctx.progress.event(&Event::KrylovSolve {
             index: *solves,
             iterations: stats.iterations,

@@ -4,7 +4,9 @@
 //! vector at load factor 1.
 //!
 //! Inside cells share one rule (2×2×2 Gauss, weights `h³ w`); cut cells carry
-//! their own points from the cut-cell quadrature of [`Cells`]. Q1 only.
+//! their own points from the cut-cell quadrature of [`Cells`]. Q1 only. The
+//! S-term of the pathological cells ([`super::stabilisation`]) is optional
+//! ([`HyperProblem::set_s_term`]).
 
 use std::sync::Arc;
 
@@ -13,9 +15,11 @@ use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOr
 use crate::error::{Error, Result};
 use crate::fem::dofs::DofMap;
 use crate::fem::rhs::add_point_load;
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 
 use super::material::Material;
+use super::stabilisation::STerm;
 
 /// Nodes of a Q1 cell.
 pub const NODES: usize = 8;
@@ -86,6 +90,8 @@ pub struct HyperProblem {
     penalty_start: Vec<usize>,
     /// `f_ext` at load factor 1.
     pub external: Vec<f64>,
+    /// The S-stabilisation of the pathological cells, if switched on.
+    pub s_term: Option<STerm>,
 }
 
 impl HyperProblem {
@@ -142,6 +148,7 @@ impl HyperProblem {
             penalty: Vec::new(),
             penalty_start: vec![0],
             external: Vec::new(),
+            s_term: None,
         };
         for (c, kind) in cells.kinds.iter().enumerate() {
             let cut = match kind {
@@ -180,6 +187,22 @@ impl HyperProblem {
         }
         p.external = external_loads(grid, cells, &p.dofs, loads);
         Ok(p)
+    }
+
+    /// Switches the S-term on (`k2 > 0`) with weight `k2 E` and threshold
+    /// `a`, on the `cells` of `solid` the problem was set up on; `k2 = 0`
+    /// switches it off.
+    pub fn set_s_term(&mut self, cells: &Cells, solid: &Geometry, k2: f64, young: f64, a: f64) {
+        self.s_term = (k2 > 0.0).then(|| STerm::new(self, cells, solid, k2 * young, a));
+    }
+
+    /// Re-evaluates the S-term's recovered displacement at `u`; `false` when
+    /// there is nothing to recover (no S-term, or Ω* empty).
+    pub fn refresh_s_term(&self, u: &[f64]) -> Result<bool> {
+        match &self.s_term {
+            Some(s) if !s.omega_star.is_empty() => s.refresh(self, u).map(|()| true),
+            _ => Ok(false),
+        }
     }
 
     /// Number of unknowns.

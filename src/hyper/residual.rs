@@ -3,10 +3,11 @@
 //! R(u) = Σ_cells Σ_q w_q Bᵀ P(F_q)  +  Σ_p w_p (β/h) Nᵀ M (N u − t g)  −  t f_ext
 //! F_q  = I + Σ_a u_a ⊗ ∇_X N_a(X_q)        (Bᵀ P)_{a i} = P_iJ ∂N_a/∂X_J
 //! ```
-//! with `M = diag(m)` the component mask of the Dirichlet part, and the total
-//! potential energy whose gradient it is:
+//! with `M = diag(m)` the component mask of the Dirichlet part, plus the
+//! S-term `R_S` of [`super::stabilisation`] when the problem has one, and the
+//! total potential energy whose gradient it is:
 //! ```text
-//! Π(u) = Σ_q w_q W(F_q) + Σ_p w_p (β/h)/2 |M (N u − t g)|² − t f_ext · u.
+//! Π(u) = Σ_q w_q W(F_q) + Σ_p w_p (β/h)/2 |M (N u − t g)|² − t f_ext · u  (+ Π_S).
 //! ```
 //! Each cell's vector is computed in parallel, then scattered. A point with
 //! `det F ≤ 0` has no energy: the residual is then `None` (the Newton line
@@ -72,8 +73,15 @@ pub fn add_penalty(points: &[PenaltyPoint], ve: &CellVector, t: f64, out: &mut C
     }
 }
 
-/// The cell's internal force plus penalty force, `None` if some `det F ≤ 0`.
-fn cell_residual(p: &HyperProblem, k: usize, u: &[f64], t: f64) -> Option<CellVector> {
+/// The cell's internal force plus penalty force (plus its S-term force,
+/// with the S-term's current `targets`), `None` if some `det F ≤ 0`.
+fn cell_residual(
+    p: &HyperProblem,
+    k: usize,
+    u: &[f64],
+    t: f64,
+    targets: Option<&[CellVector]>,
+) -> Option<CellVector> {
     let ue = p.gather(k, u);
     let mut out = [[0.0; 3]; NODES];
     for q in p.points(k) {
@@ -81,14 +89,19 @@ fn cell_residual(p: &HyperProblem, k: usize, u: &[f64], t: f64) -> Option<CellVe
         add_bt_stress(&p.material.stress(&s), q, &mut out);
     }
     add_penalty(p.penalty_points(k), &ue, t, &mut out);
+    if let (Some(s), Some(targets)) = (&p.s_term, targets) {
+        s.add_cell_residual(k, &ue, targets, &mut out);
+    }
     Some(out)
 }
 
 /// `R(u)` at load factor `t`, or `None` where some point has `det F ≤ 0`.
 pub fn residual(p: &HyperProblem, u: &[f64], t: f64) -> Option<Vec<f64>> {
+    let targets = p.s_term.as_ref().map(|s| s.targets());
+    let targets = targets.as_deref().map(Vec::as_slice);
     let cell_vectors: Option<Vec<CellVector>> = (0..p.cells.len())
         .into_par_iter()
-        .map(|k| cell_residual(p, k, u, t))
+        .map(|k| cell_residual(p, k, u, t, targets))
         .collect();
     let mut r: Vec<f64> = p.external.iter().map(|f| -t * f).collect();
     p.scatter(&cell_vectors?, &mut r);
@@ -97,6 +110,7 @@ pub fn residual(p: &HyperProblem, u: &[f64], t: f64) -> Option<Vec<f64>> {
 
 /// `Π(u)` at load factor `t`, or `None` where some point has `det F ≤ 0`.
 pub fn energy(p: &HyperProblem, u: &[f64], t: f64) -> Option<f64> {
+    let targets = p.s_term.as_ref().map(|s| s.targets());
     let cells: Option<Vec<f64>> = (0..p.cells.len())
         .into_par_iter()
         .map(|k| {
@@ -112,6 +126,9 @@ pub fn energy(p: &HyperProblem, u: &[f64], t: f64) -> Option<f64> {
                     let jump = pp.mask[i] * (s - t * pp.g[i]);
                     e += 0.5 * pp.weight * jump * jump;
                 }
+            }
+            if let (Some(s), Some(targets)) = (&p.s_term, &targets) {
+                e += s.cell_energy(k, &ue, targets);
             }
             Some(e)
         })

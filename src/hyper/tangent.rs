@@ -1,8 +1,10 @@
 //! The consistent tangent `K_T(u) = ∂R/∂u` of the residual of
 //! [`super::residual`]:
 //! ```text
-//! (K_T v)_{a i} = Σ_q w_q (A(F_q) : ∇v_q)_iJ ∂N_a/∂X_J  +  Σ_p w_p (β/h) N_a m_i (N v)_i
+//! (K_T v)_{a i} = Σ_q w_q (A(F_q) : ∇v_q)_iJ ∂N_a/∂X_J  +  Σ_p w_p (β/h) N_a m_i (N v)_i  (+ K_S v)
 //! ```
+//! with `K_S` the constant S-term mass of [`super::stabilisation`] on Ω*
+//! (cut cells, so also in [`TangentOperator::add_cut_cells`]).
 //! applied matrix-free (the states `F`, `F⁻ᵀ`, `ln J` of every point are
 //! evaluated once at the linearisation point; each apply gathers the cell's
 //! `v`, forms `∇v` and `A : ∇v` per point and scatters), its diagonal (for
@@ -70,6 +72,9 @@ impl<'p> TangentOperator<'p> {
             add_bt_stress(&dp, q, &mut out);
         }
         add_penalty(p.penalty_points(k), ve, 0.0, &mut out);
+        if let Some(s) = &p.s_term {
+            s.add_cell_tangent(k, ve, &mut out);
+        }
         out
     }
 
@@ -111,6 +116,9 @@ impl<'p> TangentOperator<'p> {
                     d[a][i] += pp.weight * pp.mask[i] * pp.n[a] * pp.n[a];
                 }
             }
+        }
+        if let Some(s) = &p.s_term {
+            s.add_cell_diagonal(k, &mut d);
         }
         d
     }

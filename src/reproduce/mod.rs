@@ -4,13 +4,17 @@
 //!
 //! - [`table1`]: κ of the sphere with and without the S-term (Table 1);
 //! - [`fig3`]: energy-norm convergence of the sphere with and without it (Figure 3);
-//! - [`cut_sweep`]: κ and Krylov iterations over random grid offsets.
+//! - [`cut_sweep`]: κ and Krylov iterations over random grid offsets;
+//! - [`table2`]: accumulated Krylov iterations of the contact problem
+//!   (Problem 2) with and without the S-term (Table 2).
 //!
-//! All three run the paper's Problem 1 through one routine, [`run_sphere`].
+//! The first three run the paper's Problem 1 through one routine,
+//! [`run_sphere`]; [`table2`] runs the multi-body solve of [`crate::bodies`].
 
 pub mod cut_sweep;
 pub mod fig3;
 pub mod table1;
+pub mod table2;
 
 use std::path::Path;
 
@@ -29,6 +33,7 @@ use crate::solver::{solve as krylov_solve, KrylovMethod, Preconditioner};
 pub use cut_sweep::{cut_sweep, CutSweepOptions};
 pub use fig3::{fig3, Fig3Curves};
 pub use table1::table1;
+pub use table2::table2;
 
 /// One run of the sphere: the stabilisation, the grid, the solver variant.
 #[derive(Clone, Debug)]

@@ -1,0 +1,312 @@
+//! The S-stabilisation of the pathological cells in the total Lagrangian
+//! residual of one body (paper eq. 5 carried over to Problem 2; DESIGN §3.2,
+//! §5.2, §6).
+//!
+//! Ω* are the cut cells with volume fraction `0 < A_c < A`
+//! ([`pathological_cells`]), as whole cells (their part outside the body
+//! included). With `S = S(û)` the recovered displacement of the body's
+//! current `u_h`, held fixed:
+//! ```text
+//! R_S(u) = (k2 E / h²) Σ_{c ∈ Ω*} ∫_c Nᵀ (u_h − S) dV = Σ_c (M_c u_c − f_c)
+//! K_S    = (k2 E / h²) Σ_{c ∈ Ω*} M_c          M_c = h³ M_ref (whole-cell mass)
+//! f_c    = (k2 E / h²) ∫_c Nᵀ S dV             (3×3×3 Gauss over the whole cell)
+//! Π_S(u) = Σ_c ½ u_cᵀ M_c u_c − f_c · u_c
+//! ```
+//! `K_S` is constant, so the tangent stays exact for the residual with `S`
+//! held; `S` is re-evaluated between Newton passes by the fixed point of
+//! [`super::newton`] (*Recovered terms*) through [`STerm::refresh`]. The `f_c`
+//! are the only state that changes, behind a lock, so the problem stays
+//! shared (`&self`) throughout the solve.
+//!
+//! # The recovery
+//! SPR of degree 2 (Q1: p + 1) on the patches of the vertex nodes of Ω*,
+//! blended by CPE ([`crate::recovery::recover`]); the patch polynomials
+//! extend `S` over the whole cell. The fit is a plain least-squares fit to
+//! `u_h`, *without* the equilibrium rows of the linear S-term
+//! ([`crate::fem::stabilisation`]): there `∇·σ(û) + b = 0` is linear in `û`
+//! (`σ = D ε`), here the stress is `P(F(û))` of a hyperelastic material, and
+//! collocating the linear operator at a finitely strained state would pull
+//! `S` towards a field that is not the body's equilibrium; a plain fit of the
+//! complete quadratic still reproduces every field of that space exactly.
+//!
+//! Sample points: the 3×3×3 Gauss points of inside cells; in cut cells, at
+//! most 54 of their volume points (evenly strided) and those of the cell's
+//! 3×3×3 Gauss points that lie in the body. Three levels per axis, not the
+//! element's two, because a plane-strain slab is one cell thick: with two
+//! sample levels in z (which is all the cut cells' rule has, q = 2) the `ζ²`
+//! term of the quadratic is undetermined, and a patch of cut cells only (a
+//! corner of a slab) would be rejected at every ring.
+
+use std::sync::{PoisonError, RwLock, RwLockReadGuard};
+
+use rayon::prelude::*;
+
+use super::problem::{HyperProblem, CELL_DOFS, NODES};
+use super::residual::CellVector;
+use crate::cells::{CellKind, Cells};
+use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
+use crate::error::Result;
+use crate::fem::stabilisation::{cell_s_matrix, pathological_cells};
+use crate::geometry::Geometry;
+use crate::recovery::{recover, Recovered, Sample, SprOptions};
+
+/// Gauss points per axis of the sample rule and of the `f_c` integral.
+const RULE_POINTS: usize = 3;
+/// Polynomial degree of the recovered displacement (Q1: p + 1).
+const DEGREE: usize = 2;
+
+/// The S-term of one body: Ω*, the scaled cell mass and the current `f_c`.
+pub struct STerm {
+    /// `k2 E / h²`.
+    pub factor: f64,
+    /// Ω*: the pathological grid cells, ascending.
+    pub omega_star: Vec<usize>,
+    /// Per Ω* cell: its entry in [`HyperProblem::cells`].
+    entries: Vec<usize>,
+    /// Per entry of [`HyperProblem::cells`]: its position in Ω*.
+    slot: Vec<Option<usize>>,
+    /// `(k2 E / h²) h³ M_ref`, row-major `24 × 24` (dof `3 a + i`).
+    mass: Vec<f64>,
+    /// Cell kinds of the grid (the patches skip outside cells).
+    kinds: Vec<CellKind>,
+    /// Sample positions of the cut cells, per cut index, back to back.
+    cut_samples: Vec<[f64; 3]>,
+    cut_sample_start: Vec<usize>,
+    /// Per Ω* cell: `f_c` of the last refresh (zero before the first).
+    targets: RwLock<Vec<CellVector>>,
+}
+
+impl STerm {
+    /// The S-term of `problem` (set up on `cells` of `solid`) with weight
+    /// `k2 E` (`k2_young`) and threshold `a`.
+    pub fn new(
+        problem: &HyperProblem,
+        cells: &Cells,
+        solid: &Geometry,
+        k2_young: f64,
+        a: f64,
+    ) -> STerm {
+        let h = problem.grid.h;
+        let factor = k2_young / (h * h);
+        let omega_star = pathological_cells(cells, a);
+        let entries: Vec<usize> = omega_star
+            .iter()
+            .map(|c| {
+                problem
+                    .cells
+                    .binary_search(c)
+                    .expect("a pathological cell is a cut cell of the problem")
+            })
+            .collect();
+        let mut slot = vec![None; problem.cells.len()];
+        for (s, &k) in entries.iter().enumerate() {
+            slot[k] = Some(s);
+        }
+        let max_points = 2 * RULE_POINTS.pow(3);
+        let rule = tensor_gauss_rule(RULE_POINTS);
+        let mut cut_samples = Vec::new();
+        let mut cut_sample_start = vec![0];
+        for (i, &c) in cells.cut.iter().enumerate() {
+            let pts = cells.volume_points(i);
+            let stride = pts.len().div_ceil(max_points).max(1);
+            cut_samples.extend(pts.iter().step_by(stride).map(|q| q.x));
+            let lo = problem.grid.cell_box(c).lo;
+            cut_samples.extend(
+                rule.iter()
+                    .map(|(xi, _)| [0, 1, 2].map(|a| lo[a] + h * xi[a]))
+                    .filter(|&x| solid.inside(x)),
+            );
+            cut_sample_start.push(cut_samples.len());
+        }
+        STerm {
+            factor,
+            targets: RwLock::new(vec![[[0.0; 3]; NODES]; omega_star.len()]),
+            omega_star,
+            entries,
+            slot,
+            mass: cell_s_matrix(ElementOrder::Q1, factor, h),
+            kinds: cells.kinds.clone(),
+            cut_samples,
+            cut_sample_start,
+        }
+    }
+
+    /// The current `f_c`, per Ω* cell.
+    pub fn targets(&self) -> RwLockReadGuard<'_, Vec<CellVector>> {
+        self.targets.read().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The Ω* position of the `k`-th entry of [`HyperProblem::cells`].
+    pub fn slot(&self, k: usize) -> Option<usize> {
+        self.slot[k]
+    }
+
+    /// `out += M_c v`.
+    fn add_mass(&self, ve: &CellVector, out: &mut CellVector) {
+        for row in 0..CELL_DOFS {
+            let m = &self.mass[row * CELL_DOFS..(row + 1) * CELL_DOFS];
+            let s: f64 = (0..CELL_DOFS)
+                .map(|col| m[col] * ve[col / 3][col % 3])
+                .sum();
+            out[row / 3][row % 3] += s;
+        }
+    }
+
+    /// `out += M_c u_c − f_c` for the `k`-th entry (nothing off Ω*).
+    pub fn add_cell_residual(
+        &self,
+        k: usize,
+        ue: &CellVector,
+        targets: &[CellVector],
+        out: &mut CellVector,
+    ) {
+        if let Some(s) = self.slot[k] {
+            self.add_mass(ue, out);
+            for a in 0..NODES {
+                for i in 0..3 {
+                    out[a][i] -= targets[s][a][i];
+                }
+            }
+        }
+    }
+
+    /// `out += M_c v_c` for the `k`-th entry (nothing off Ω*).
+    pub fn add_cell_tangent(&self, k: usize, ve: &CellVector, out: &mut CellVector) {
+        if self.slot[k].is_some() {
+            self.add_mass(ve, out);
+        }
+    }
+
+    /// `d += diag(M_c)` for the `k`-th entry (nothing off Ω*).
+    pub fn add_cell_diagonal(&self, k: usize, d: &mut CellVector) {
+        if self.slot[k].is_some() {
+            for row in 0..CELL_DOFS {
+                d[row / 3][row % 3] += self.mass[row * CELL_DOFS + row];
+            }
+        }
+    }
+
+    /// `½ u_cᵀ M_c u_c − f_c · u_c` for the `k`-th entry (0 off Ω*).
+    pub fn cell_energy(&self, k: usize, ue: &CellVector, targets: &[CellVector]) -> f64 {
+        let Some(s) = self.slot[k] else {
+            return 0.0;
+        };
+        let mut mu = [[0.0; 3]; NODES];
+        self.add_mass(ue, &mut mu);
+        let mut e = 0.0;
+        for a in 0..NODES {
+            for i in 0..3 {
+                e += ue[a][i] * (0.5 * mu[a][i] - targets[s][a][i]);
+            }
+        }
+        e
+    }
+
+    /// The sample positions of grid cell `cell` (non-outside).
+    fn sample_positions(&self, p: &HyperProblem, cell: usize, out: &mut Vec<[f64; 3]>) {
+        let k = p
+            .cells
+            .binary_search(&cell)
+            .expect("a patch cell is active");
+        match p.cut_index[k] {
+            Some(i) => out.extend_from_slice(
+                &self.cut_samples[self.cut_sample_start[i]..self.cut_sample_start[i + 1]],
+            ),
+            None => {
+                let lo = p.grid.cell_box(cell).lo;
+                out.extend(
+                    tensor_gauss_rule(RULE_POINTS)
+                        .iter()
+                        .map(|(xi, _)| [0, 1, 2].map(|a| lo[a] + p.grid.h * xi[a])),
+                );
+            }
+        }
+    }
+
+    /// `S` of any field sampled as `value(cell, x)` (the solve passes `u_h`;
+    /// tests pass a field of the fit space to check reproduction).
+    pub fn recover_of<F>(&self, p: &HyperProblem, value: F) -> Result<Recovered<3>>
+    where
+        F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+    {
+        let mut nodes = Vec::with_capacity(NODES * self.omega_star.len());
+        let mut v = [0usize; NODES];
+        for &c in &self.omega_star {
+            p.grid.cell_nodes(ElementOrder::Q1, c, &mut v);
+            nodes.extend_from_slice(&v);
+        }
+        let samples = |cell: usize, out: &mut Vec<Sample<3>>| {
+            let mut xs = Vec::new();
+            self.sample_positions(p, cell, &mut xs);
+            out.extend(xs.into_iter().map(|x| (x, value(cell, x))));
+        };
+        recover(
+            &p.grid,
+            &self.kinds,
+            &nodes,
+            DEGREE,
+            &samples,
+            &SprOptions::default(),
+        )
+    }
+
+    /// `S` of the displacement `u` of `p`.
+    pub fn recover(&self, p: &HyperProblem, u: &[f64]) -> Result<Recovered<3>> {
+        self.recover_of(p, |cell, x| displacement_at(p, u, cell, x))
+    }
+
+    /// `f_c = (k2 E / h²) ∫_c Nᵀ S dV` per Ω* cell.
+    pub fn targets_of(&self, p: &HyperProblem, s: &Recovered<3>) -> Result<Vec<CellVector>> {
+        let rule = tensor_gauss_rule(RULE_POINTS);
+        let (h, vol) = (p.grid.h, p.grid.h.powi(3));
+        self.omega_star
+            .par_iter()
+            .map(|&c| {
+                let lo = p.grid.cell_box(c).lo;
+                let mut f = [[0.0; 3]; NODES];
+                let mut n = [0.0; NODES];
+                for (xi, w) in &rule {
+                    let x = [0, 1, 2].map(|a| lo[a] + h * xi[a]);
+                    let sx = s.eval(c, x)?;
+                    shape_values(ElementOrder::Q1, *xi, &mut n);
+                    for a in 0..NODES {
+                        for i in 0..3 {
+                            f[a][i] += self.factor * w * vol * n[a] * sx[i];
+                        }
+                    }
+                }
+                Ok(f)
+            })
+            .collect()
+    }
+
+    /// Re-evaluates `S` at `u` and stores the new `f_c`.
+    pub fn refresh(&self, p: &HyperProblem, u: &[f64]) -> Result<()> {
+        let s = self.recover(p, u)?;
+        let targets = self.targets_of(p, &s)?;
+        *self.targets.write().unwrap_or_else(PoisonError::into_inner) = targets;
+        Ok(())
+    }
+
+    /// The Ω* cells' entries in [`HyperProblem::cells`].
+    pub fn entries(&self) -> &[usize] {
+        &self.entries
+    }
+}
+
+/// `u_h(x)` of the problem's displacement `u` in grid cell `cell` (active).
+pub fn displacement_at(p: &HyperProblem, u: &[f64], cell: usize, x: [f64; 3]) -> [f64; 3] {
+    let k = p.cells.binary_search(&cell).expect("the cell is active");
+    let ue = p.gather(k, u);
+    let lo = p.grid.cell_box(cell).lo;
+    let xi = [0, 1, 2].map(|a| (x[a] - lo[a]) / p.grid.h);
+    let mut n = [0.0; NODES];
+    shape_values(ElementOrder::Q1, xi, &mut n);
+    let mut v = [0.0; 3];
+    for a in 0..NODES {
+        for i in 0..3 {
+            v[i] += n[a] * ue[a][i];
+        }
+    }
+    v
+}

@@ -1,0 +1,73 @@
+//! `reproduce::table2` at level 3 only (the default levels 3–5 are minutes):
+//! both runs converge, the rows add up to their load-step histories, the
+//! S-term run has Ω* cells and fixed-point passes beyond one per step, and
+//! the files are written.
+
+use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::progress::Silent;
+use cgfem_gpu::reproduce::table2::{paper_iterations, table2, K2};
+use cgfem_gpu::solver::KrylovMethod;
+
+const CASE: &str = include_str!("../cases/annuli_contact.toml");
+
+#[test]
+fn table2_at_level_3_is_consistent() {
+    let case = BodiesCase::from_str_with("cases/annuli_contact.toml", CASE, &[]).unwrap();
+    let out = std::env::temp_dir().join(format!("cgfem-table2-{}", std::process::id()));
+    let rows = table2(&case, &[3], &[KrylovMethod::Cgs], &out, &Silent).unwrap();
+    assert_eq!(rows.len(), 2);
+    let (without, with) = (&rows[0], &rows[1]);
+    assert_eq!((without.k2, with.k2), (0.0, K2));
+    for r in &rows {
+        assert!(r.converged, "level 3, k2 = {}: {:?}", r.k2, r.failure);
+        assert_eq!(r.load_steps, 5);
+        assert_eq!(r.method, "cgs");
+        assert_eq!(
+            r.pathological, with.pathological,
+            "Ω* does not depend on k2"
+        );
+        // The accumulated iterations are the sum over the report's steps,
+        // and over each step's passes.
+        let steps: usize = r.steps.iter().flat_map(|s| &s.krylov_iterations).sum();
+        assert_eq!(r.krylov_iterations, steps);
+        let passes: usize = r
+            .steps
+            .iter()
+            .flat_map(|s| &s.passes)
+            .map(|p| p.krylov_iterations)
+            .sum();
+        assert_eq!(r.krylov_iterations, passes);
+        let solves: usize = r.steps.iter().map(|s| s.krylov_iterations.len()).sum();
+        assert_eq!(r.solves, solves);
+        assert!(
+            r.solves > r.newton_iterations,
+            "one solve more than updates per pass"
+        );
+        let newton: usize = r.steps.iter().map(|s| s.newton.iterations).sum();
+        assert_eq!(r.newton_iterations, newton);
+        assert_eq!(
+            r.passes,
+            r.steps.iter().map(|s| s.passes.len()).sum::<usize>()
+        );
+        assert_eq!(r.paper_iterations, paper_iterations(3, r.k2 > 0.0));
+    }
+    assert!(with.pathological > 0, "the rings have Ω* cells at level 3");
+    assert_eq!(
+        without.passes,
+        without.steps.len(),
+        "one pass per attempt without S"
+    );
+    assert!(
+        with.passes > with.steps.len(),
+        "S is refreshed between passes"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("table2.json")).unwrap()).unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), 2);
+    let md = std::fs::read_to_string(out.join("table2.md")).unwrap();
+    assert!(md.contains("| cgs | 3 | without |") && md.contains("| cgs | 3 | with |"));
+    assert!(std::fs::read_to_string(out.join("table2.svg"))
+        .unwrap()
+        .contains("<svg"));
+    std::fs::remove_dir_all(&out).ok();
+}
