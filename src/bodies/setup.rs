@@ -117,6 +117,7 @@ pub fn newton_options(case: &BodiesCase) -> NewtonOptions {
         line_search: s.newton.line_search,
         fixed_point_tol: s.newton.fixed_point_tol,
         max_fixed_point: s.newton.max_fixed_point,
+        recovery: s.newton.recovery,
         krylov: KrylovOptions {
             method: s.solver.method,
             preconditioner: s.solver.preconditioner,

@@ -19,6 +19,7 @@
 //! max_cuts = 5                 # a failed step is halved at most this many times
 //! fixed_point_tol = 1e-6       # recovered terms (T̂_N, S): ‖u_k − u_{k−1}‖/‖u_k‖ between passes
 //! max_fixed_point = 30         # Newton passes per step with recovered terms
+//! recovery = "passes"          # or "embedded": recovered terms after every Newton update
 //!
 //! [solver]                     # the inner Krylov solves
 //! method = "bicgstab"          # cgs | cg | bicgstab
@@ -141,6 +142,9 @@ pub struct NewtonSpec {
     pub fixed_point_tol: f64,
     /// With recovered terms: Newton passes allowed per step.
     pub max_fixed_point: usize,
+    /// With recovered terms: `"passes"` (between Newton solves) or
+    /// `"embedded"` (after every Newton update).
+    pub recovery: crate::hyper::newton::RecoveryMode,
 }
 
 impl Default for NewtonSpec {
@@ -153,6 +157,7 @@ impl Default for NewtonSpec {
             max_cuts: 5,
             fixed_point_tol: 1e-6,
             max_fixed_point: 30,
+            recovery: crate::hyper::newton::RecoveryMode::Passes,
         }
     }
 }

@@ -42,6 +42,12 @@
 //! residuals start where the refreshed terms put it) and lists each pass in
 //! `passes`.
 //!
+//! With [`RecoveryMode::Embedded`] the terms are instead re-evaluated after
+//! every Newton update (and the residual with them), in one Newton loop: the
+//! step converges when the residual with terms recovered at the same `u` is
+//! small, i.e. at the fixed point. One pass is reported, its `change` the
+//! relative change of `u` over the step.
+//!
 //! # Problems
 //! The solve only sees a [`NonlinearProblem`]: `R(u, t)` and the tangent at
 //! `u` as a [`LinearOperator`]. [`HyperProblem`] (one body) implements it, and
@@ -159,6 +165,22 @@ pub struct NewtonOptions {
     pub fixed_point_tol: f64,
     /// Newton passes allowed per step when the problem has recovered terms.
     pub max_fixed_point: usize,
+    /// How recovered terms are brought up to date (module doc).
+    pub recovery: RecoveryMode,
+}
+
+/// When the recovered terms are re-evaluated (module doc, *Recovered terms*).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RecoveryMode {
+    /// Between whole Newton solves (passes): each pass converges
+    /// quadratically; the passes repeat until `u` settles.
+    #[default]
+    Passes,
+    /// After every Newton update, inside one Newton loop (the paper's fixed
+    /// point embedded in the solver): fewer linear solves, but the lagged
+    /// terms make the last iterations linear.
+    Embedded,
 }
 
 impl Default for NewtonOptions {
@@ -179,6 +201,7 @@ impl Default for NewtonOptions {
             },
             fixed_point_tol: 1e-6,
             max_fixed_point: 30,
+            recovery: RecoveryMode::Passes,
         }
     }
 }
@@ -338,6 +361,7 @@ pub fn solve_load_steps_with(
             opts,
             progress,
             step: solution.converged_steps + 1,
+            refresh_each: None,
         };
         let outcome = recovered_step(&ctx, to, &mut u, solver, &mut report, &mut solves);
         if !matches!(outcome, Err(StepFailure::Interrupted(_))) {
@@ -400,12 +424,15 @@ enum StepFailure {
     Interrupted(usize),
 }
 
+#[derive(Clone, Copy)]
 struct Context<'a> {
     problem: &'a dyn NonlinearProblem,
     opts: &'a NewtonOptions,
     progress: &'a dyn Progress,
     /// The load step being attempted (from 1).
     step: usize,
+    /// Embedded recovery: re-evaluates the recovered terms after each update.
+    refresh_each: Option<&'a Refresh<'a>>,
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -434,6 +461,20 @@ fn recovered_step(
     let recovered = refresh(u)?;
     let mut previous = u.to_vec();
     let mut refs = References::default();
+    if recovered && ctx.opts.recovery == RecoveryMode::Embedded {
+        let each = |u: &[f64]| refresh(u).map(|_| ());
+        let inner = Context {
+            refresh_each: Some(&each),
+            ..*ctx
+        };
+        let outcome = newton_step(&inner, t, u, solver, report, solves, &mut refs);
+        report.passes.push(PassReport {
+            newton_iterations: report.alphas.len(),
+            krylov_iterations: report.krylov_iterations.iter().sum(),
+            change: Some(relative_change(u, &previous)),
+        });
+        return outcome;
+    }
     for _ in 0..ctx.opts.max_fixed_point {
         let (alphas, krylov) = (report.alphas.len(), report.krylov_iterations.len());
         let outcome = newton_step(ctx, t, u, solver, report, solves, &mut refs);
@@ -482,7 +523,12 @@ struct References {
     energy: Option<f64>,
 }
 
-/// Newton iterations at load factor `t` from `u`; fills `report`. The
+/// Re-evaluates the recovered terms at a `u` (embedded recovery).
+type Refresh<'a> = dyn Fn(&[f64]) -> std::result::Result<(), StepFailure> + 'a;
+
+/// Newton iterations at load factor `t` from `u`; fills `report`. With
+/// `ctx.refresh_each`, the recovered terms (and the residual) are re-evaluated
+/// after every update. The
 /// tolerances (and the history) are relative to `refs`, set by the first
 /// pass of the step, so later passes (which start near convergence) are
 /// held to the same absolute accuracy.
@@ -559,7 +605,14 @@ fn newton_step(
         for (x, d) in u.iter_mut().zip(&du) {
             *x += alpha * d;
         }
-        r = r_new;
+        r = match ctx.refresh_each {
+            Some(refresh) => {
+                refresh(u)?;
+                p.residual(u, t)
+                    .ok_or_else(|| diverged("an element is inverted after the update"))?
+            }
+            None => r_new,
+        };
         report.residuals.push(norm(&r) / r0);
         report.alphas.push(alpha);
     }

@@ -9,6 +9,7 @@ use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::error::Result;
 use cgfem_gpu::hyper::newton::{
     solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions, NonlinearProblem,
+    RecoveryMode,
 };
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::solver::{KrylovMethod, KrylovOptions, Preconditioner};
@@ -92,17 +93,29 @@ fn options() -> NewtonOptions {
     }
 }
 
-fn solve(problem: &Cubic) -> HyperSolution {
+fn solve_with(problem: &Cubic, opts: &NewtonOptions) -> HyperSolution {
     let mut sol = HyperSolution::zero(problem);
     solve_load_steps(
         problem,
-        &options(),
+        opts,
         &mut CpuTangentSolver::default(),
         &Silent,
         &mut sol,
     )
     .unwrap();
     sol
+}
+
+fn solve(problem: &Cubic) -> HyperSolution {
+    solve_with(problem, &options())
+}
+
+/// `max_i |u_i + u_i³ − C (P u)_i − f_i|` at `u`.
+fn coupled_residual(problem: &Cubic, u: &[f64]) -> f64 {
+    let s = average(u);
+    (0..N)
+        .map(|i| (u[i] + u[i].powi(3) - C * s[i] - problem.f[i]).abs())
+        .fold(0.0, f64::max)
 }
 
 fn loads() -> Vec<f64> {
@@ -117,10 +130,7 @@ fn recovered_terms_converge_to_the_coupled_solution_in_passes() {
     };
     let sol = solve(&problem);
     // The coupled equation u + u³ − C P u = f at t = 1, with P u of the solution.
-    let s = average(&sol.u);
-    let coupled = (0..N)
-        .map(|i| (sol.u[i] + sol.u[i].powi(3) - C * s[i] - problem.f[i]).abs())
-        .fold(0.0, f64::max);
+    let coupled = coupled_residual(&problem, &sol.u);
     println!("coupled residual {coupled:.3e}");
     assert!(coupled < 1e-9, "{coupled}");
     for step in &sol.attempts {
@@ -160,4 +170,40 @@ fn without_recovered_terms_a_step_is_one_newton_pass() {
         .map(|i| (sol.u[i] + sol.u[i].powi(3) - problem.f[i]).abs())
         .fold(0.0, f64::max);
     assert!(worst < 1e-11, "{worst}");
+}
+
+#[test]
+fn embedded_recovery_reaches_the_same_fixed_point_in_one_newton_loop() {
+    let problem = Cubic {
+        f: loads(),
+        recovered: Some(Mutex::new(vec![0.0; N])),
+    };
+    let opts = NewtonOptions {
+        recovery: RecoveryMode::Embedded,
+        max_iterations: 200,
+        ..options()
+    };
+    let embedded = solve_with(&problem, &opts);
+    let passes = solve(&Cubic {
+        f: loads(),
+        recovered: Some(Mutex::new(vec![0.0; N])),
+    });
+    let coupled = coupled_residual(&problem, &embedded.u);
+    println!(
+        "embedded: coupled residual {coupled:.3e}, {} Newton iterations against {} in passes",
+        embedded.newton_iterations(),
+        passes.newton_iterations()
+    );
+    assert!(coupled < 1e-9, "{coupled}");
+    for step in &embedded.attempts {
+        assert_eq!(step.passes.len(), 1);
+        assert_eq!(step.passes[0].newton_iterations, step.alphas.len());
+    }
+    let diff = embedded
+        .u
+        .iter()
+        .zip(&passes.u)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(diff < 1e-9, "{diff}");
 }
