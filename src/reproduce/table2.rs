@@ -248,10 +248,9 @@ fn markdown(rows: &[Table2Row]) -> String {
     }
     s += "\nA ratio above 1 means the S-term lowered the accumulated iterations\n\
           (meaningful only where both runs converged).\n\
-          With the S-term each load step is a fixed point of Newton passes\n\
-          (the recovered displacement re-evaluated after each converged pass,\n\
-          until ‖u_k − u_{k−1}‖/‖u_k‖ < fixed_point_tol): its iterations include\n\
-          every pass. Failed runs are listed with their iterations up to the failure.\n";
+          Both runs recover the contact traction, and the S run its displacement,\n\
+          after every Newton update (embedded recovery: one Newton loop per\n\
+          step attempt). Failed runs are listed with their iterations up to the failure.\n";
     for r in rows.iter().filter(|r| !r.converged) {
         s += &format!(
             "\n{} level {}, k2 = {}: {}\n",
