@@ -1,7 +1,7 @@
 //! `reproduce::table2` at level 3 only (the default levels 3–5 are minutes):
 //! both runs converge, the rows add up to their load-step histories, the
 //! S-term run has Ω* cells, each attempt is one Newton loop with its
-//! recovered terms refreshed inside (embedded recovery), and the files are
+//! recovered terms evaluated at its start (step recovery), and the files are
 //! written.
 
 use cgfem_gpu::case::bodies::BodiesCase;
@@ -53,8 +53,8 @@ fn table2_at_level_3_is_consistent() {
         assert_eq!(r.paper_iterations, paper_iterations(3, r.k2 > 0.0));
     }
     assert!(with.pathological > 0, "the rings have Ω* cells at level 3");
-    // Embedded recovery: one Newton loop per attempt, the recovered terms
-    // (contact traction in both runs, S in one) refreshed inside it.
+    // Step recovery: one Newton loop per attempt, the recovered terms
+    // (contact traction in both runs, S in one) evaluated at its start.
     for r in [without, with] {
         assert_eq!(r.passes, r.steps.len(), "one pass per attempt");
         assert!(r.steps.iter().all(|s| s.passes[0].change.is_some()));

@@ -19,7 +19,7 @@
 //! max_cuts = 5                 # a failed step is halved at most this many times
 //! fixed_point_tol = 1e-6       # recovered terms (T̂_N, S): ‖u_k − u_{k−1}‖/‖u_k‖ between passes
 //! max_fixed_point = 30         # Newton passes per step with recovered terms
-//! recovery = "passes"          # or "embedded": recovered terms after every Newton update
+//! recovery = "passes"          # or "embedded" (after every Newton update), "step" (once per step)
 //!
 //! [solver]                     # the inner Krylov solves
 //! method = "bicgstab"          # cgs | cg | bicgstab
@@ -142,8 +142,8 @@ pub struct NewtonSpec {
     pub fixed_point_tol: f64,
     /// With recovered terms: Newton passes allowed per step.
     pub max_fixed_point: usize,
-    /// With recovered terms: `"passes"` (between Newton solves) or
-    /// `"embedded"` (after every Newton update).
+    /// With recovered terms: `"passes"` (between Newton solves),
+    /// `"embedded"` (after every Newton update) or `"step"` (once per step).
     pub recovery: crate::hyper::newton::RecoveryMode,
 }
 

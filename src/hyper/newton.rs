@@ -42,6 +42,8 @@
 //! residuals start where the refreshed terms put it) and lists each pass in
 //! `passes`.
 //!
+//! With [`RecoveryMode::Step`] they are evaluated once, at the start of the
+//! attempt, and held for its one Newton solve (they lag one load step).
 //! With [`RecoveryMode::Embedded`] the terms are instead re-evaluated after
 //! every Newton update (and the residual with them), in one Newton loop: the
 //! step converges when the residual with terms recovered at the same `u` is
@@ -181,6 +183,9 @@ pub enum RecoveryMode {
     /// point embedded in the solver): fewer linear solves, but the lagged
     /// terms make the last iterations linear.
     Embedded,
+    /// Once per step attempt, at the last converged `u`, and held for the
+    /// whole step (the terms lag one load step; no extra Newton work).
+    Step,
 }
 
 impl Default for NewtonOptions {
@@ -461,6 +466,15 @@ fn recovered_step(
     let recovered = refresh(u)?;
     let mut previous = u.to_vec();
     let mut refs = References::default();
+    if recovered && ctx.opts.recovery == RecoveryMode::Step {
+        let outcome = newton_step(ctx, t, u, solver, report, solves, &mut refs);
+        report.passes.push(PassReport {
+            newton_iterations: report.alphas.len(),
+            krylov_iterations: report.krylov_iterations.iter().sum(),
+            change: Some(relative_change(u, &previous)),
+        });
+        return outcome;
+    }
     if recovered && ctx.opts.recovery == RecoveryMode::Embedded {
         let each = |u: &[f64]| refresh(u).map(|_| ());
         let inner = Context {

@@ -207,3 +207,38 @@ fn embedded_recovery_reaches_the_same_fixed_point_in_one_newton_loop() {
         .fold(0.0, f64::max);
     assert!(diff < 1e-9, "{diff}");
 }
+
+#[test]
+fn step_recovery_holds_the_terms_of_the_step_start() {
+    // One load step from u = 0: the terms recovered there (s = P 0 = 0) are
+    // held, so the solution is the one without recovered terms.
+    let opts = NewtonOptions {
+        steps: 1,
+        recovery: RecoveryMode::Step,
+        ..options()
+    };
+    let held = solve_with(
+        &Cubic {
+            f: loads(),
+            recovered: Some(Mutex::new(vec![0.0; N])),
+        },
+        &opts,
+    );
+    let plain = solve_with(
+        &Cubic {
+            f: loads(),
+            recovered: None,
+        },
+        &opts,
+    );
+    let step = &held.attempts[0];
+    assert_eq!(step.passes.len(), 1);
+    assert!(step.passes[0].change.is_some());
+    let diff = held
+        .u
+        .iter()
+        .zip(&plain.u)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(diff < 1e-12, "{diff}");
+}
