@@ -466,19 +466,12 @@ fn recovered_step(
     let recovered = refresh(u)?;
     let mut previous = u.to_vec();
     let mut refs = References::default();
-    if recovered && ctx.opts.recovery == RecoveryMode::Step {
-        let outcome = newton_step(ctx, t, u, solver, report, solves, &mut refs);
-        report.passes.push(PassReport {
-            newton_iterations: report.alphas.len(),
-            krylov_iterations: report.krylov_iterations.iter().sum(),
-            change: Some(relative_change(u, &previous)),
-        });
-        return outcome;
-    }
-    if recovered && ctx.opts.recovery == RecoveryMode::Embedded {
+    if recovered && ctx.opts.recovery != RecoveryMode::Passes {
+        // One Newton loop: the terms held from the start (step), or
+        // refreshed after every update (embedded).
         let each = |u: &[f64]| refresh(u).map(|_| ());
         let inner = Context {
-            refresh_each: Some(&each),
+            refresh_each: (ctx.opts.recovery == RecoveryMode::Embedded).then_some(&each as _),
             ..*ctx
         };
         let outcome = newton_step(&inner, t, u, solver, report, solves, &mut refs);
