@@ -87,14 +87,7 @@ impl GpuHyperBody {
         check_binding(&ctx, "cell map", 4 * problem.grid.num_cells())?;
         let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
         let (gx, gy, stride) = grid_2d(n_active, WORKGROUP, max_dim);
-        let prm = HyperTangentParams {
-            n_active,
-            stride,
-            ncx: problem.grid.n[0] as u32,
-            ncy: problem.grid.n[1] as u32,
-            ncz: problem.grid.n[2] as u32,
-            ..Default::default()
-        };
+        let prm = HyperTangentParams::new(problem, stride);
         let dev = &ctx.device;
         let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("hyper_tangent"),
@@ -249,13 +242,21 @@ pub struct GpuTangent<'a> {
     bind: wgpu::BindGroup,
 }
 
+impl GpuTangent<'_> {
+    /// `y = hyper_tangent(x)`: the kernel alone, the inside cells' part
+    /// (what its CPU mirror computes).
+    pub fn apply_inside(&self, x: &[f64], y: &mut [f64]) {
+        self.body.run_kernel(&self.bind, x, y);
+    }
+}
+
 impl LinearOperator for GpuTangent<'_> {
     fn nrows(&self) -> usize {
         self.tangent.nrows()
     }
 
     fn apply(&self, x: &[f64], y: &mut [f64]) {
-        self.body.run_kernel(&self.bind, x, y);
+        self.apply_inside(x, y);
         self.tangent.add_cut_cells(x, y);
     }
 

@@ -12,7 +12,7 @@
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
-use super::problem::NODES;
+use super::problem::{HyperProblem, NODES};
 use super::tangent::TangentOperator;
 use crate::gpu::kernels::ALIAS_F64;
 use crate::gpu::Precision;
@@ -49,6 +49,21 @@ pub struct HyperTangentParams {
     pub pad0: u32,
     pub pad1: u32,
     pub pad2: u32,
+}
+
+impl HyperTangentParams {
+    /// The params of `problem` with row stride `stride` (invocations per
+    /// row of a 2D dispatch).
+    pub fn new(problem: &HyperProblem, stride: u32) -> HyperTangentParams {
+        HyperTangentParams {
+            n_active: problem.dofs.num_active() as u32,
+            stride,
+            ncx: problem.grid.n[0] as u32,
+            ncy: problem.grid.n[1] as u32,
+            ncz: problem.grid.n[2] as u32,
+            ..Default::default()
+        }
+    }
 }
 
 /// What the kernel reads besides `x`, for one tangent.

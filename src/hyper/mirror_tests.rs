@@ -88,13 +88,7 @@ fn mirror_plus_cut_cells_is_the_tangent() {
         let tangent = TangentOperator::new(&p, &u).unwrap();
         let data = InsideTangentData::new(&tangent);
         let x: Vec<f64> = (0..p.ndofs()).map(|_| rng.gen_range(-1.0..1.0)).collect();
-        let prm = HyperTangentParams {
-            n_active: p.dofs.num_active() as u32,
-            ncx: p.grid.n[0] as u32,
-            ncy: p.grid.n[1] as u32,
-            ncz: p.grid.n[2] as u32,
-            ..Default::default()
-        };
+        let prm = HyperTangentParams::new(&p, 0);
         let mut y = vec![f64::NAN; p.ndofs()];
         hyper_tangent(
             &prm,
