@@ -14,12 +14,7 @@ pub(super) fn unstructured_grid(
     cell_data: &[DataArray],
     encoding: VtuEncoding,
 ) -> String {
-    let mut s = String::from("<?xml version=\"1.0\"?>\n");
-    s.push_str(
-        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
-         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
-    );
-    s.push_str("  <UnstructuredGrid>\n");
+    let mut s = document_start("UnstructuredGrid");
     let _ = writeln!(
         s,
         "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">",
@@ -28,7 +23,7 @@ pub(super) fn unstructured_grid(
     );
     push_data_section(&mut s, "PointData", point_data, encoding);
     push_data_section(&mut s, "CellData", cell_data, encoding);
-    push_points(&mut s, mesh, encoding);
+    push_points(&mut s, &mesh.points, encoding);
     push_cells(&mut s, mesh, encoding);
     s.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
     s
@@ -40,12 +35,7 @@ pub(super) fn poly_vertices(
     point_data: &[DataArray],
     encoding: VtuEncoding,
 ) -> String {
-    let mut s = String::from("<?xml version=\"1.0\"?>\n");
-    s.push_str(
-        "<VTKFile type=\"PolyData\" version=\"1.0\" \
-         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
-    );
-    s.push_str("  <PolyData>\n");
+    let mut s = document_start("PolyData");
     let _ = writeln!(
         s,
         "    <Piece NumberOfPoints=\"{0}\" NumberOfVerts=\"{0}\" NumberOfLines=\"0\" \
@@ -53,10 +43,7 @@ pub(super) fn poly_vertices(
         points.len()
     );
     push_data_section(&mut s, "PointData", point_data, encoding);
-    let coords = points.iter().flatten().copied().collect();
-    s.push_str("      <Points>\n");
-    push_array(&mut s, "Points", 3, &DataValues::F64(coords), encoding);
-    s.push_str("      </Points>\n");
+    push_points(&mut s, points, encoding);
     let connectivity: Vec<i64> = (0..points.len() as i64).collect();
     let offsets: Vec<i64> = (1..=points.len() as i64).collect();
     s.push_str("      <Verts>\n");
@@ -92,8 +79,20 @@ fn push_data_section(s: &mut String, tag: &str, arrays: &[DataArray], encoding: 
     let _ = writeln!(s, "      </{tag}>");
 }
 
-fn push_points(s: &mut String, mesh: &VtuMesh, encoding: VtuEncoding) {
-    let coords = mesh.points.iter().flatten().copied().collect();
+/// The XML declaration and the opening `VTKFile` and `kind` tags.
+fn document_start(kind: &str) -> String {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n");
+    let _ = writeln!(
+        s,
+        "<VTKFile type=\"{kind}\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">"
+    );
+    let _ = writeln!(s, "  <{kind}>");
+    s
+}
+
+fn push_points(s: &mut String, points: &[[f64; 3]], encoding: VtuEncoding) {
+    let coords = points.iter().flatten().copied().collect();
     s.push_str("      <Points>\n");
     push_array(s, "Points", 3, &DataValues::F64(coords), encoding);
     s.push_str("      </Points>\n");
