@@ -9,7 +9,15 @@
 //! A candidate whose rule has no volume is outside; one with full volume and no
 //! boundary points is inside; the rest are cut. A cell with a boundary part on
 //! one of its faces and the body on its side is cut with volume fraction 1: it
-//! carries that part's boundary points.
+//! carries that part's boundary points. A cut cell with a negligible part of
+//! the body is merged into a neighbour ([`merge`]); the faces of cells and
+//! their area rules are in [`faces`].
+
+mod faces;
+mod merge;
+
+pub use faces::{face_box, face_neighbour, face_rule};
+pub use merge::NEGLIGIBLE_FRACTION;
 
 use rayon::prelude::*;
 
@@ -59,6 +67,8 @@ pub struct Cells {
     pub surface_start: Vec<usize>,
     pub surface: Vec<SurfacePoint>,
     pub num_inside: usize,
+    /// Cut cells of negligible volume merged into a neighbour ([`merge`]).
+    pub merged: usize,
 }
 
 impl Cells {
@@ -102,29 +112,35 @@ impl Cells {
             .collect();
         progress.event(&Event::Finish { phase });
         let cell_volume = grid.h.powi(3);
-        let mut cells = Cells {
-            kinds,
-            cut: Vec::new(),
-            fraction: Vec::new(),
-            volume_start: vec![0],
-            volume: Vec::new(),
-            surface_start: vec![0],
-            surface: Vec::new(),
-            num_inside: 0,
-        };
+        let mut entries = Vec::with_capacity(candidates.len());
         for (c, rule) in candidates.into_iter().zip(rules) {
             let vol: f64 = rule.volume.iter().map(|p| p.w).sum();
             if vol.is_nan() || vol <= 0.0 {
                 continue;
             }
-            let fraction = (vol / cell_volume).clamp(0.0, 1.0);
-            if rule.surface.is_empty() && fraction > 1.0 - 1e-12 {
-                cells.kinds[c] = CellKind::Inside;
+            if rule.surface.is_empty() && vol / cell_volume > 1.0 - 1e-12 {
+                kinds[c] = CellKind::Inside;
                 continue;
             }
-            cells.kinds[c] = CellKind::Cut;
+            kinds[c] = CellKind::Cut;
+            entries.push((c, rule));
+        }
+        let merged = merge::merge_negligible(grid, geometry, q, &mut kinds, &mut entries);
+        let mut cells = Cells {
+            kinds,
+            cut: Vec::with_capacity(entries.len()),
+            fraction: Vec::with_capacity(entries.len()),
+            volume_start: vec![0],
+            volume: Vec::new(),
+            surface_start: vec![0],
+            surface: Vec::new(),
+            num_inside: 0,
+            merged,
+        };
+        for (c, rule) in entries {
+            let vol: f64 = rule.volume.iter().map(|p| p.w).sum();
             cells.cut.push(c);
-            cells.fraction.push(fraction);
+            cells.fraction.push((vol / cell_volume).clamp(0.0, 1.0));
             cells.volume.extend(rule.volume);
             cells.volume_start.push(cells.volume.len());
             cells.surface.extend(rule.surface);

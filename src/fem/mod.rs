@@ -7,6 +7,7 @@ pub mod dofs;
 pub mod fast_apply;
 pub mod field;
 pub mod fixed_point;
+pub mod flux_consistency;
 pub mod linear;
 pub mod moment_fit;
 pub mod operator;

@@ -98,6 +98,12 @@ impl Problem {
         }
     }
 
+    /// The stress of the exact field at `x`, if the case has one.
+    pub fn exact_stress(&self, x: [f64; 3]) -> Option<[[f64; 3]; 3]> {
+        let u = self.exact.as_ref()?;
+        Some(stress_from_displacement(u, self.lambda, self.mu, x))
+    }
+
     /// The prescribed displacement at `x` on a Dirichlet part.
     pub fn dirichlet_value(&self, tag: u16, x: [f64; 3]) -> [f64; 3] {
         match &self.boundary[tag as usize] {

@@ -13,10 +13,12 @@ use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::recovery::{recover, Recovered, SprOptions};
 
-/// The Q1 vertex nodes of the cells holding Dirichlet points (the patches the
-/// traction needs), ascending.
+/// The Q1 vertex nodes of the cells holding Dirichlet points and of the cells
+/// whose flux correction uses the recovered stress (the patches the traction
+/// needs), ascending.
 pub fn traction_patch_nodes(setup: &Setup) -> Vec<usize> {
     let mut cells: Vec<usize> = setup.dirichlet.iter().map(|p| p.cell).collect();
+    cells.extend(setup.flux.recovered_cells().map(|i| setup.cells.cut[i]));
     cells.sort_unstable();
     cells.dedup();
     vertex_nodes_of(setup, &cells)

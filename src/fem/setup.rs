@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use super::checks::{check_finite, Assembled};
+use super::flux_consistency::FluxCorrection;
 use super::operator::{ElasticOperator, OperatorParams};
 use super::problem::Problem;
 use super::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
@@ -25,6 +26,8 @@ pub struct Setup {
     pub beta: f64,
     pub dirichlet: Vec<DirichletPoint>,
     pub fixed_rhs: Vec<f64>,
+    /// The cut cells' flux corrections (consistent boundary loads).
+    pub flux: FluxCorrection,
     /// Pathological cells (Ω*), ascending.
     pub omega_star: Vec<usize>,
     /// `k2 E / h²`: the weight of the S-term (0 when it is off).
@@ -83,7 +86,16 @@ impl Setup {
             }
         }
         let dirichlet = dirichlet_points(&cells, &problem);
-        let fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
+        let mut fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
+        let flux = FluxCorrection::new(
+            &grid,
+            &cells,
+            &case.geometry,
+            case.spec.element,
+            case.rule_points(),
+            &problem,
+        );
+        flux.add_exact(&grid, &cells, &op.dofs, &problem, &mut fixed_rhs);
         let diagonal = op.diagonal();
         check_finite(
             case,
@@ -117,6 +129,7 @@ impl Setup {
             beta,
             dirichlet,
             fixed_rhs,
+            flux,
             omega_star,
             s_factor,
             timings,

@@ -71,6 +71,9 @@ pub fn solve_with_progress(
         let sigma = recover_stress(setup, u, &nodes)?;
         let t = recovered_tractions(&setup.dirichlet, &sigma)?;
         let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
+        setup
+            .flux
+            .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
         if stabilised {
             let s = recover_displacement(setup, u, &setup.omega_star)?;
             let fs = s_rhs(setup, &setup.omega_star, &s, setup.s_factor)?;
