@@ -67,22 +67,7 @@ pub fn solve_with_progress(
     let _span = tracing::info_span!("solve", dofs = setup.fixed_rhs.len()).entered();
     let nodes = traction_patch_nodes(setup);
     let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
-    let mut traction_load = |u: &[f64]| -> Result<Vec<f64>> {
-        let sigma = recover_stress(setup, u, &nodes)?;
-        let t = recovered_tractions(&setup.dirichlet, &sigma)?;
-        let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
-        setup
-            .flux
-            .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
-        if stabilised {
-            let s = recover_displacement(setup, u, &setup.omega_star)?;
-            let fs = s_rhs(setup, &setup.omega_star, &s, setup.s_factor)?;
-            for (a, b) in f.iter_mut().zip(&fs) {
-                *a += b;
-            }
-        }
-        Ok(f)
-    };
+    let mut traction_load = |u: &[f64]| recovered_load(setup, &nodes, u);
     let opts = fixed_point_options(spec);
     let u = if setup.dirichlet.is_empty() && !stabilised {
         // Nothing is recovered into the right-hand side: one solve is the answer.
@@ -118,6 +103,27 @@ pub fn solve_with_progress(
         t_hat,
         reactions,
     })
+}
+
+/// The part of the right-hand side recovered from `u`: the traction
+/// `F_T(u)` of the Dirichlet points with its flux correction and, when the
+/// S-term is on, `F_S(u)`. `nodes` are the [`traction_patch_nodes`]. The
+/// system of the fixed point is `A U = fixed_rhs + recovered_load(U)`.
+pub fn recovered_load(setup: &Setup, nodes: &[usize], u: &[f64]) -> Result<Vec<f64>> {
+    let sigma = recover_stress(setup, u, nodes)?;
+    let t = recovered_tractions(&setup.dirichlet, &sigma)?;
+    let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
+    setup
+        .flux
+        .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
+    if setup.s_factor > 0.0 && !setup.omega_star.is_empty() {
+        let s = recover_displacement(setup, u, &setup.omega_star)?;
+        let fs = s_rhs(setup, &setup.omega_star, &s, setup.s_factor)?;
+        for (a, b) in f.iter_mut().zip(&fs) {
+            *a += b;
+        }
+    }
+    Ok(f)
 }
 
 /// A single Krylov solve of `A U = F` (no Dirichlet points).
