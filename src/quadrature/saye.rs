@@ -28,6 +28,7 @@
 
 use super::lines::{gauss_segment, split_line, sweep_line, Line};
 use crate::geometry::scalar::{Dual, Interval, Scalar};
+use crate::geometry::surface::Shape;
 use crate::geometry::{Aabb, Geometry};
 
 /// A volume quadrature point.
@@ -59,27 +60,54 @@ const MAX_LOWER_DEPTH: u32 = 4;
 /// Smallest accepted [`quality`] before the depth limit (see [`height_axis`]).
 const MIN_QUALITY: f64 = 0.4;
 
-/// A leaf level set with some coordinates pinned (its restriction to a face).
+/// A leaf level set with some coordinates pinned (its restriction to a face),
+/// and optionally restricted to a plane leaf: `x_k` replaced by the plane's
+/// root along `k` (an *edge function*, whose zero set is the projection along
+/// `k` of the edge where the plane meets this leaf).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Restricted {
     pub leaf: usize,
     pinned: [Option<f64>; 3],
+    /// `(k, plane leaf, 1 / ∂ψ_P/∂x_k)`.
+    on_plane: Option<(usize, usize, f64)>,
 }
 
 impl Restricted {
-    fn apply<T: Scalar>(&self, mut x: [T; 3]) -> [T; 3] {
+    fn apply<T: Scalar>(&self, g: &Geometry, mut x: [T; 3]) -> [T; 3] {
         for (xi, p) in x.iter_mut().zip(self.pinned) {
             if let Some(v) = p {
                 *xi = T::cst(v);
             }
         }
+        if let Some((k, plane, inv)) = self.on_plane {
+            // ψ_P is linear: its root along k is x_k = −ψ_P(x with x_k = 0) / a_k.
+            let mut y = x;
+            y[k] = T::cst(0.0);
+            x[k] = g.leaves()[plane].eval(y).scale(-inv);
+        }
         x
     }
 
     pub(super) fn value_grad(&self, g: &Geometry, x: [f64; 3]) -> (f64, [f64; 3]) {
-        let d = self.apply([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]);
+        let d = self.apply(
+            g,
+            [Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)],
+        );
         let v = g.leaves()[self.leaf].eval(d);
         (v.v, v.d)
+    }
+
+    /// The edge function of this leaf on the plane leaf `plane` along `k`,
+    /// when the plane is strictly monotone along `k` (`bd`: its bounds).
+    fn on_plane(&self, plane: usize, bd: &Dual<Interval>, k: usize) -> Option<Restricted> {
+        let a = bd.d[k];
+        if !a.strictly_signed() || self.on_plane.is_some() {
+            return None;
+        }
+        Some(Restricted {
+            on_plane: Some((k, plane, 1.0 / a.mid())),
+            ..*self
+        })
     }
 
     /// The box with the pinned axes collapsed onto their pins.
@@ -112,6 +140,11 @@ impl Restricted {
                 v.straddles_zero()
             }
         };
+        if self.on_plane.is_some() {
+            let x = [0, 1, 2].map(|i| Dual::var(Interval::new(pb.lo[i], pb.hi[i]), i));
+            let bd = leaf.eval(self.apply(g, x));
+            return active(bd.v).then_some(bd);
+        }
         // The natural extension is cheap and usually decides far-away leaves.
         if !active(leaf.eval(pb.intervals())) {
             return None;
@@ -163,7 +196,11 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
     }
     let pins = pins_of(b, free);
     let fns: Vec<(Restricted, Dual<Interval>)> = (0..ctx.g.leaves().len())
-        .map(|leaf| Restricted { leaf, pinned: pins })
+        .map(|leaf| Restricted {
+            leaf,
+            pinned: pins,
+            on_plane: None,
+        })
         .filter_map(|r| r.bounds_if_active(ctx.g, b, true).map(|bd| (r, bd)))
         .collect();
     if fns.is_empty() {
@@ -251,13 +288,14 @@ fn sweep_box(
     rule: &mut BoxRule,
 ) {
     let lower_free: Vec<usize> = free.iter().copied().filter(|&a| a != k).collect();
-    let faces = face_restrictions(fns, k, b);
+    let mut faces = face_restrictions(fns, k, b);
+    faces.extend(edge_functions(ctx.g, fns, k));
     let line_fns: Vec<Restricted> = fns.iter().map(|(r, _)| *r).collect();
     let mut sink = |x: [f64; 3], w: f64| {
         let line = Line { k, x, w, monotone };
         sweep_line(ctx, &line_fns, b, &line, emit_volume, emit_surface, rule);
     };
-    lower(ctx, &faces, b, &lower_free, 0, &mut sink);
+    lower(ctx, &faces, b, &lower_free, 0, false, &mut sink);
 }
 
 /// Integrates over the free axes of `b` a function that is smooth away from the
@@ -268,6 +306,7 @@ fn lower(
     b: &Aabb,
     free: &[usize],
     depth: u32,
+    crossings_split: bool,
     sink: &mut dyn FnMut([f64; 3], f64),
 ) {
     let active: Vec<(Restricted, Dual<Interval>)> = fns
@@ -294,17 +333,106 @@ fn lower(
         Some(k) => (k, true),
         None if depth < MAX_LOWER_DEPTH => {
             for child in halves(b, free) {
-                lower(ctx, fns, &child, free, depth + 1, sink);
+                lower(ctx, fns, &child, free, depth + 1, crossings_split, sink);
             }
             return;
         }
         None => (best_axis(&active, free), false),
     };
     let lower_free: Vec<usize> = free.iter().copied().filter(|&a| a != k).collect();
+    if let ([m], false) = (&lower_free[..], crossings_split) {
+        let m = *m;
+        // The outer integrand has a kink where two curves cross: split there
+        // (once: the children start past the crossing depth).
+        let cuts = crossings(ctx.g, &active, b, k, m);
+        if !cuts.is_empty() {
+            let ends: Vec<f64> = std::iter::once(b.lo[m])
+                .chain(cuts)
+                .chain(std::iter::once(b.hi[m]))
+                .collect();
+            for s in ends.windows(2) {
+                let mut child = *b;
+                child.lo[m] = s[0];
+                child.hi[m] = s[1];
+                lower(ctx, fns, &child, free, depth, true, sink);
+            }
+            return;
+        }
+    }
     let faces = face_restrictions(&active, k, b);
     let line: Vec<Restricted> = active.iter().map(|(r, _)| *r).collect();
     let mut inner = |x: [f64; 3], w: f64| split_line(ctx, &line, k, b, x, w, monotone, sink);
-    lower(ctx, &faces, b, &lower_free, depth, &mut inner);
+    lower(ctx, &faces, b, &lower_free, depth, false, &mut inner);
+}
+
+/// The `x_m` coordinates, strictly inside `b`, of the points where two of the
+/// curves `fns` (functions of `x_k` and `x_m` on a face) cross: Newton from a
+/// 3×3 grid of seeds, sorted and distinct.
+fn crossings(
+    g: &Geometry,
+    fns: &[(Restricted, Dual<Interval>)],
+    b: &Aabb,
+    k: usize,
+    m: usize,
+) -> Vec<f64> {
+    let size = (b.hi[k] - b.lo[k]).max(b.hi[m] - b.lo[m]);
+    let tol = 1e-9 * size;
+    let mut out: Vec<f64> = Vec::new();
+    for (i, (fa, _)) in fns.iter().enumerate() {
+        for (fb, _) in &fns[i + 1..] {
+            for seed in 0..9 {
+                let mut x = b.lo;
+                x[k] += (0.5 * (seed % 3) as f64 + 0.0) * 0.5 * (b.hi[k] - b.lo[k])
+                    + 0.25 * (b.hi[k] - b.lo[k]);
+                x[m] += (0.5 * (seed / 3) as f64) * 0.5 * (b.hi[m] - b.lo[m])
+                    + 0.25 * (b.hi[m] - b.lo[m]);
+                let Some(p) = newton_2d(g, fa, fb, x, k, m, size) else {
+                    continue;
+                };
+                let inside = p[k] > b.lo[k] - tol && p[k] < b.hi[k] + tol;
+                if inside
+                    && p[m] > b.lo[m] + tol
+                    && p[m] < b.hi[m] - tol
+                    && out.iter().all(|c| (c - p[m]).abs() > tol)
+                {
+                    out.push(p[m]);
+                }
+            }
+        }
+    }
+    out.sort_by(f64::total_cmp);
+    out
+}
+
+/// A common zero of `fa` and `fb` near `x` (Newton in `x_k`, `x_m`).
+fn newton_2d(
+    g: &Geometry,
+    fa: &Restricted,
+    fb: &Restricted,
+    mut x: [f64; 3],
+    k: usize,
+    m: usize,
+    size: f64,
+) -> Option<[f64; 3]> {
+    for _ in 0..30 {
+        let (va, da) = fa.value_grad(g, x);
+        let (vb, db) = fb.value_grad(g, x);
+        let det = da[k] * db[m] - da[m] * db[k];
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let dk = (va * db[m] - vb * da[m]) / det;
+        let dm = (da[k] * vb - db[k] * va) / det;
+        x[k] -= dk;
+        x[m] -= dm;
+        if (x[k] - 0.0).is_nan() || dk.abs().max(dm.abs()) > 4.0 * size {
+            return None;
+        }
+        if dk.abs().max(dm.abs()) <= 1e-14 * size {
+            return Some(x);
+        }
+    }
+    None
 }
 
 /// Tensor Gauss rule over the free axes of `b`.
@@ -380,6 +508,30 @@ fn face_restrictions(fns: &[(Restricted, Dual<Interval>)], k: usize, b: &Aabb) -
         // A function independent of x_k has the same restriction on both faces.
         if !(bd.d[k].lo == 0.0 && bd.d[k].hi == 0.0) {
             out.push(r.pinned_at(k, b.hi[k]));
+        }
+    }
+    out
+}
+
+/// The edge functions of the kept leaves along `k`: for every plane leaf that
+/// is strictly monotone along `k` and every other kept leaf, the other leaf on
+/// the plane. The integrand of the lower dimension has a kink where the
+/// projected edge runs (the segment structure of the lines changes there);
+/// splitting at it keeps Saye's high order on cells where a plane meets
+/// another surface (Saye 2022 splits at the resultant's zero set; for a plane
+/// the resultant is this composition). Two planes give one function.
+fn edge_functions(g: &Geometry, fns: &[(Restricted, Dual<Interval>)], k: usize) -> Vec<Restricted> {
+    let is_plane = |r: &Restricted| matches!(g.leaves()[r.leaf].shape, Shape::Plane { .. });
+    let mut out = Vec::new();
+    for (i, (p, pbd)) in fns.iter().enumerate() {
+        if !is_plane(p) {
+            continue;
+        }
+        for (j, (other, _)) in fns.iter().enumerate() {
+            if j == i || (is_plane(other) && j < i) || other.leaf == p.leaf {
+                continue;
+            }
+            out.extend(other.on_plane(p.leaf, pbd, k));
         }
     }
     out
