@@ -47,7 +47,7 @@ pub struct Krylov {
     pub iterations_per_solve: Vec<usize>,
     pub total_iterations: usize,
     pub final_relative_residual: f64,
-    /// Jacobi diagonal entries at round-off level (cut artefacts) floored by
+    /// Zero or negative Jacobi diagonal entries at round-off level (cut artefacts) floored by
     /// the preconditioner instead of failing ([`crate::solver::DIAGONAL_FLOOR`]).
     pub floored_diagonal_entries: usize,
 }

@@ -19,7 +19,8 @@
 //! - `b = 0`: `x = 0` is returned at once, with 0 iterations.
 //! - A zero divisor (`r̃·r`, `r̃·v`, `t·t`, `ω`), a non-positive `p·Ap` or
 //!   `r·M⁻¹r` in CG, or any non-finite value: [`Error::Breakdown`].
-//! - A Jacobi diagonal entry at round-off level (a cut artefact) is floored,
+//! - A zero or negative Jacobi diagonal entry at round-off level (a cut
+//!   artefact) is floored,
 //!   not a breakdown, and counted in
 //!   [`KrylovStats::floored_diagonal_entries`]; see [`DIAGONAL_FLOOR`].
 //! - Iteration budget used up: [`Error::MaxIterations`]. Both exit with code 3.

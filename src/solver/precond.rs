@@ -7,16 +7,18 @@
 //! nodes a diagonal entry at round-off level, which can come out zero or
 //! slightly negative (`-1.6e-20` beside entries of order `1e2`). That is a
 //! cut artefact, not a property of the problem: Jacobi replaces every entry
-//! `d_i` with `|d_i| ≤ DIAGONAL_FLOOR · max_j |d_j|` by
+//! `d_i ≤ 0` with `|d_i| ≤ DIAGONAL_FLOOR · max_j |d_j|` by
 //! `DIAGONAL_FLOOR · max_j |d_j|` and counts it
-//! ([`KrylovStats::floored_diagonal_entries`](super::KrylovStats)); `M` stays
-//! a valid (SPD where `A`'s other entries are positive) preconditioner and the
-//! Krylov method still solves `A x = b` honestly, with its true residual
+//! ([`KrylovStats::floored_diagonal_entries`](super::KrylovStats)) instead of
+//! failing; the Krylov method still solves `A x = b`, with its true residual
 //! checked. [`DIAGONAL_FLOOR`] is 64 ulps: round-off in summing a node's
-//! element contributions is a few ulps of the largest contribution, and a node
-//! whose entry is within 64 ulps of the largest diagonal carries no stiffness
-//! that f64 can resolve. Entries below `−DIAGONAL_FLOOR · max |d|` are not
-//! floored: for CG they prove that `A` is not positive definite and are a
+//! element contributions is a few ulps of the largest contribution. A tiny
+//! *positive* entry is used as it is: Jacobi then scales that dof exactly,
+//! whereas flooring it leaves the dof unresolved by the Krylov tolerance and
+//! the fixed point on the recovered terms stalls (measured: the Q1 patch test
+//! of `tests/elasticity.rs` stalled at `ε ≈ 1e-6` when positive entries below
+//! the floor were raised to it). Entries below `−DIAGONAL_FLOOR · max |d|` are
+//! not floored: for CG they prove that `A` is not positive definite and are a
 //! breakdown; CGS and BiCGStab use them as they are. A non-finite entry is
 //! always a breakdown.
 
@@ -36,8 +38,9 @@ pub(crate) struct Precond<B: Backend> {
 /// largest entry.
 pub const DIAGONAL_FLOOR: f64 = 64.0 * f64::EPSILON;
 
-/// Floors the round-off entries of the diagonal `d` in place (module doc):
-/// every `|d_i| ≤ DIAGONAL_FLOOR · max |d|` becomes `DIAGONAL_FLOOR · max |d|`.
+/// Floors the non-positive round-off entries of the diagonal `d` in place
+/// (module doc): every `d_i ≤ 0` with `|d_i| ≤ DIAGONAL_FLOOR · max |d|`
+/// becomes `DIAGONAL_FLOOR · max |d|`.
 /// Returns how many were floored, or the first entry that is not finite, or
 /// (with `positive`) negative beyond the floor, as `(index, value)`.
 pub fn floor_diagonal(d: &mut [f64], positive: bool) -> std::result::Result<usize, (usize, f64)> {
@@ -54,7 +57,7 @@ pub fn floor_diagonal(d: &mut [f64], positive: bool) -> std::result::Result<usiz
     }
     let mut floored = 0;
     for (i, v) in d.iter_mut().enumerate() {
-        if v.abs() <= floor {
+        if *v <= 0.0 && -*v <= floor {
             *v = floor;
             floored += 1;
         } else if positive && *v < 0.0 {
