@@ -145,7 +145,7 @@ pub fn run_case(
     report.stabilisation = Some(Stabilisation {
         k1: st.k1,
         k2: st.k2,
-        a: st.a,
+        a: st.threshold(order),
     });
     println!(
         "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
