@@ -115,8 +115,10 @@ pub struct ConditionEstimate {
 ///
 /// # Errors
 /// [`Error::InvalidSolverOptions`] for bad `opts`; [`Error::Breakdown`] when
-/// `a` is not square or empty, has a non-finite entry, has a non-positive
-/// diagonal entry (with `jacobi_scaled`) or no positive eigenvalue.
+/// `a` is not square or empty, has a non-finite entry, has a diagonal entry
+/// negative beyond round-off (with `jacobi_scaled`; entries at round-off level
+/// are floored as the Jacobi preconditioner floors them, and `method` says how
+/// many) or no positive eigenvalue.
 pub fn condition_number(
     a: &SparseColMat<usize, f64>,
     jacobi_scaled: bool,
@@ -125,8 +127,9 @@ pub fn condition_number(
     opts.validate()?;
     check_matrix(a)?;
     let scaled;
+    let mut floored = 0;
     let a = if jacobi_scaled {
-        scaled = sparse::jacobi_scaled(a)?;
+        (scaled, floored) = sparse::jacobi_scaled(a)?;
         &scaled
     } else {
         a
@@ -173,10 +176,10 @@ pub fn condition_number(
         kappa_is_lower_bound: lower_bound,
         method: format!(
             "lanczos{} + shift-invert lanczos ({note})",
-            if jacobi_scaled {
-                " on D^-1/2 A D^-1/2"
-            } else {
-                ""
+            match (jacobi_scaled, floored) {
+                (false, _) => String::new(),
+                (true, 0) => " on D^-1/2 A D^-1/2".into(),
+                (true, n) => format!(" on D^-1/2 A D^-1/2 ({n} diagonal entries floored)"),
             }
         ),
         lanczos_steps: plain.steps() + inverse_steps,

@@ -47,6 +47,9 @@ pub struct Krylov {
     pub iterations_per_solve: Vec<usize>,
     pub total_iterations: usize,
     pub final_relative_residual: f64,
+    /// Zero or negative Jacobi diagonal entries at round-off level (cut artefacts) floored by
+    /// the preconditioner instead of failing ([`crate::solver::DIAGONAL_FLOOR`]).
+    pub floored_diagonal_entries: usize,
 }
 
 /// `fixed_point`: the recovery loop.
@@ -97,9 +100,14 @@ pub struct Report {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<crate::fem::field::ErrorNorms>,
     /// The same norms for the nodal interpolant of the exact field (the
-    /// best-approximation reference).
+    /// best-approximation reference): absent without an exact field,
+    /// `Some(None)` (`null`) where they would mean nothing, with the reason
+    /// in `interpolant_error_note` ([`crate::fem::field::interpolant_error`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub interpolant_error: Option<crate::fem::field::ErrorNorms>,
+    pub interpolant_error: Option<Option<crate::fem::field::ErrorNorms>>,
+    /// Why `interpolant_error` is `null`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpolant_error_note: Option<String>,
     /// Condition numbers of the operator (`run --condition`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub condition: Option<Condition>,
@@ -163,6 +171,7 @@ impl Report {
             krylov: None,
             error: None,
             interpolant_error: None,
+            interpolant_error_note: None,
             condition: None,
             reactions: BTreeMap::new(),
             timings: BTreeMap::new(),

@@ -187,6 +187,8 @@ fn body_problem(
     let beta = st.k1 * spec.material.young;
     let m = material(case, i);
     let mut p = HyperProblem::new_restricted(grid, cells, m, beta, &dirichlet, &regions, &loads)?;
-    p.set_s_term(cells, solid, st.k2, spec.material.young, st.a);
+    // Bodies are Q1 (checked when the case is read).
+    let a = st.threshold(ElementOrder::Q1);
+    p.set_s_term(cells, solid, st.k2, spec.material.young, a);
     Ok(p)
 }

@@ -27,8 +27,8 @@
 //! rel_tol = 1e-8
 //! max_iterations = 20000
 //!
-//! [stabilisation]              # as in single-body cases, for every body
-//! k1 = 30.0
+//! [stabilisation]              # as in single-body cases, for every body (same
+//! k1 = 30.0                    # defaults: k2 = 0.01, A = 0.05 as for Q1)
 //! k2 = 0.01
 //! A = 0.01
 //!
@@ -466,11 +466,8 @@ impl BodiesCase {
         if !(st.k2.is_finite() && st.k2 >= 0.0) {
             return Err(self.bad("stabilisation.k2", format!("must be ≥ 0, got {}", st.k2)));
         }
-        if !(0.0..1.0).contains(&st.a) {
-            return Err(self.bad(
-                "stabilisation.A",
-                format!("must lie in [0, 1), got {}", st.a),
-            ));
+        if let Some(a) = st.a.filter(|a| !(0.0..1.0).contains(a)) {
+            return Err(self.bad("stabilisation.A", format!("must lie in [0, 1), got {a}")));
         }
         for (i, b) in self.bodies.iter().enumerate() {
             self.check_body(i, b)?;

@@ -186,11 +186,8 @@ impl Case {
         if !(st.k2.is_finite() && st.k2 >= 0.0) {
             return Err(self.bad_key("stabilisation.k2", format!("must be ≥ 0, got {}", st.k2)));
         }
-        if !(0.0..1.0).contains(&st.a) {
-            return Err(self.bad_key(
-                "stabilisation.A",
-                format!("must lie in [0, 1), got {}", st.a),
-            ));
+        if let Some(a) = st.a.filter(|a| !(0.0..1.0).contains(a)) {
+            return Err(self.bad_key("stabilisation.A", format!("must lie in [0, 1), got {a}")));
         }
         let so = &s.solver;
         for (key, v) in [

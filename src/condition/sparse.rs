@@ -12,6 +12,7 @@ use faer::sparse::linalg::matmul::sparse_dense_matmul;
 use faer::sparse::SparseColMat;
 use faer::{Accum, Conj, MatMut, MatRef, Par, Side};
 
+use crate::solver::floor_diagonal;
 use crate::{Error, Result};
 
 /// `y = A x` (column by column; `A` is square).
@@ -42,19 +43,23 @@ fn diagonal(a: &SparseColMat<usize, f64>) -> Vec<f64> {
 }
 
 /// `S = D^-1/2 A D^-1/2`, `S_ij = A_ij / √(d_i d_j)`, on the sparsity of `A`
-/// (so `S_ii = 1` exactly: `√(d²) = d` in IEEE arithmetic).
+/// (so `S_ii = 1` exactly: `√(d²) = d` in IEEE arithmetic), with `d` the
+/// diagonal floored as the Jacobi preconditioner floors it
+/// ([`crate::solver::floor_diagonal`]: entries at round-off level are cut
+/// artefacts); also returns how many entries were floored.
 ///
 /// # Errors
-/// [`Error::Breakdown`] when a diagonal entry is not positive.
-pub(super) fn jacobi_scaled(a: &SparseColMat<usize, f64>) -> Result<SparseColMat<usize, f64>> {
-    let d = diagonal(a);
-    if let Some((i, v)) = d.iter().enumerate().find(|(_, v)| **v <= 0.0 || v.is_nan()) {
-        return Err(Error::Breakdown {
-            method: "jacobi scaling".into(),
-            iterations: 0,
-            what: format!("diagonal entry {i} is {v:e}, not positive"),
-        });
-    }
+/// [`Error::Breakdown`] when a diagonal entry is not finite or is negative
+/// beyond the floor (`A` is then not positive definite).
+pub(super) fn jacobi_scaled(
+    a: &SparseColMat<usize, f64>,
+) -> Result<(SparseColMat<usize, f64>, usize)> {
+    let mut d = diagonal(a);
+    let floored = floor_diagonal(&mut d, true).map_err(|(i, v)| Error::Breakdown {
+        method: "jacobi scaling".into(),
+        iterations: 0,
+        what: format!("diagonal entry {i} is {v:e}, not positive"),
+    })?;
     let mut s = a.clone();
     for j in 0..a.ncols() {
         let rows = a.row_idx_of_col_raw(j);
@@ -62,7 +67,7 @@ pub(super) fn jacobi_scaled(a: &SparseColMat<usize, f64>) -> Result<SparseColMat
             *v /= (d[i] * d[j]).sqrt();
         }
     }
-    Ok(s)
+    Ok((s, floored))
 }
 
 /// The sparse Cholesky factor of a symmetric matrix (its lower triangle read).

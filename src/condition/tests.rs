@@ -241,8 +241,17 @@ fn bad_input_is_an_error() {
         assert!(matches!(err, Error::InvalidSolverOptions { .. }), "{err}");
     }
     let opts = ConditionOptions::default();
+    // A zero diagonal entry (a cut artefact) is floored for the scaling, as
+    // Jacobi floors it: κ is then a flagged lower bound, and says so.
+    let e = condition_number(&diagonal(&[1.0, 0.0, 2.0]), true, &opts).unwrap();
+    assert!(e.kappa_is_lower_bound && e.kappa >= 1e15, "{e:?}");
+    assert!(
+        e.method.contains("1 diagonal entries floored"),
+        "{}",
+        e.method
+    );
     let bad = [
-        (diagonal(&[1.0, 0.0, 2.0]), true),
+        (diagonal(&[1.0, -1.0, 2.0]), true),
         (diagonal(&[1.0, f64::NAN]), false),
         (diagonal(&[-1.0, -2.0]), false),
         (matrix(0, &[]), false),

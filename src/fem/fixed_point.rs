@@ -45,6 +45,9 @@ pub struct FixedPointReport {
     pub final_relative_residual: f64,
     /// Did `ε` fall below the tolerance?
     pub converged: bool,
+    /// Jacobi diagonal entries floored as cut artefacts (the most over the
+    /// solves; the diagonal is the same for all of them).
+    pub floored_diagonal_entries: usize,
     /// Seconds spent in the Krylov solves.
     pub krylov_seconds: f64,
     /// Seconds spent computing the recovered right-hand side.
@@ -119,6 +122,9 @@ pub fn fixed_point_with_progress(
             report.total_iterations += stats.iterations;
             report.tolerances.push(tol);
             report.final_relative_residual = stats.true_relative_residual;
+            report.floored_diagonal_entries = report
+                .floored_diagonal_entries
+                .max(stats.floored_diagonal_entries);
             Ok(())
         };
     let mut u = vec![0.0; fixed.len()];

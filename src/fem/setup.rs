@@ -78,7 +78,7 @@ impl Setup {
         };
         let mut op = ElasticOperator::new(&grid, &cells, case.spec.element, &params);
         let st = &case.spec.stabilisation;
-        let omega_star = pathological_cells(&cells, st.a);
+        let omega_star = pathological_cells(&cells, st.threshold(case.spec.element));
         let s_factor = st.k2 * problem.young / (grid.h * grid.h);
         if s_factor > 0.0 {
             for &c in &omega_star {

@@ -94,7 +94,10 @@ pub fn solve_defect_correction(
             _ => solve_device(be, op, diag, &rd, &mut d, &inner, &DeviceOptions::default()),
         };
         match result {
-            Ok(s) => stats.iterations += s.iterations,
+            Ok(s) => {
+                stats.iterations += s.iterations;
+                stats.floored_diagonal_entries = s.floored_diagonal_entries;
+            }
             // f32 may stall short of its tolerance: keep what it reached and
             // let the f64 residual judge.
             Err(Error::MaxIterations { iterations, .. }) => stats.iterations += iterations,

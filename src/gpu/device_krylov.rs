@@ -165,6 +165,10 @@ impl Cycles<GpuBackend> for Cycle<'_, '_> {
     fn cycle(&self, x: &mut GpuVector, r: &mut GpuVector, stats: &mut KrylovStats) -> Result<()> {
         self.run(x, r, stats)
     }
+
+    fn floored_diagonal_entries(&self) -> usize {
+        self.pre.floored()
+    }
 }
 
 impl Cycle<'_, '_> {

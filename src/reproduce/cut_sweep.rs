@@ -53,7 +53,7 @@ impl CutSweepOptions {
         if st.k2 > 0.0 {
             CutSweepOptions {
                 k2: st.k2,
-                a: st.a,
+                a: st.threshold(case.spec.element),
                 method: case.spec.solver.method,
                 ..self
             }

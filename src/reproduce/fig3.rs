@@ -56,7 +56,7 @@ impl<'a> Fig3Curves<'a> {
         let st = &case.spec.stabilisation;
         let configs = match case.spec.element {
             ElementOrder::Q1 => CONFIGS.to_vec(),
-            ElementOrder::Q2 => vec![(st.k2, st.a)],
+            ElementOrder::Q2 => vec![(st.k2, st.threshold(ElementOrder::Q2))],
         };
         Fig3Curves {
             case,

@@ -102,7 +102,7 @@ pub struct RunOutcome {
 pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     let mut case = case.clone();
     case.spec.stabilisation.k2 = cfg.k2;
-    case.spec.stabilisation.a = cfg.a;
+    case.spec.stabilisation.a = Some(cfg.a);
     case.spec.grid.offset = cfg.offset;
     if let Some(m) = cfg.method {
         case.spec.solver.method = m;

@@ -143,7 +143,7 @@ pub fn table2(
 fn run(case: &BodiesCase, level: u32, k2: f64, method: KrylovMethod) -> Result<Table2Row> {
     let mut case = case.clone();
     case.spec.stabilisation.k2 = k2;
-    case.spec.stabilisation.a = A;
+    case.spec.stabilisation.a = Some(A);
     case.spec.solver.method = method;
     case.spec.solver.preconditioner = Preconditioner::Jacobi;
     case.spec.newton.recovery = RecoveryMode::Step;

@@ -19,6 +19,10 @@
 //! - `b = 0`: `x = 0` is returned at once, with 0 iterations.
 //! - A zero divisor (`r̃·r`, `r̃·v`, `t·t`, `ω`), a non-positive `p·Ap` or
 //!   `r·M⁻¹r` in CG, or any non-finite value: [`Error::Breakdown`].
+//! - A zero or negative Jacobi diagonal entry at round-off level (a cut
+//!   artefact) is floored,
+//!   not a breakdown, and counted in
+//!   [`KrylovStats::floored_diagonal_entries`]; see [`DIAGONAL_FLOOR`].
 //! - Iteration budget used up: [`Error::MaxIterations`]. Both exit with code 3.
 
 mod krylov;
@@ -41,6 +45,7 @@ pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 pub(crate) use krylov::breakdown;
 use krylov::Problem;
 pub(crate) use precond::Precond;
+pub use precond::{floor_diagonal, DIAGONAL_FLOOR};
 
 /// The Krylov method of a solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -139,6 +144,9 @@ pub struct KrylovStats {
     /// last cycle, for [`lanczos_extreme_eigenvalues`]. With Jacobi they describe
     /// `M⁻¹A` rather than `A`.
     pub lanczos: Option<(Vec<f64>, Vec<f64>)>,
+    /// Jacobi only: diagonal entries at round-off level (cut artefacts) that
+    /// the preconditioner floored instead of failing (see [`DIAGONAL_FLOOR`]).
+    pub floored_diagonal_entries: usize,
 }
 
 /// Solves `A x = b` for `x`, starting from the `x` given (warm start).
@@ -177,6 +185,9 @@ pub(crate) trait Cycles<B: Backend> {
     /// residual meets the tolerance or the iteration budget is used up
     /// (`Ok`), or a breakdown (`Err`); counts its iterations in `stats`.
     fn cycle(&self, x: &mut B::Vector, r: &mut B::Vector, stats: &mut KrylovStats) -> Result<()>;
+
+    /// Diagonal entries the preconditioner floored ([`DIAGONAL_FLOOR`]).
+    fn floored_diagonal_entries(&self) -> usize;
 }
 
 impl<B: Backend> Cycles<B> for Problem<'_, '_, B> {
@@ -186,6 +197,10 @@ impl<B: Backend> Cycles<B> for Problem<'_, '_, B> {
             KrylovMethod::Cgs => krylov::cgs(self, x, r, stats),
             KrylovMethod::BiCgStab => krylov::bicgstab(self, x, r, stats),
         }
+    }
+
+    fn floored_diagonal_entries(&self) -> usize {
+        self.pre.floored()
     }
 }
 
@@ -219,6 +234,7 @@ pub(crate) fn drive<B: Backend, C: Cycles<B>>(
         return Ok(stats);
     }
     let cycles = setup(b_norm)?;
+    stats.floored_diagonal_entries = cycles.floored_diagonal_entries();
     let mut r = backend.zeros(n);
     for cycle in 0.. {
         let rel = true_residual(
