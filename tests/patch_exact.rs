@@ -38,8 +38,6 @@ min_rel_tol = 1e-14
 max_iterations = 50000
 fixed_point_tol = 1e-12
 max_fixed_point = 200
-[stabilisation]
-k2 = 0.01
 "#;
 
 /// A part: its geometry (TOML inline table), Dirichlet and exact-traction tags,
