@@ -20,6 +20,9 @@ pub struct CellCounts {
     /// Cut cells with volume fraction below the stabilisation threshold A;
     /// `null` until the stabilisation is configured.
     pub pathological: Option<usize>,
+    /// Cut cells of negligible volume merged into a neighbour (counted in
+    /// `outside`).
+    pub merged: usize,
 }
 
 /// Measures of the domain by the cut-cell quadrature.
@@ -160,6 +163,7 @@ impl Report {
                 cut: cells.cut.len(),
                 outside,
                 pathological: None,
+                merged: cells.merged,
             },
             domain: Domain {
                 volume: cells.volume(grid),

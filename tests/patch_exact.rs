@@ -6,7 +6,8 @@
 //! and the exact traction on the others. Only the solver is tightened: the
 //! patch test measures the discretisation, not the stopping tolerance.
 //!
-//! Each placement first checks the discrete system itself: the interpolant
+//! The first placement of each part is aligned (offset 0, no rotation: the
+//! planar faces lie on grid planes). Each placement first checks the discrete system itself: the interpolant
 //! of the exact field satisfies it to round-off. Then it solves and checks the
 //! energy error.
 //!
@@ -36,8 +37,8 @@ preconditioner = "jacobi"
 rel_tol = 1e-12
 min_rel_tol = 1e-14
 max_iterations = 50000
-fixed_point_tol = 1e-12
-max_fixed_point = 200
+fixed_point_tol = 1e-11
+max_fixed_point = 500
 "#;
 
 /// A part: its geometry (TOML inline table), Dirichlet and exact-traction tags,
@@ -124,12 +125,24 @@ fn random_field(rng: &mut ChaCha8Rng, degree: u32, s: f64) -> [String; 3] {
     })
 }
 
-fn patch_case(part: &Part, element: &str, rng: &mut ChaCha8Rng, level: u32) -> (Case, String) {
+/// A placement of `part`; `aligned`: offset 0 and no rotation, so that the
+/// planar faces of the part lie on grid planes.
+fn patch_case(
+    part: &Part,
+    element: &str,
+    rng: &mut ChaCha8Rng,
+    level: u32,
+    aligned: bool,
+) -> (Case, String) {
     let degree = if element == "q1" { 1 } else { 2 };
     let field = random_field(rng, degree, part.scale);
-    let offset = [0, 1, 2].map(|_| rng.gen_range(0.0..1.0));
+    let mut offset = [0, 1, 2].map(|_| rng.gen_range(0.0..1.0));
     let axis = [0, 1, 2].map(|_| rng.gen_range(-1.0..1.0));
-    let angle = rng.gen_range(0.0..360.0);
+    let mut angle = rng.gen_range(0.0..360.0);
+    if aligned {
+        offset = [0.0; 3];
+        angle = 0.0;
+    }
     let mut text = format!(
         "element = \"{element}\"\n[geometry]\ntype = \"rotate\"\naxis = [{:.4}, {:.4}, {:.4}]\nangle_deg = {angle:.3}\nof = {}\n[grid]\nlevel = {level}\noffset = [{:.4}, {:.4}, {:.4}]\n[material]\nyoung = {}\npoisson = 0.3\n[exact]\ndisplacement = [\"{}\", \"{}\", \"{}\"]\n{SOLVER}",
         axis[0], axis[1], axis[2], part.geometry.replace('\n', " "), offset[0], offset[1], offset[2],
@@ -180,9 +193,9 @@ fn run_patch_tests(element: &str, level: u32, seed: u64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut worst: f64 = 0.0;
     for part in &PARTS {
-        for _ in 0..placements() {
+        for placement in 0..=placements() {
             let extra = part.extra_level * if element == "q1" { 1 } else { 2 };
-            let (case, what) = patch_case(part, element, &mut rng, level + extra);
+            let (case, what) = patch_case(part, element, &mut rng, level + extra, placement == 0);
             let setup = Setup::new(&case, None).unwrap();
             let residual = interpolant_residual(&setup);
             println!("{what}: relative residual of the interpolant {residual:.2e}");

@@ -57,12 +57,14 @@
 //! on a face claimed by a neighbour, or it received a merged sliver's face)
 //! uses `σ̂` when the problem has Dirichlet parts, else the exact stress.
 
+use std::collections::HashMap;
+
 use rayon::prelude::*;
 
 use super::dofs::DofMap;
 use super::moment_fit::{lagrange, lagrange_derivative, FitBasis};
 use super::problem::{Boundary, Problem};
-use super::rhs::add_point_load;
+use super::rhs::{add_point_load, DirichletPoint};
 use crate::case::physics::FieldValue;
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
 use crate::element::ElementOrder;
@@ -214,6 +216,41 @@ impl FluxCorrection {
             self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
         }
         Ok(())
+    }
+}
+
+impl FluxCorrection {
+    /// Per Dirichlet point, the traction density that carries its cell's
+    /// recovered correction: the cell's correction force `Σ_r f_r` spread
+    /// evenly (per unit area) over the cell's Dirichlet points, so that the
+    /// reactions `Σ_q w_q λ_q` balance the loads of the corrected system.
+    pub fn dirichlet_densities(
+        &self,
+        grid: &Grid,
+        cells: &Cells,
+        sigma: &Recovered<6>,
+        dirichlet: &[DirichletPoint],
+    ) -> Result<Vec<[f64; 3]>> {
+        let mut area: HashMap<usize, f64> = HashMap::new();
+        for p in dirichlet {
+            *area.entry(p.cell).or_default() += p.w;
+        }
+        let mut density: HashMap<usize, [f64; 3]> = HashMap::new();
+        for i in self.recovered_cells() {
+            let c = cells.cut[i];
+            let Some(&a) = area.get(&c).filter(|a| **a > 0.0) else {
+                continue;
+            };
+            let mut force = [0.0; 3];
+            let mut tau = |x: [f64; 3]| sigma.eval(c, x).map(|s| voigt_matrix(&s));
+            let mut sink = |_, f: [f64; 3]| (0..3).for_each(|k| force[k] += f[k]);
+            self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
+            density.insert(c, force.map(|f| f / a));
+        }
+        Ok(dirichlet
+            .iter()
+            .map(|p| density.get(&p.cell).copied().unwrap_or([0.0; 3]))
+            .collect())
     }
 }
 

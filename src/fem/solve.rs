@@ -87,13 +87,24 @@ pub fn solve_with_progress(
         phase: Phase::Recovery,
         total: None,
     });
-    let recovered = recover_stress(setup, &u, &nodes)
-        .and_then(|sigma| recovered_tractions(&setup.dirichlet, &sigma));
+    let recovered = recover_stress(setup, &u, &nodes).and_then(|sigma| {
+        let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
+        let extra =
+            setup
+                .flux
+                .dirichlet_densities(&setup.grid, &setup.cells, &sigma, &setup.dirichlet)?;
+        Ok((t_hat, extra))
+    });
     progress.event(&Event::Finish {
         phase: Phase::Recovery,
     });
-    let t_hat = recovered?;
-    let reactions = reactions(setup, &u, &t_hat);
+    let (t_hat, extra) = recovered?;
+    let mut reactions = reactions(setup, &u, &t_hat);
+    for (r, e) in reactions.iter_mut().zip(&extra) {
+        for k in 0..3 {
+            r[k] += e[k];
+        }
+    }
     tracing::info!(
         points = t_hat.len(),
         "recovered the tractions and reactions"

@@ -97,6 +97,12 @@ impl Restricted {
         (v.v, v.d)
     }
 
+    /// The surface this function restricts: its leaf, and the plane leaf of an
+    /// edge function.
+    fn surface(&self) -> (usize, Option<usize>) {
+        (self.leaf, self.on_plane.map(|(_, p, _)| p))
+    }
+
     /// The edge function of this leaf on the plane leaf `plane` along `k`,
     /// when the plane is strictly monotone along `k` (`bd`: its bounds).
     fn on_plane(&self, plane: usize, bd: &Dual<Interval>, k: usize) -> Option<Restricted> {
@@ -379,7 +385,13 @@ fn crossings(
     let tol = 1e-9 * size;
     let mut out: Vec<f64> = Vec::new();
     for (i, (fa, _)) in fns.iter().enumerate() {
-        for (fb, _) in &fns[i + 1..] {
+        // Curves of one leaf (its restrictions to two faces) cross where a
+        // smooth surface leaves the box through an edge: no kink of the
+        // integrand worth a split, and the smooth case stays as it was.
+        for (fb, _) in fns[i + 1..]
+            .iter()
+            .filter(|(fb, _)| fb.surface() != fa.surface())
+        {
             for seed in 0..9 {
                 let mut x = b.lo;
                 x[k] += (0.5 * (seed % 3) as f64 + 0.0) * 0.5 * (b.hi[k] - b.lo[k])
