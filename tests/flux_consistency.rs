@@ -88,6 +88,7 @@ of = [ { type = "union", of = [ { type = "cuboid", min = [0, 0, 0], max = [8, 4,
 
 /// The largest relative defect over the cut cells, with and without the
 /// correction.
+#[allow(clippy::needless_range_loop)]
 fn defects(element: &str, name: &str, geometry: &str, level: u32, seed: u64) -> (f64, f64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let offset = [0, 1, 2].map(|_| rng.gen_range(0.0..1.0));
