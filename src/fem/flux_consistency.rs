@@ -106,7 +106,7 @@ impl FluxCorrection {
         let q = q.max(order.degree() + 1);
         let defect: Vec<[f64; 3]> = (0..cells.cut.len())
             .into_par_iter()
-            .flat_map_iter(|i| cell_defect(grid, cells, geometry, &basis.points, q, i))
+            .flat_map_iter(|i| cell_defect(grid, cells, geometry, &basis, q, i))
             .collect();
         let has_dirichlet = problem
             .boundary
@@ -264,10 +264,11 @@ fn cell_defect(
     grid: &Grid,
     cells: &Cells,
     g: &Geometry,
-    t: &[f64],
+    basis: &FitBasis,
     q: usize,
     i: usize,
 ) -> Vec<[f64; 3]> {
+    let (t, gw) = (&basis.points, &basis.weights);
     let n = t.len();
     let cell = cells.cut[i];
     let lo = grid.cell_box(cell).lo;
@@ -316,12 +317,11 @@ fn cell_defect(
                 CellKind::Outside => {}
                 CellKind::Inside => {
                     // The whole face, by the fitting points' own Gauss rule.
-                    let (_, gw) = crate::quadrature::gauss::gauss_legendre_unit(n);
                     let [b, c] = [(axis + 1) % 3, (axis + 2) % 3];
                     let mut x = lo;
                     x[axis] += side as f64 * h;
-                    for (sb, wb) in t.iter().zip(&gw) {
-                        for (sc, wc) in t.iter().zip(&gw) {
+                    for (sb, wb) in t.iter().zip(gw) {
+                        for (sc, wc) in t.iter().zip(gw) {
                             x[b] = lo[b] + h * sb;
                             x[c] = lo[c] + h * sc;
                             w[axis] = sign * wb * wc * h * h;

@@ -393,11 +393,10 @@ fn crossings(
             .filter(|(fb, _)| fb.surface() != fa.surface())
         {
             for seed in 0..9 {
+                // Seeds at a quarter, half and three quarters of each side.
                 let mut x = b.lo;
-                x[k] += (0.5 * (seed % 3) as f64 + 0.0) * 0.5 * (b.hi[k] - b.lo[k])
-                    + 0.25 * (b.hi[k] - b.lo[k]);
-                x[m] += (0.5 * (seed / 3) as f64) * 0.5 * (b.hi[m] - b.lo[m])
-                    + 0.25 * (b.hi[m] - b.lo[m]);
+                x[k] += 0.25 * (1 + seed % 3) as f64 * (b.hi[k] - b.lo[k]);
+                x[m] += 0.25 * (1 + seed / 3) as f64 * (b.hi[m] - b.lo[m]);
                 let Some(p) = newton_2d(g, fa, fb, x, k, m, size) else {
                     continue;
                 };
@@ -437,7 +436,7 @@ fn newton_2d(
         let dm = (da[k] * vb - db[k] * va) / det;
         x[k] -= dk;
         x[m] -= dm;
-        if (x[k] - 0.0).is_nan() || dk.abs().max(dm.abs()) > 4.0 * size {
+        if !(dk.is_finite() && dm.is_finite()) || dk.abs().max(dm.abs()) > 4.0 * size {
             return None;
         }
         if dk.abs().max(dm.abs()) <= 1e-14 * size {
