@@ -235,6 +235,7 @@ pub fn run_case(
         floored_diagonal_entries: fp.floored_diagonal_entries,
     });
     report.fixed_point = Some(FixedPoint {
+        method: so.outer.name().into(),
         iterations: fp.iterations,
         eps_history: fp.eps_history.clone(),
         converged: fp.converged,

@@ -29,7 +29,7 @@ mod krylov;
 mod lanczos;
 mod precond;
 #[cfg(test)]
-mod test_operators;
+pub(crate) mod test_operators;
 #[cfg(test)]
 mod tests;
 
