@@ -238,7 +238,7 @@ impl Outer<'_, '_> {
                 .last()
                 .copied()
                 .unwrap_or(0);
-            tracing::info!(eps, krylov_iterations, "outer iteration");
+            tracing::info!(eps, krylov_iterations, "fixed-point iteration (fgmres)");
             self.progress.event(&Event::FixedPoint {
                 iteration: self.report.iterations,
                 eps,
