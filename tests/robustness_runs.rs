@@ -39,17 +39,20 @@
 //! one bracket (level 2, `s = 0.53`) 3.2e-2, so [`REACTION_BAND`] is 5e-2 until
 //! more converged placements are measured.
 //!
-//! Known failures on the current main (seed 20261123): 329 of the 500 runs
-//! fail, all of them bracket (166 of 167) or plate (163 of 166) runs. 311 stop
-//! at the default 50 fixed-point iterations with `ε` still falling slowly
-//! (contraction 0.85–0.96 per iteration, 9–41 pathological cells): the
-//! S-term's right-hand side `k2 E/h² M R(U_k)` is lagged in the fixed point,
-//! which converges in 6 iterations (contraction 0.04–0.08) with `k2 = 0`; the
-//! unrotated case files converge in 4–13. 18 bracket runs at level 3 and one
-//! plate run stop in the default unpreconditioned CGS (20 000 iterations, the
-//! residual diverging up to 6e15); CG with Jacobi solves those systems. The
-//! test asserts and lists every failing run with its placement.
-//!
+//! Known failures on the current main (seed 20261123, 120 runs,
+//! `CGFEM_ROBUST_RUNS=120`, 116 s): every run sets up and solves (the outer
+//! FGMRES and CG + Jacobi defaults; before them 329 of 500 runs stopped in
+//! the fixed point or in plain CGS), in at most 43 outer iterations (default
+//! budget 50). The torus's `e / e_I` is 0.55–0.91, the plate's reaction
+//! imbalance at most 4.8e-3. 31 of the 40 bracket runs fail the reaction band
+//! with imbalances of 5.4e-2–2.8e-1 (levels 2–3, 14–56 pathological cells):
+//! the S-term's right-hand side is not in equilibrium. `K_S` and `F_S`
+//! integrate `u_h − S(u_h)` over the whole pathological cells, outside the
+//! body too, which puts a net force `(k2 E/h²) ∫_{Ω*} (u_h − S(u_h))` on the
+//! body that no reaction balances. Run 1 with `k2 = 0` balances to 1e-4
+//! (reaction z −1 066.8 against the applied 1 066.9), with the default
+//! `k2 = 0.01` it is off by 46% in z. The band stays: a clamped part whose
+//! reaction misses the load by 10% is a wrong answer.
 //! `CGFEM_ROBUST_RUNS=N` (default 500) sets the number of runs,
 //! `CGFEM_ROBUST_MAX_LEVEL=L` (default 3, at most 6) the top level and
 //! `CGFEM_ROBUST_MIN_LEVEL` (default 2) the lowest: levels are drawn from that
@@ -437,7 +440,7 @@ fn median(v: &mut [f64]) -> f64 {
 /// and the 500 runs take 27 minutes. Run it with
 /// `cargo test --release --test robustness_runs -- --ignored --nocapture`.
 #[test]
-#[ignore = "fails today on rotated thin parts (issue 15, open); 27 min"]
+#[ignore = "the S-term unbalances the bracket's reaction on rotated placements (issue 15, open); 120 runs in 2 min"]
 fn default_settings_solve_every_placement() {
     let n: usize = env("CGFEM_ROBUST_RUNS", 500);
     let max_level: u32 = env("CGFEM_ROBUST_MAX_LEVEL", 3u32).clamp(2, 6);
