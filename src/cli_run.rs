@@ -192,7 +192,7 @@ pub fn run_case(
             &mut gpu_solver
         }
         None => {
-            cpu_solver = CpuSolver::new(&setup.op);
+            cpu_solver = CpuSolver::for_setup(&setup);
             &mut cpu_solver
         }
     };
