@@ -16,7 +16,7 @@ use crate::cells::Cells;
 use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::grid::{machine_memory_bytes, Grid};
-use crate::multigrid::Hierarchy;
+use crate::multigrid::{Hierarchy, MultigridOptions};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::Preconditioner;
 
@@ -167,7 +167,7 @@ impl Setup {
         );
         let multigrid = match case.spec.solver.preconditioner {
             Preconditioner::Multigrid => {
-                let h = Hierarchy::new(case, &problem, &cells, &op)?;
+                let h = Hierarchy::new(case, &problem, &cells, &op, &MultigridOptions::default())?;
                 timings.push(("multigrid".to_string(), h.seconds));
                 Some(h)
             }

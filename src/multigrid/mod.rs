@@ -55,6 +55,26 @@ use crate::fem::setup::LevelOperator;
 use smoother::Chebyshev;
 use transfer::{Lattice, Transfer};
 
+/// The settings of a hierarchy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MultigridOptions {
+    /// A level with at most this many unknowns is solved directly (sparse
+    /// Cholesky).
+    pub coarse_dofs: usize,
+    /// Degree of the Chebyshev smoother ([`smoother`]).
+    pub degree: usize,
+}
+
+impl Default for MultigridOptions {
+    /// [`COARSE_DOFS`] and [`smoother::DEGREE`].
+    fn default() -> Self {
+        MultigridOptions {
+            coarse_dofs: COARSE_DOFS,
+            degree: smoother::DEGREE,
+        }
+    }
+}
+
 /// A level with at most this many unknowns is solved directly (sparse
 /// Cholesky): small enough that its factor costs little beside one cycle.
 pub const COARSE_DOFS: usize = 5_000;
@@ -92,12 +112,13 @@ impl Hierarchy {
         problem: &Problem,
         cells: &Cells,
         fine: &ElasticOperator,
+        opts: &MultigridOptions,
     ) -> Result<Hierarchy> {
         let t = Instant::now();
         let mut coarse: Vec<ElasticOperator> = Vec::new();
         loop {
             let last = coarse.last().unwrap_or(fine);
-            if last.nrows() <= COARSE_DOFS {
+            if last.nrows() <= opts.coarse_dofs {
                 break;
             }
             let next = match last.dofs.order {
@@ -118,7 +139,7 @@ impl Hierarchy {
         let (coarsest, smoothed) = levels.split_last().expect("level 0 exists");
         let smoothers = smoothed
             .iter()
-            .map(|op| Chebyshev::new(*op))
+            .map(|op| Chebyshev::new(*op, opts.degree))
             .collect::<Result<Vec<_>>>()?;
         let direct = Cholesky::new(&coarsest.assemble()).map_err(|e| Error::Breakdown {
             method: "multigrid".into(),

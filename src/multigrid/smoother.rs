@@ -36,7 +36,7 @@ use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
 use crate::solver::{floor_diagonal, tridiagonal_eigenvalue};
 
-/// Degree `k` of the Chebyshev polynomial (applies of `A` per smoothing step,
+/// Default degree `k` of the Chebyshev polynomial (applies of `A` per smoothing step,
 /// counting the residual of a non-zero start).
 pub const DEGREE: usize = 4;
 
@@ -55,6 +55,8 @@ const CHUNK: usize = 8192;
 /// The Chebyshev smoother of one level.
 pub struct Chebyshev {
     inv_diag: Vec<f64>,
+    /// Degree `k` of the polynomial.
+    degree: usize,
     /// The interval `[a, b]` of `D⁻¹A` it damps.
     pub lo: f64,
     pub hi: f64,
@@ -88,7 +90,8 @@ impl Chebyshev {
     /// The smoother of `op`: its floored, inverted diagonal and the interval
     /// from a Lanczos estimate (module doc). A diagonal entry that is not
     /// finite or is negative beyond the floor is a breakdown.
-    pub fn new(op: &dyn LinearOperator) -> Result<Chebyshev> {
+    pub fn new(op: &dyn LinearOperator, degree: usize) -> Result<Chebyshev> {
+        assert!(degree >= 1, "Chebyshev smoother of degree 0");
         let mut d = op.diagonal();
         let floored = floor_diagonal(&mut d, true).map_err(|(i, v)| Error::Breakdown {
             method: "multigrid".into(),
@@ -107,13 +110,14 @@ impl Chebyshev {
         let hi = EIGENVALUE_MARGIN * lambda;
         Ok(Chebyshev {
             inv_diag,
+            degree,
             lo: hi / SMOOTHING_RANGE,
             hi,
             floored,
         })
     }
 
-    /// One smoothing step of degree [`DEGREE`] on `A x = b` (module doc),
+    /// One smoothing step of degree `k` on `A x = b` (module doc),
     /// from `x = 0` when `zero_start` (saving the residual's apply), else
     /// from the `x` given.
     pub fn smooth(
@@ -136,7 +140,7 @@ impl Chebyshev {
         w.d.fill(0.0);
         chebyshev_update(0.0, 1.0 / theta, &self.inv_diag, &w.r, &mut w.d, x);
         let mut rho = 1.0 / sigma;
-        for _ in 1..DEGREE {
+        for _ in 1..self.degree {
             op.apply(&w.d, &mut w.ad);
             sub_assign(&mut w.r, &w.ad);
             let rho_next = 1.0 / (2.0 * sigma - rho);
@@ -223,7 +227,7 @@ pub fn largest_eigenvalue(op: &dyn LinearOperator, inv_diag: &[f64], steps: usiz
         }
         diag.push(alpha);
         beta = w.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(beta > 1e-12 * alpha.abs()) {
+        if beta.is_nan() || beta <= 1e-12 * alpha.abs() {
             break;
         }
         off2.push(beta * beta);

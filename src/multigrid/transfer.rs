@@ -70,7 +70,7 @@ pub struct Transfer<'a> {
 /// The coarse indices along one axis that fine index `i` interpolates from,
 /// with their weights `w(i, ·)`: one at weight 1 (`i` even) or two at 1/2.
 fn from_coarse(i: usize) -> ([(usize, f64); 2], usize) {
-    if i % 2 == 0 {
+    if i.is_multiple_of(2) {
         ([(i / 2, 1.0), (0, 0.0)], 1)
     } else {
         ([(i / 2, 0.5), (i / 2 + 1, 0.5)], 2)
