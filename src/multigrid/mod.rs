@@ -52,8 +52,75 @@ use crate::error::{Error, Result};
 use crate::fem::operator::ElasticOperator;
 use crate::fem::problem::Problem;
 use crate::fem::setup::LevelOperator;
+use crate::solver::floor_diagonal;
 use smoother::Chebyshev;
 use transfer::{Lattice, Transfer};
+
+/// Relative diagonal shifts `δ` tried in turn for the coarsest factor
+/// ([`coarse_factor`]).
+const COARSE_SHIFTS: [f64; 6] = [0.0, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4];
+
+/// The sparse Cholesky factor (faer, AMD) of `A_c + δ D_c`, `D_c` the
+/// diagonal of the coarsest operator floored as Jacobi floors it, for the
+/// first `δ` of [`COARSE_SHIFTS`] that factors; returns it with `δ`.
+///
+/// Without the S-term a coarse level can hold cut cells whose part in the
+/// body is a sliver, and its operator is then positive definite only in
+/// exact arithmetic (κ beyond 10¹²: a non-positive pivot, measured on the
+/// cut sweep at level 4). The shift changes the coarse correction only on
+/// those near-null modes, by a relative `δ`; the V-cycle stays symmetric
+/// positive definite and the Krylov method still solves `A x = b` exactly.
+/// No shift that factors is a breakdown.
+fn coarse_factor(op: &ElasticOperator) -> Result<(Cholesky, f64)> {
+    let mut a = op.assemble();
+    let mut d = op.diagonal();
+    floor_diagonal(&mut d, false).map_err(|(i, v)| Error::Breakdown {
+        method: "multigrid".into(),
+        iterations: 0,
+        what: format!("coarsest level: diagonal entry {i} is {v:e}"),
+    })?;
+    let mut last = String::new();
+    let mut applied = 0.0;
+    for delta in COARSE_SHIFTS {
+        add_to_diagonal(&mut a, &d, delta - applied);
+        applied = delta;
+        match Cholesky::new(&a) {
+            Ok(factor) => {
+                if delta > 0.0 {
+                    tracing::info!(delta, "multigrid: coarsest factor shifted");
+                }
+                return Ok((factor, delta));
+            }
+            Err(e) => last = e,
+        }
+    }
+    Err(Error::Breakdown {
+        method: "multigrid".into(),
+        iterations: 0,
+        what: format!(
+            "Cholesky of the coarsest level ({} dofs on grid level {}) with a diagonal \
+             shift up to {:e}: {last}",
+            op.nrows(),
+            op.grid.level,
+            applied
+        ),
+    })
+}
+
+/// `A = A + δ diag(d)` on the stored diagonal entries of `A`.
+fn add_to_diagonal(a: &mut faer::sparse::SparseColMat<usize, f64>, d: &[f64], delta: f64) {
+    if delta == 0.0 {
+        return;
+    }
+    for (j, dj) in d.iter().enumerate() {
+        let rows = a.row_idx_of_col_raw(j).to_vec();
+        for (v, i) in a.val_of_col_mut(j).iter_mut().zip(rows) {
+            if i == j {
+                *v += delta * dj;
+            }
+        }
+    }
+}
 
 /// The settings of a hierarchy.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,8 +153,11 @@ pub struct Hierarchy {
     coarse: Vec<ElasticOperator>,
     /// The smoothers of levels `0 … coarse.len() − 1` (all but the coarsest).
     smoothers: Vec<Chebyshev>,
-    /// The Cholesky factor of the coarsest level's assembled operator.
+    /// The Cholesky factor of the coarsest level's assembled operator,
+    /// shifted by `shift · D` ([`coarse_factor`]).
     direct: Cholesky,
+    /// The relative diagonal shift the coarsest factor needed (0 mostly).
+    pub shift: f64,
     /// Seconds to build the coarse operators, the smoothers and the factor.
     pub seconds: f64,
 }
@@ -141,19 +211,12 @@ impl Hierarchy {
             .iter()
             .map(|op| Chebyshev::new(*op, opts.degree))
             .collect::<Result<Vec<_>>>()?;
-        let direct = Cholesky::new(&coarsest.assemble()).map_err(|e| Error::Breakdown {
-            method: "multigrid".into(),
-            iterations: 0,
-            what: format!(
-                "Cholesky of the coarsest level ({} dofs on grid level {}): {e}",
-                coarsest.nrows(),
-                coarsest.grid.level
-            ),
-        })?;
+        let (direct, shift) = coarse_factor(coarsest)?;
         let h = Hierarchy {
             coarse,
             smoothers,
             direct,
+            shift,
             seconds: t.elapsed().as_secs_f64(),
         };
         for s in h.summary(fine) {
