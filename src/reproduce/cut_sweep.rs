@@ -325,7 +325,8 @@ fn markdown(rows: &[SweepRow], opts: &CutSweepOptions) -> String {
          was numerically singular and κ is a lower bound), the Jacobi-scaled κ, and\n\
          the Krylov iterations ({}) of the first solve (`A U_0 = F`), plain, and of\n\
          the first solve and accumulated over the fixed-point loop with Jacobi,\n\
-         and of the first solve with CG + multigrid (max / median over the offsets). Budget {} iterations per solve; a run\n\
+         and of the first solve with CG + multigrid (max / median over the\n\
+         offsets). Budget {} iterations per solve; a run\n\
          over budget counts in `failed` with the iterations it spent. S-term:\n\
          k2 = {}, A = {}.\n\n\
          | level | element | S-term | κ max | κ median | κ_J max | κ_J median | plain: first solve | plain failed | Jacobi: first solve | Jacobi: accumulated | Jacobi failed | CG + multigrid: first solve | multigrid failed |\n\
