@@ -94,7 +94,13 @@ fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
             filter.as_deref(),
             d.precision,
         )?))),
-        BackendChoice::Auto => match GpuContext::new(filter.as_deref(), d.precision) {
+        // An adapter named by `--adapter`/`CGFEM_ADAPTER` is taken even when it
+        // is a software one; otherwise `auto` wants hardware.
+        BackendChoice::Auto => match if filter.is_some() {
+            GpuContext::new(filter.as_deref(), d.precision)
+        } else {
+            GpuContext::new_hardware(None, d.precision)
+        } {
             Ok(ctx) => Ok(Some(Arc::new(ctx))),
             Err(e @ cgfem_gpu::Error::NoAdapter { .. }) => {
                 println!("note: {e}; solving on the CPU");
@@ -259,6 +265,7 @@ pub fn run_case(
         floored_diagonal_entries: fp.floored_diagonal_entries,
     });
     report.fixed_point = Some(FixedPoint {
+        method: so.outer.name().into(),
         iterations: fp.iterations,
         eps_history: fp.eps_history.clone(),
         converged: fp.converged,

@@ -58,6 +58,8 @@ pub struct Krylov {
 /// `fixed_point`: the recovery loop.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct FixedPoint {
+    /// `"fgmres"` or `"picard"` (`[solver] outer`).
+    pub method: String,
     pub iterations: usize,
     pub eps_history: Vec<f64>,
     pub converged: bool,

@@ -471,6 +471,45 @@ fn without_an_adapter_gpu_exits_2_and_auto_falls_back_to_the_cpu() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("no GPU adapter found"));
 }
 
+/// `run` on the sphere at level 2 with the adapters the machine has; stdout.
+fn cli_with_adapters(args: &[&str]) -> String {
+    let out = std::env::temp_dir().join(format!(
+        "cgfem-gpu-adapters-{}-{}",
+        std::process::id(),
+        args.join("-")
+    ));
+    let case = concat!(env!("CARGO_MANIFEST_DIR"), "/cases/sphere.toml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .args(["run", case, "--level", "2", "--out", out.to_str().unwrap()])
+        .args(args)
+        .env_remove("CGFEM_BACKEND")
+        .env_remove("CGFEM_ADAPTER")
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn auto_never_picks_a_software_adapter_unless_it_is_named() {
+    let Some(ctx) = context_or_skip(PrecisionChoice::Auto) else {
+        return;
+    };
+    let software = ctx.adapter.device_type == "Cpu";
+    let auto = cli_with_adapters(&["--backend", "auto"]);
+    let gpu = cli_with_adapters(&["--backend", "gpu"]);
+    assert!(gpu.contains("backend gpu"), "{gpu}");
+    if software {
+        assert!(auto.contains("backend cpu (f64)"), "{auto}");
+        assert!(auto.contains("not a software rasteriser"), "{auto}");
+        let named = cli_with_adapters(&["--backend", "auto", "--adapter", &ctx.adapter.name]);
+        assert!(named.contains("backend gpu"), "{named}");
+    } else {
+        assert!(auto.contains("backend gpu"), "{auto}");
+    }
+}
+
 #[test]
 fn info_lists_the_adapter_with_f64_and_limits() {
     if context_or_skip(PrecisionChoice::Auto).is_none() {

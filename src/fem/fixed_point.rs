@@ -26,14 +26,18 @@ pub struct FixedPointOptions {
     pub tol: f64,
     /// Fixed-point iterations allowed (recovery solves, after `U_0`).
     pub max_iterations: usize,
+    /// The outer FGMRES's inner tolerance ([`super::outer_krylov`]).
+    pub inner_rel_tol: f64,
 }
 
 /// What the loop did.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct FixedPointReport {
-    /// Fixed-point iterations after the initial solve.
+    /// Fixed-point iterations after the initial solve (the outer FGMRES:
+    /// its iterations, one inner solve each).
     pub iterations: usize,
-    /// `ε_k` per iteration.
+    /// `ε_k` per iteration (the outer FGMRES: the relative residual
+    /// `‖F + R(U) − A U‖/‖F‖`).
     pub eps_history: Vec<f64>,
     /// Krylov iterations of each solve (the initial one first).
     pub iterations_per_solve: Vec<usize>,

@@ -62,6 +62,7 @@ fn options(max_iterations: usize) -> FixedPointOptions {
         min_rel_tol: 1e-12,
         tol: 1e-6,
         max_iterations,
+        inner_rel_tol: 1e-2,
     }
 }
 

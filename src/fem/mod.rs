@@ -11,6 +11,7 @@ pub mod flux_consistency;
 pub mod linear;
 pub mod moment_fit;
 pub mod operator;
+pub mod outer_krylov;
 pub mod output;
 pub mod problem;
 pub mod q1_forms;

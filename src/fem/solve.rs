@@ -5,11 +5,12 @@
 
 use super::fixed_point::{fixed_point_with_progress, FixedPointOptions, FixedPointReport};
 use super::linear::{CpuSolver, LinearSolver};
+use super::outer_krylov::fgmres_fixed_point;
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::rhs::traction_rhs;
 use super::setup::Setup;
 use super::stabilisation::{recover_displacement, s_rhs};
-use crate::case::physics::SolverSpec;
+use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::KrylovOptions;
@@ -34,8 +35,9 @@ pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
             max_iterations: spec.max_iterations,
         },
         min_rel_tol: spec.min_rel_tol,
-        tol: spec.fixed_point_tol,
+        tol: spec.fixed_point_tol(),
         max_iterations: spec.max_fixed_point,
+        inner_rel_tol: spec.inner_rel_tol,
     }
 }
 
@@ -73,14 +75,25 @@ pub fn solve_with_progress(
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(setup, solver, &opts, report, progress)?
     } else {
-        fixed_point_with_progress(
-            solver,
-            &setup.fixed_rhs,
-            &mut traction_load,
-            &opts,
-            report,
-            progress,
-        )?
+        match spec.outer {
+            OuterMethod::Fgmres => fgmres_fixed_point(
+                solver,
+                &setup.op,
+                &setup.fixed_rhs,
+                &mut traction_load,
+                &opts,
+                report,
+                progress,
+            )?,
+            OuterMethod::Picard => fixed_point_with_progress(
+                solver,
+                &setup.fixed_rhs,
+                &mut traction_load,
+                &opts,
+                report,
+                progress,
+            )?,
+        }
     };
     let _span = tracing::info_span!("recovery").entered();
     progress.event(&Event::Start {

@@ -250,9 +250,26 @@ impl GpuContext {
     /// insensitive), at the precision asked for. [`Error::NoAdapter`] when none
     /// matches or f64 is asked of an adapter without it.
     pub fn new(filter: Option<&str>, precision: PrecisionChoice) -> Result<GpuContext> {
+        Self::open(filter, precision, true)
+    }
+
+    /// [`GpuContext::new`] among the hardware adapters only: a software
+    /// rasteriser (wgpu device type `Cpu`: lavapipe, llvmpipe, SwiftShader)
+    /// runs the kernels on the CPU cores, slower than the native CPU backend,
+    /// so `--backend auto` never picks one ([`Error::NoAdapter`] instead).
+    pub fn new_hardware(filter: Option<&str>, precision: PrecisionChoice) -> Result<GpuContext> {
+        Self::open(filter, precision, false)
+    }
+
+    fn open(
+        filter: Option<&str>,
+        precision: PrecisionChoice,
+        software: bool,
+    ) -> Result<GpuContext> {
         let wanted = filter.map(str::to_lowercase);
         let mut candidates: Vec<wgpu::Adapter> = adapters()
             .into_iter()
+            .filter(|a| software || a.get_info().device_type != wgpu::DeviceType::Cpu)
             .filter(|a| match &wanted {
                 Some(w) => a.get_info().name.to_lowercase().contains(w),
                 None => true,
@@ -265,6 +282,9 @@ impl GpuContext {
         candidates.sort_by_key(|a| preference(a.get_info().device_type));
         let Some(adapter) = candidates.into_iter().next() else {
             let mut wanted = filter.map_or("any adapter".to_string(), |f| format!("'{f}'"));
+            if !software {
+                wanted = format!("{wanted} that is not a software rasteriser");
+            }
             if precision == PrecisionChoice::F64 {
                 wanted.push_str(" with SHADER_F64");
             }

@@ -145,7 +145,8 @@ pub fn fit_polynomial<const NC: usize>(
     let (centroid, samples) = centered(samples);
     let samples = &samples[..];
     let shift = basis.translation(centroid);
-    let mut m = normal_matrix(basis, samples);
+    let phi = design_matrix(basis, samples);
+    let mut m = normal_matrix(nb, &phi);
     let lambda = stability(
         &m,
         samples.len(),
@@ -162,14 +163,14 @@ pub fn fit_polynomial<const NC: usize>(
     });
     let kkt = Kkt::new(&m, &s, NC, constraints.as_ref())?;
     let mut x = DVector::zeros(kkt.size());
-    let rhs = kkt.residual(basis, samples, &x).amax();
+    let rhs = kkt.residual(&phi, samples, &x).amax();
     for _ in 0..=REFINEMENT_STEPS {
-        let res = kkt.residual(basis, samples, &x);
+        let res = kkt.residual(&phi, samples, &x);
         x += kkt.solve(&res).ok_or(FitFailure::Singular)?;
     }
     // A near-singular KKT matrix (dependent or inconsistent rows) shows up as a
     // residual far above round-off.
-    let res = kkt.residual(basis, samples, &x).amax();
+    let res = kkt.residual(&phi, samples, &x).amax();
     if kkt.c.nrows() > 0 && (res.is_nan() || res > 1e-9 * (1.0 + rhs)) {
         return Err(FitFailure::Singular);
     }
@@ -208,16 +209,24 @@ fn shifted_constraints(c: &DMatrix<f64>, t: &DMatrix<f64>) -> DMatrix<f64> {
     out
 }
 
-/// `AᵀA` (`n_b × n_b`).
-fn normal_matrix<const NC: usize>(basis: &Monomials, samples: &[Sample<NC>]) -> DMatrix<f64> {
+/// The design matrix `A_{sj} = φ_j(ζ_s)`, row `s` at `s · n_b ..`: evaluated
+/// once per fit, read by the normal matrix and every refinement residual.
+fn design_matrix<const NC: usize>(basis: &Monomials, samples: &[Sample<NC>]) -> Vec<f64> {
     let nb = basis.len();
+    let mut phi = vec![0.0; nb * samples.len()];
+    for ((x, _), row) in samples.iter().zip(phi.chunks_exact_mut(nb)) {
+        basis.values(*x, row);
+    }
+    phi
+}
+
+/// `AᵀA` (`n_b × n_b`) of the design matrix `phi` (rows of `nb`).
+fn normal_matrix(nb: usize, phi: &[f64]) -> DMatrix<f64> {
     let mut m = DMatrix::zeros(nb, nb);
-    let mut phi = vec![0.0; nb];
-    for (x, _) in samples {
-        basis.values(*x, &mut phi);
+    for row in phi.chunks_exact(nb) {
         for a in 0..nb {
             for b in 0..=a {
-                m[(a, b)] += phi[a] * phi[b];
+                m[(a, b)] += row[a] * row[b];
             }
         }
     }
@@ -344,20 +353,19 @@ impl Kkt {
         self.c.ncols() + self.c.nrows()
     }
 
-    /// `[S Aᵀ(B − A S ã) − C̃ᵀλ; d̃ − C̃ ã]` at `x = [ã; λ]`.
+    /// `[S Aᵀ(B − A S ã) − C̃ᵀλ; d̃ − C̃ ã]` at `x = [ã; λ]`, with the
+    /// design matrix `A` of [`design_matrix`].
     fn residual<const NC: usize>(
         &self,
-        basis: &Monomials,
+        design: &[f64],
         samples: &[Sample<NC>],
         x: &DVector<f64>,
     ) -> DVector<f64> {
-        let nb = basis.len();
+        let nb = self.s.len();
         let n = nb * NC;
         let a: Vec<f64> = (0..n).map(|i| self.s[i % nb] * x[i]).collect();
         let mut res = DVector::zeros(self.size());
-        let mut phi = vec![0.0; nb];
-        for (xi, b) in samples {
-            basis.values(*xi, &mut phi);
+        for ((_, b), phi) in samples.iter().zip(design.chunks_exact(nb)) {
             for c in 0..NC {
                 let fit: f64 = (0..nb).map(|j| a[c * nb + j] * phi[j]).sum();
                 let r = b[c] - fit;

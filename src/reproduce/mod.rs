@@ -18,6 +18,7 @@ pub mod table2;
 
 use std::path::Path;
 
+use crate::case::physics::OuterMethod;
 use crate::case::Case;
 use crate::condition::{condition_number, ConditionEstimate, ConditionOptions};
 use crate::error::{Error, Result};
@@ -101,6 +102,8 @@ pub struct RunOutcome {
 /// (the outcome says so); set-up failures are errors.
 pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     let mut case = case.clone();
+    // The paper's loop: its accumulated iterations are what is reproduced.
+    case.spec.solver.outer = OuterMethod::Picard;
     case.spec.stabilisation.k2 = cfg.k2;
     case.spec.stabilisation.a = Some(cfg.a);
     case.spec.grid.offset = cfg.offset;

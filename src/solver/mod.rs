@@ -31,7 +31,7 @@ mod krylov;
 mod lanczos;
 mod precond;
 #[cfg(test)]
-mod test_operators;
+pub(crate) mod test_operators;
 #[cfg(test)]
 mod tests;
 
