@@ -22,6 +22,7 @@ use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
+use cgfem_gpu::solver::Preconditioner;
 
 use crate::cli_progress::Terminal;
 
@@ -110,6 +111,31 @@ fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
     }
 }
 
+/// Whether the case's solver must run on the CPU whatever `--backend`
+/// says: the multigrid preconditioner runs on the CPU backend only, so
+/// `--backend gpu` is refused ([`cgfem_gpu::Error::UnsupportedOnBackend`],
+/// exit code 2) and `--backend auto` solves on the CPU, with a note.
+fn cpu_only(case: &Case, d: &Device) -> anyhow::Result<bool> {
+    if case.spec.solver.preconditioner != Preconditioner::Multigrid {
+        return Ok(false);
+    }
+    match BackendChoice::resolve(d.backend)? {
+        BackendChoice::Gpu => Err(cgfem_gpu::Error::UnsupportedOnBackend {
+            backend: "gpu".into(),
+            what: "the multigrid preconditioner".into(),
+            hint: "use --backend cpu (or auto), or solver.preconditioner = \"jacobi\"".into(),
+        }
+        .into()),
+        BackendChoice::Auto => {
+            eprintln!(
+                "note: the multigrid preconditioner runs on the CPU backend; solving on the CPU"
+            );
+            Ok(true)
+        }
+        BackendChoice::Cpu => Ok(false),
+    }
+}
+
 pub fn run_case(
     path: &Path,
     level: Option<u32>,
@@ -120,7 +146,11 @@ pub fn run_case(
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
-    let gpu = open_device(device)?;
+    let gpu = if cpu_only(&case, device)? {
+        None
+    } else {
+        open_device(device)?
+    };
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let dir = outputs
         .dir
@@ -198,7 +228,7 @@ pub fn run_case(
             &mut gpu_solver
         }
         None => {
-            cpu_solver = CpuSolver::new(&setup.op);
+            cpu_solver = CpuSolver::for_setup(&setup);
             &mut cpu_solver
         }
     };

@@ -86,6 +86,14 @@ pub enum Error {
     /// name, f64).
     #[error("no GPU adapter: wanted {wanted}; adapters found: {found}")]
     NoAdapter { wanted: String, found: String },
+    /// A solver setting the chosen backend does not run (the multigrid
+    /// preconditioner on the GPU backend).
+    #[error("the {backend} backend does not run {what}; {hint}")]
+    UnsupportedOnBackend {
+        backend: String,
+        what: String,
+        hint: String,
+    },
     /// The problem does not fit the device (a vector beyond one storage binding).
     #[error("the GPU cannot hold this problem: {what}")]
     DeviceTooSmall { what: String },

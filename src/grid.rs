@@ -181,6 +181,15 @@ impl Grid {
         })
     }
 
+    /// The grid one level down with the same origin: cells of size `2h`,
+    /// `⌈n/2⌉` per axis, so that cell `(i, j, k)` of this grid lies in cell
+    /// `(i/2, j/2, k/2)` of the coarse one and node `I` of this grid sits at
+    /// node `I/2` (the nested hierarchy of [`crate::multigrid`]); `None` at
+    /// level 0.
+    pub fn coarsened(&self) -> Option<Grid> {
+        self.level.checked_sub(1).map(|l| self.at_level(l))
+    }
+
     /// The same box at another level (cell counts scaled by powers of two).
     fn at_level(&self, level: u32) -> Grid {
         let scale = 2f64.powi(self.level as i32 - level as i32);

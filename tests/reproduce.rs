@@ -101,7 +101,8 @@ fn fig3_writes_rates_for_every_configuration() {
 }
 
 /// cut-sweep at level 3 with 2 offsets: a row per stabilisation with κ and
-/// iteration statistics, and every offset's run listed.
+/// iteration statistics (multigrid's converged), and every offset's run
+/// listed.
 #[test]
 fn cut_sweep_writes_a_row_per_level_and_stabilisation() {
     let out = std::env::temp_dir().join(format!("cgfem-sweep-{}", std::process::id()));
@@ -114,6 +115,8 @@ fn cut_sweep_writes_a_row_per_level_and_stabilisation() {
         assert_eq!(r["offsets"], 2);
         assert!(r["kappa_max"].as_f64().unwrap() >= r["kappa_median"].as_f64().unwrap());
         assert!(r["first_solve_jacobi_max"].as_u64().unwrap() > 0);
+        assert!(r["first_solve_multigrid_max"].as_u64().unwrap() > 0);
+        assert_eq!(r["failures_multigrid"], 0);
     }
     std::fs::remove_dir_all(&out).unwrap();
 }

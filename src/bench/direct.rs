@@ -1,6 +1,7 @@
 //! The end-to-end solve rows: the first linear system of the fixed-point loop,
-//! `A u = F` (`F` the fixed right-hand side), by the case's Krylov method on the
-//! matrix-free operator against assembly plus sparse Cholesky (faer's
+//! `A u = F` (`F` the fixed right-hand side), by the case's Krylov method with
+//! Jacobi and by CG with the multigrid V-cycle on the matrix-free operator,
+//! against assembly plus sparse Cholesky (faer's
 //! supernodal factor, geometric nested-dissection ordering, [`super::ordering`]),
 //! each timed from scratch with its own peak resident memory. The direct
 //! solve is skipped, with the reason printed, when its factor would take more
@@ -17,49 +18,45 @@ use super::measure::reset_peak_resident;
 use super::ordering::nested_dissection;
 use super::{row, Row};
 use crate::backend::{CpuBackend, LinearOperator};
+use crate::case::Case;
 use crate::condition::sparse::Cholesky;
 use crate::error::{Error, Result};
 use crate::fem::setup::Setup;
 use crate::grid::machine_memory_bytes;
-use crate::solver::{solve, KrylovOptions};
+use crate::multigrid::{Hierarchy, Multigrid, MultigridOptions};
+use crate::solver::{solve, solve_preconditioned, KrylovMethod, KrylovOptions, Preconditioner};
 
-/// The `solve` rows of `cpu-mf` and `cpu-direct`, run in `pool`. Prints the
-/// phases and how far the two solutions differ.
-pub(super) fn solves(setup: &Setup, krylov: &KrylovOptions, pool: &ThreadPool) -> Result<Vec<Row>> {
-    let (level, n, f) = (setup.grid.level, setup.op.nrows(), &setup.fixed_rhs);
-    let threads = pool.current_num_threads();
-    let op = &setup.op;
-
-    reset_peak_resident();
-    let t = Instant::now();
-    let mut u_mf = vec![0.0; n];
-    let stats = pool.install(|| {
-        let diag = op.diagonal();
-        solve(&CpuBackend::new(), op, Some(&diag), f, &mut u_mf, krylov)
-    })?;
-    let mf = Row {
-        bytes_per_dof: op.bytes() as f64 / n as f64,
-        ..row(
-            "solve",
-            "cpu-mf",
-            level,
-            n,
-            threads,
-            t.elapsed().as_secs_f64(),
-        )
+/// The `solve` rows of `cpu-mf` (the case's method, Jacobi), `cpu-mg` (CG,
+/// multigrid) and `cpu-direct`, run in `pool`. Prints the phases and how far
+/// the solutions differ.
+pub(super) fn solves(
+    case: &Case,
+    setup: &Setup,
+    krylov: &KrylovOptions,
+    pool: &ThreadPool,
+) -> Result<Vec<Row>> {
+    let level = setup.grid.level;
+    let jacobi = KrylovOptions {
+        preconditioner: Preconditioner::Jacobi,
+        ..krylov.clone()
     };
-    println!(
-        "solve level {level}: cpu-mf {} {} iterations, {:.2} s",
-        krylov.method, stats.iterations, mf.seconds
-    );
-
+    let multigrid = KrylovOptions {
+        method: KrylovMethod::Cg,
+        preconditioner: Preconditioner::Multigrid,
+        ..krylov.clone()
+    };
+    let (mf, u_mf) = krylov_row(case, setup, &jacobi, pool)?;
+    let (mg, u_mg) = krylov_row(case, setup, &multigrid, pool)?;
+    let mut rows = vec![mf, mg];
+    let threads = pool.current_num_threads();
+    let n = setup.op.nrows();
     reset_peak_resident();
     let t = Instant::now();
     let (u_direct, factor_len) = match pool.install(|| cholesky_solve(setup, threads)) {
         Ok(r) => r,
         Err(e) => {
             println!("solve level {level}: cpu-direct skipped: {e}");
-            return Ok(vec![mf]);
+            return Ok(rows);
         }
     };
     let direct = Row {
@@ -73,19 +70,81 @@ pub(super) fn solves(setup: &Setup, krylov: &KrylovOptions, pool: &ThreadPool) -
             t.elapsed().as_secs_f64(),
         )
     };
-    let diff = u_mf
-        .iter()
-        .zip(&u_direct)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    let scale = u_direct.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     println!(
         "solve level {level}: cpu-direct {:.2} s, factor {:.1} M entries; \
-         max |u_mf − u_direct| / max |u_direct| = {:.1e}",
+         max |u − u_direct| / max |u_direct|: cpu-mf {:.1e}, cpu-mg {:.1e}",
         direct.seconds,
         factor_len as f64 / 1e6,
-        diff / scale
+        relative_difference(&u_mf, &u_direct),
+        relative_difference(&u_mg, &u_direct)
     );
-    Ok(vec![mf, direct])
+    rows.push(direct);
+    Ok(rows)
+}
+
+/// `max |u − v| / max |v|`.
+fn relative_difference(u: &[f64], v: &[f64]) -> f64 {
+    let diff = u
+        .iter()
+        .zip(v)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    diff / v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// The matrix-free solve of `A u = F` from zero with `krylov`, from scratch
+/// (for multigrid, the hierarchy's set-up included): its row (`cpu-mf` for
+/// Jacobi, `cpu-mg` for multigrid) and `u`.
+fn krylov_row(
+    case: &Case,
+    setup: &Setup,
+    krylov: &KrylovOptions,
+    pool: &ThreadPool,
+) -> Result<(Row, Vec<f64>)> {
+    let (level, n, f) = (setup.grid.level, setup.op.nrows(), &setup.fixed_rhs);
+    let op = &setup.op;
+    let multigrid = krylov.preconditioner == Preconditioner::Multigrid;
+    reset_peak_resident();
+    let t = Instant::now();
+    let mut u = vec![0.0; n];
+    let stats = pool.install(|| {
+        let be = CpuBackend::new();
+        if multigrid {
+            let h = Hierarchy::new(
+                case,
+                &setup.problem,
+                &setup.cells,
+                op,
+                &MultigridOptions::default(),
+            )?;
+            let mg = Multigrid::new(op, &h);
+            solve_preconditioned(&be, op, &mg, f, &mut u, krylov)
+        } else {
+            let diag = op.diagonal();
+            solve(&be, op, Some(&diag), f, &mut u, krylov)
+        }
+    })?;
+    let backend = if multigrid { "cpu-mg" } else { "cpu-mf" };
+    let threads = pool.current_num_threads();
+    let r = Row {
+        bytes_per_dof: op.bytes() as f64 / n as f64,
+        iterations: Some(stats.iterations),
+        ..row(
+            "solve",
+            backend,
+            level,
+            n,
+            threads,
+            t.elapsed().as_secs_f64(),
+        )
+    };
+    println!(
+        "solve level {level}: {backend} {} + {} {} iterations, {:.2} s",
+        krylov.method,
+        krylov.preconditioner.name(),
+        stats.iterations,
+        r.seconds
+    );
+    Ok((r, u))
 }
 
 /// Assembles `A`, factors it and solves `A u = F`; returns `u` and the

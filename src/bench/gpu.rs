@@ -72,6 +72,7 @@ fn row(be: &GpuBackend, what: &str, level: u32, dofs: usize, seconds: f64) -> Ro
         threads: 1,
         seconds,
         peak_bytes: peak_resident_bytes(),
+        iterations: None,
     }
 }
 

@@ -16,10 +16,12 @@
 //!   `(bytes_per_dof + 16) · dofs_per_s / triad bytes/s` of an apply (operator
 //!   data plus reading `x` and writing `y`, 8 bytes each per dof);
 //! - `solve` at the solve levels: the first linear system of the fixed-point
-//!   loop, `A u = F`, by the case's Krylov method on the matrix-free operator
-//!   (`cpu-mf`) and by assembly plus sparse Cholesky (`cpu-direct`,
-//!   [`direct`], nested-dissection ordering [`ordering`]), each with its
-//!   peak resident memory.
+//!   loop, `A u = F`, by the case's Krylov method and Jacobi on the
+//!   matrix-free operator (`cpu-mf`), by CG and the multigrid V-cycle
+//!   (`cpu-mg`, [`crate::multigrid`], the hierarchy's set-up included) and by
+//!   assembly plus sparse Cholesky (`cpu-direct`, [`direct`],
+//!   nested-dissection ordering [`ordering`]), each with its peak resident
+//!   memory and the Krylov rows with their iterations.
 //!
 //! - on the preferred GPU adapter, when `gpu` is asked for and one is found:
 //!   its copy-kernel bandwidth and the same apply and iteration rows
@@ -73,6 +75,9 @@ pub struct Row {
     pub threads: usize,
     pub seconds: f64,
     pub peak_bytes: u64,
+    /// `solve` rows of the Krylov methods: iterations to the tolerance.
+    #[serde(default)]
+    pub iterations: Option<usize>,
 }
 
 /// What to run.
@@ -134,7 +139,7 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
             if opts.solve_levels.contains(&level) {
                 let threads = opts.threads.iter().copied().max().unwrap_or(1);
                 let krylov = krylov_options(&case);
-                for r in direct::solves(&setup, &krylov, &pool(threads)?)? {
+                for r in direct::solves(&case, &setup, &krylov, &pool(threads)?)? {
                     emit(r);
                 }
             }
@@ -198,6 +203,7 @@ fn row(what: &str, backend: &str, level: u32, dofs: usize, threads: usize, secon
         threads,
         seconds,
         peak_bytes: peak_resident_bytes(),
+        iterations: None,
     }
 }
 

@@ -5,6 +5,7 @@
 //!   one-thread `cpu-csr` for `apply` and `*_iter`, `cpu-direct` (same
 //!   threads) for `solve`;
 //! - `×1t`: the rate over the same row at one thread;
+//! - `its` (`solve` rows of the Krylov methods): iterations to the tolerance;
 //! - `%bw` (applies): `(bytes_per_dof + 16) · dofs_per_s` over the triad's
 //!   bytes per second at the same thread count.
 
@@ -66,7 +67,7 @@ pub fn format_table(rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8}",
+        "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8} {:>5}",
         "what",
         "backend",
         "el",
@@ -79,7 +80,8 @@ pub fn format_table(rows: &[Row]) -> String {
         "%bw",
         "B/dof",
         "seconds",
-        "peak MB"
+        "peak MB",
+        "its"
     );
     for r in rows {
         let one = rate(rows, |q| {
@@ -92,7 +94,7 @@ pub fn format_table(rows: &[Row]) -> String {
         });
         let _ = writeln!(
             s,
-            "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0}",
+            "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0} {:>5}",
             r.what,
             r.backend,
             r.element,
@@ -105,7 +107,8 @@ pub fn format_table(rows: &[Row]) -> String {
             bandwidth(rows, r),
             r.bytes_per_dof,
             r.seconds,
-            r.peak_bytes as f64 / (1 << 20) as f64
+            r.peak_bytes as f64 / (1 << 20) as f64,
+            r.iterations.map_or("-".into(), |i| i.to_string())
         );
     }
     s

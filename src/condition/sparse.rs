@@ -146,13 +146,23 @@ impl Cholesky {
 
     /// `x ← A⁻¹ x`.
     pub fn solve_in_place(&self, x: &mut [f64]) {
+        self.solve_in_place_with(x, &mut self.solve_scratch());
+    }
+
+    /// The scratch of [`Self::solve_in_place_with`], for repeated solves.
+    pub fn solve_scratch(&self) -> MemBuffer {
+        MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, self.par))
+    }
+
+    /// `x ← A⁻¹ x` with the scratch `mem` of [`Self::solve_scratch`] (no
+    /// allocation).
+    pub fn solve_in_place_with(&self, x: &mut [f64], mem: &mut MemBuffer) {
         let n = x.len();
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, self.par));
         LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(x, n, 1),
             self.par,
-            MemStack::new(&mut mem),
+            MemStack::new(mem),
         );
     }
 }

@@ -1,11 +1,14 @@
 //! The linear solves of the fixed-point loop, behind one trait so that the
 //! loop runs on any backend: [`CpuSolver`] here (the reference), the GPU one in
-//! [`crate::gpu::linear`]. A solver holds the operator (and its diagonal) for
-//! all the solves of a run; each call solves `A u = rhs` from the `u` given.
+//! [`crate::gpu::linear`]. A solver holds the operator (and its diagonal, or
+//! the multigrid V-cycle) for all the solves of a run; each call solves
+//! `A u = rhs` from the `u` given.
 
 use crate::backend::{CpuBackend, LinearOperator};
 use crate::error::Result;
-use crate::solver::{solve, KrylovOptions, KrylovStats};
+use crate::fem::setup::Setup;
+use crate::multigrid::Multigrid;
+use crate::solver::{solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner};
 
 /// Solves `A u = rhs` with the Krylov options given, warm-started at `u`.
 pub trait LinearSolver {
@@ -13,19 +16,36 @@ pub trait LinearSolver {
         -> Result<KrylovStats>;
 }
 
-/// The CPU backend with a host operator and its diagonal (computed once).
+/// The CPU backend with a host operator and its diagonal (computed once),
+/// and the multigrid V-cycle when the set-up built a hierarchy.
 pub struct CpuSolver<'a> {
     op: &'a dyn LinearOperator,
     diag: Vec<f64>,
+    multigrid: Option<Multigrid<'a>>,
     be: CpuBackend,
 }
 
 impl<'a> CpuSolver<'a> {
+    /// The solver of `op` (none, Jacobi: a multigrid option is refused by
+    /// the solve, [`crate::Error::InvalidSolverOptions`]).
     pub fn new(op: &'a dyn LinearOperator) -> Self {
         CpuSolver {
             op,
             diag: op.diagonal(),
+            multigrid: None,
             be: CpuBackend::new(),
+        }
+    }
+
+    /// The solver of a set-up's operator, with its multigrid hierarchy when
+    /// it has one.
+    pub fn for_setup(setup: &'a Setup) -> Self {
+        CpuSolver {
+            multigrid: setup
+                .multigrid
+                .as_ref()
+                .map(|h| Multigrid::new(&setup.op, h)),
+            ..CpuSolver::new(&setup.op)
         }
     }
 }
@@ -37,6 +57,12 @@ impl LinearSolver for CpuSolver<'_> {
         u: &mut Vec<f64>,
         opts: &KrylovOptions,
     ) -> Result<KrylovStats> {
-        solve(&self.be, self.op, Some(&self.diag), &rhs.to_vec(), u, opts)
+        let rhs = rhs.to_vec();
+        match (&self.multigrid, opts.preconditioner) {
+            (Some(mg), Preconditioner::Multigrid) => {
+                solve_preconditioned(&self.be, self.op, mg, &rhs, u, opts)
+            }
+            _ => solve(&self.be, self.op, Some(&self.diag), &rhs, u, opts),
+        }
     }
 }

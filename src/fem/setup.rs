@@ -1,6 +1,6 @@
 //! Everything a linear-elastic solve of a case needs, built once: the grid and
-//! its cut-cell rules, the resolved loads, the operator and the fixed part of
-//! the right-hand side.
+//! its cut-cell rules, the resolved loads, the operator, the fixed part of
+//! the right-hand side and, when asked for, the multigrid hierarchy.
 
 use std::time::Instant;
 
@@ -13,9 +13,61 @@ use super::stabilisation::pathological_cells;
 use crate::backend::LinearOperator;
 use crate::case::Case;
 use crate::cells::Cells;
+use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::grid::{machine_memory_bytes, Grid};
+use crate::multigrid::{Hierarchy, MultigridOptions};
 use crate::progress::{Event, Phase, Progress, Silent};
+use crate::solver::Preconditioner;
+
+/// The operator `K + K_p (+ K_S)` of a case on one grid with its own cut-cell
+/// rules: what [`Setup`] builds on the case's grid and what a multigrid level
+/// ([`crate::multigrid`]) rebuilds on a coarser one.
+pub struct LevelOperator {
+    pub op: ElasticOperator,
+    /// The Dirichlet penalty `β = k1 E`.
+    pub beta: f64,
+    /// Pathological cells (Ω*) of this grid, ascending.
+    pub omega_star: Vec<usize>,
+    /// `k2 E / h²`: the weight of the S-term on this grid (0 when it is off).
+    pub s_factor: f64,
+}
+
+impl LevelOperator {
+    /// `K + K_p` of elements `order` on `grid` classified as `cells`, plus
+    /// `(k2 E / h²) M_c` on the pathological cells of `order`'s threshold.
+    pub fn new(
+        case: &Case,
+        problem: &Problem,
+        grid: &Grid,
+        cells: &Cells,
+        order: ElementOrder,
+    ) -> LevelOperator {
+        let beta = case.spec.stabilisation.k1 * problem.young;
+        let dirichlet_tags = problem.dirichlet_tags();
+        let params = OperatorParams {
+            young: problem.young,
+            poisson: problem.poisson,
+            beta,
+            dirichlet_tags: &dirichlet_tags,
+        };
+        let mut op = ElasticOperator::new(grid, cells, order, &params);
+        let st = &case.spec.stabilisation;
+        let omega_star = pathological_cells(cells, st.threshold(order));
+        let s_factor = st.k2 * problem.young / (grid.h * grid.h);
+        if s_factor > 0.0 {
+            for &c in &omega_star {
+                op.add_cut_cell_mass(c, s_factor);
+            }
+        }
+        LevelOperator {
+            op,
+            beta,
+            omega_star,
+            s_factor,
+        }
+    }
+}
 
 /// A case set up on its grid.
 pub struct Setup {
@@ -32,6 +84,9 @@ pub struct Setup {
     pub omega_star: Vec<usize>,
     /// `k2 E / h²`: the weight of the S-term (0 when it is off).
     pub s_factor: f64,
+    /// The multigrid hierarchy under `op`, built when the case's solver asks
+    /// for the multigrid preconditioner.
+    pub multigrid: Option<Hierarchy>,
     /// Seconds per phase.
     pub timings: Vec<(String, f64)>,
 }
@@ -67,24 +122,13 @@ impl Setup {
             total: None,
         });
         let problem = Problem::new(case);
-        let beta = case.spec.stabilisation.k1 * problem.young;
         let t = Instant::now();
-        let dirichlet_tags = problem.dirichlet_tags();
-        let params = OperatorParams {
-            young: problem.young,
-            poisson: problem.poisson,
+        let LevelOperator {
+            op,
             beta,
-            dirichlet_tags: &dirichlet_tags,
-        };
-        let mut op = ElasticOperator::new(&grid, &cells, case.spec.element, &params);
-        let st = &case.spec.stabilisation;
-        let omega_star = pathological_cells(&cells, st.threshold(case.spec.element));
-        let s_factor = st.k2 * problem.young / (grid.h * grid.h);
-        if s_factor > 0.0 {
-            for &c in &omega_star {
-                op.add_cut_cell_mass(c, s_factor);
-            }
-        }
+            omega_star,
+            s_factor,
+        } = LevelOperator::new(case, &problem, &grid, &cells, case.spec.element);
         let dirichlet = dirichlet_points(&cells, &problem);
         let mut fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
         let flux = FluxCorrection::new(
@@ -121,6 +165,14 @@ impl Setup {
             seconds = timings[1].1,
             "assembled the operator and right-hand side"
         );
+        let multigrid = match case.spec.solver.preconditioner {
+            Preconditioner::Multigrid => {
+                let h = Hierarchy::new(case, &problem, &cells, &op, &MultigridOptions::default())?;
+                timings.push(("multigrid".to_string(), h.seconds));
+                Some(h)
+            }
+            Preconditioner::None | Preconditioner::Jacobi => None,
+        };
         Ok(Setup {
             grid,
             cells,
@@ -132,6 +184,7 @@ impl Setup {
             flux,
             omega_star,
             s_factor,
+            multigrid,
             timings,
         })
     }

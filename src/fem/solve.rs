@@ -43,7 +43,7 @@ pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
 
 /// Solves on the CPU; the loop's report is filled in even when the solve fails.
 pub fn solve(setup: &Setup, spec: &SolverSpec, report: &mut FixedPointReport) -> Result<Solution> {
-    solve_with(setup, spec, &mut CpuSolver::new(&setup.op), report)
+    solve_with(setup, spec, &mut CpuSolver::for_setup(setup), report)
 }
 
 /// Solves with `solver` for the linear systems (any backend).

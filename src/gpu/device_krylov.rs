@@ -138,7 +138,7 @@ fn describe(name: &str, v: f64, positive: Option<&str>) -> String {
 struct Cycle<'a, 'o> {
     be: &'a GpuBackend,
     op: &'a GpuOperator<'o>,
-    pre: Precond<GpuBackend>,
+    pre: Precond<'a, GpuBackend>,
     n: usize,
     b_norm: f64,
     opts: &'a KrylovOptions,

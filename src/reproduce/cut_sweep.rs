@@ -5,8 +5,10 @@
 //! median κ (plain and Jacobi-scaled) and Krylov iterations: of the first
 //! solve `A U_0 = F` with the plain method (the paper's: what κ costs an
 //! unpreconditioned solver; the whole fixed-point loop unpreconditioned is
-//! too slow to sweep), and of the first solve and the whole fixed-point
-//! loop with Jacobi.
+//! too slow to sweep), of the first solve and the whole fixed-point
+//! loop with Jacobi, and of the first solve with CG and the multigrid
+//! V-cycle ([`crate::multigrid`]; CG whatever the sweep's method, since
+//! the V-cycle is the SPD preconditioner CG needs).
 //!
 //! A Krylov solve that does not converge within the per-solve budget is a
 //! measurement, not an error: it counts with the iterations it spent and in
@@ -94,6 +96,8 @@ pub struct SweepRun {
     pub iterations_jacobi: usize,
     pub first_solve_jacobi: usize,
     pub converged_jacobi: bool,
+    pub first_solve_multigrid: usize,
+    pub converged_multigrid: bool,
 }
 
 /// One row of `cut-sweep.json`: a level, element and stabilisation.
@@ -120,6 +124,9 @@ pub struct SweepRow {
     pub first_solve_jacobi_max: usize,
     pub first_solve_jacobi_median: f64,
     pub failures_jacobi: usize,
+    pub first_solve_multigrid_max: usize,
+    pub first_solve_multigrid_median: f64,
+    pub failures_multigrid: usize,
 }
 
 /// SplitMix64: a documented, seedable generator for the offsets, so that a
@@ -165,7 +172,7 @@ pub fn cut_sweep(
             for (i, &offset) in offsets.iter().enumerate() {
                 let run = sweep_run(case, opts, level, k2, offset)?;
                 progress.done(format!(
-                    "cut-sweep {element} level {level}, {} S, offset {i} {:?}: κ = {}, first solve {} (plain{}), {} (Jacobi{})",
+                    "cut-sweep {element} level {level}, {} S, offset {i} {:?}: κ = {}, first solve {} (plain{}), {} (Jacobi{}), {} (CG + multigrid{})",
                     if stabilised { "with" } else { "without" },
                     offset.map(|v| (v * 1000.0).round() / 1000.0),
                     run.kappa.map_or("–".into(), |k| format!("{k:.3e}")),
@@ -173,6 +180,8 @@ pub fn cut_sweep(
                     if run.converged_plain { "" } else { ", not converged" },
                     run.iterations_jacobi,
                     if run.converged_jacobi { " accumulated" } else { ", not converged" },
+                    run.first_solve_multigrid,
+                    if run.converged_multigrid { "" } else { ", not converged" },
                 ));
                 these.push(run);
             }
@@ -218,6 +227,15 @@ fn sweep_run(
         case,
         &RunConfig {
             preconditioner: Some(Preconditioner::Jacobi),
+            ..base.clone()
+        },
+    )?;
+    let multigrid = run_sphere(
+        case,
+        &RunConfig {
+            method: Some(KrylovMethod::Cg),
+            preconditioner: Some(Preconditioner::Multigrid),
+            first_solve_only: true,
             ..base
         },
     )?;
@@ -235,6 +253,8 @@ fn sweep_run(
         iterations_jacobi: jacobi.krylov_iterations,
         first_solve_jacobi: jacobi.first_solve_iterations,
         converged_jacobi: jacobi.failure.is_none(),
+        first_solve_multigrid: multigrid.first_solve_iterations,
+        converged_multigrid: multigrid.failure.is_none(),
     })
 }
 
@@ -266,6 +286,8 @@ fn summarise(
     let (iterations_jacobi_max, iterations_jacobi_median) = its(|r| r.iterations_jacobi);
     let (first_solve_plain_max, first_solve_plain_median) = its(|r| r.first_solve_plain);
     let (first_solve_jacobi_max, first_solve_jacobi_median) = its(|r| r.first_solve_jacobi);
+    let (first_solve_multigrid_max, first_solve_multigrid_median) =
+        its(|r| r.first_solve_multigrid);
     SweepRow {
         level,
         element: element.into(),
@@ -289,6 +311,9 @@ fn summarise(
         first_solve_jacobi_max,
         first_solve_jacobi_median,
         failures_jacobi: runs.iter().filter(|r| !r.converged_jacobi).count(),
+        first_solve_multigrid_max,
+        first_solve_multigrid_median,
+        failures_multigrid: runs.iter().filter(|r| !r.converged_multigrid).count(),
     }
 }
 
@@ -299,18 +324,19 @@ fn markdown(rows: &[SweepRow], opts: &CutSweepOptions) -> String {
          κ of the operator (Lanczos / shift-invert Lanczos; `≥` where some matrix\n\
          was numerically singular and κ is a lower bound), the Jacobi-scaled κ, and\n\
          the Krylov iterations ({}) of the first solve (`A U_0 = F`), plain, and of\n\
-         the first solve and accumulated over the fixed-point loop with Jacobi\n\
-         (max / median over the offsets). Budget {} iterations per solve; a run\n\
+         the first solve and accumulated over the fixed-point loop with Jacobi,\n\
+         and of the first solve with CG + multigrid (max / median over the\n\
+         offsets). Budget {} iterations per solve; a run\n\
          over budget counts in `failed` with the iterations it spent. S-term:\n\
          k2 = {}, A = {}.\n\n\
-         | level | element | S-term | κ max | κ median | κ_J max | κ_J median | plain: first solve | plain failed | Jacobi: first solve | Jacobi: accumulated | Jacobi failed |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         | level | element | S-term | κ max | κ median | κ_J max | κ_J median | plain: first solve | plain failed | Jacobi: first solve | Jacobi: accumulated | Jacobi failed | CG + multigrid: first solve | multigrid failed |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         opts.offsets, opts.seed, opts.method, opts.max_iterations, opts.k2, opts.a
     );
     for r in rows {
         let bound = if r.kappa_lower_bounds > 0 { "≥ " } else { "" };
         s += &format!(
-            "| {} | {} | {} | {bound}{} | {} | {} | {} | {} / {} | {} | {} / {} | {} / {} | {} |\n",
+            "| {} | {} | {} | {bound}{} | {} | {} | {} | {} / {} | {} | {} / {} | {} / {} | {} | {} / {} | {} |\n",
             r.level,
             r.element,
             if r.stabilised { "with" } else { "without" },
@@ -326,6 +352,9 @@ fn markdown(rows: &[SweepRow], opts: &CutSweepOptions) -> String {
             r.iterations_jacobi_max,
             r.iterations_jacobi_median,
             r.failures_jacobi,
+            r.first_solve_multigrid_max,
+            r.first_solve_multigrid_median,
+            r.failures_multigrid,
         );
     }
     s

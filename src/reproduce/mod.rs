@@ -18,18 +18,18 @@ pub mod table2;
 
 use std::path::Path;
 
-use crate::backend::{CpuBackend, LinearOperator};
 use crate::case::physics::OuterMethod;
 use crate::case::Case;
 use crate::condition::{condition_number, ConditionEstimate, ConditionOptions};
 use crate::error::{Error, Result};
 use crate::fem::field::error_norms;
 use crate::fem::fixed_point::FixedPointReport;
+use crate::fem::linear::{CpuSolver, LinearSolver};
 use crate::fem::setup::Setup;
 use crate::fem::solve::solve;
 use crate::output::write_atomic;
 use crate::progress::{Event, Phase, Progress};
-use crate::solver::{solve as krylov_solve, KrylovMethod, Preconditioner};
+use crate::solver::{KrylovMethod, Preconditioner};
 
 pub use cut_sweep::{cut_sweep, CutSweepOptions};
 pub use fig3::{fig3, Fig3Curves};
@@ -140,10 +140,8 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     }
     if cfg.first_solve_only {
         let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
-        let diag = setup.op.diagonal();
         let mut u = vec![0.0; setup.fixed_rhs.len()];
-        let be = CpuBackend::new();
-        match krylov_solve(&be, &setup.op, Some(&diag), &setup.fixed_rhs, &mut u, &opts) {
+        match CpuSolver::for_setup(&setup).solve(&setup.fixed_rhs, &mut u, &opts) {
             Ok(stats) => {
                 out.first_solve_iterations = stats.iterations;
                 out.krylov_iterations = stats.iterations;

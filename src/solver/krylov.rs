@@ -15,7 +15,7 @@ use super::{KrylovMethod, KrylovStats, Precond};
 pub(super) struct Problem<'a, 'o, B: Backend> {
     pub backend: &'a B,
     pub op: &'a B::Operator<'o>,
-    pub pre: Precond<B>,
+    pub pre: Precond<'a, B>,
     pub method: KrylovMethod,
     pub b_norm: f64,
     pub rel_tol: f64,

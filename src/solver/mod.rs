@@ -1,6 +1,8 @@
 //! Krylov solvers (DESIGN §3.4): CGS (the paper's method and the default), CG for
 //! SPD operators and BiCGStab for non-symmetric ones, each with no or Jacobi
-//! preconditioning, written once against [`Backend`].
+//! preconditioning, or with a preconditioner built by the caller
+//! ([`solve_preconditioned`]: the multigrid V-cycle of [`crate::multigrid`]),
+//! written once against [`Backend`].
 //!
 //! # Stopping, honestly
 //! A solve stops when the relative residual `‖b − A x‖₂ / ‖b‖₂` is at most
@@ -45,7 +47,7 @@ pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 pub(crate) use krylov::breakdown;
 use krylov::Problem;
 pub(crate) use precond::Precond;
-pub use precond::{floor_diagonal, DIAGONAL_FLOOR};
+pub use precond::{floor_diagonal, ApplyInverse, DIAGONAL_FLOOR};
 
 /// The Krylov method of a solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -86,6 +88,20 @@ pub enum Preconditioner {
     None,
     /// `M = diag(A)`.
     Jacobi,
+    /// `M⁻¹` = one geometric multigrid V-cycle on the case's nested grids
+    /// ([`crate::multigrid`]; CPU backend only).
+    Multigrid,
+}
+
+impl Preconditioner {
+    /// The lowercase name, as in case files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preconditioner::None => "none",
+            Preconditioner::Jacobi => "jacobi",
+            Preconditioner::Multigrid => "multigrid",
+        }
+    }
 }
 
 /// What to solve with and when to stop.
@@ -171,6 +187,32 @@ pub fn solve<B: Backend>(
             backend,
             op,
             pre: Precond::new(backend, op, diag, opts)?,
+            method: opts.method,
+            b_norm,
+            rel_tol: opts.rel_tol,
+            max_iterations: opts.max_iterations,
+        })
+    })
+}
+
+/// [`solve`] with the preconditioner `pre` built by the caller (the
+/// multigrid V-cycle); `opts.preconditioner` is not looked at.
+///
+/// # Panics
+/// If `b` or `x` do not have the size of `op`.
+pub fn solve_preconditioned<B: Backend>(
+    backend: &B,
+    op: &B::Operator<'_>,
+    pre: &dyn ApplyInverse<B>,
+    b: &B::Vector,
+    x: &mut B::Vector,
+    opts: &KrylovOptions,
+) -> Result<KrylovStats> {
+    drive(backend, op, b, x, opts, |b_norm| {
+        Ok(Problem {
+            backend,
+            op,
+            pre: Precond::external(pre),
             method: opts.method,
             b_norm,
             rel_tol: opts.rel_tol,

@@ -1,6 +1,8 @@
 //! Preconditioners as the Krylov cycles apply them: `z = M⁻¹ r` with `M = I`
-//! (no work, `r` itself is used) or `M = diag(A)` (Jacobi: one
-//! [`Backend::pointwise_mul`] with the inverted diagonal, set up once per solve).
+//! (no work, `r` itself is used), `M = diag(A)` (Jacobi: one
+//! [`Backend::pointwise_mul`] with the inverted diagonal, set up once per solve)
+//! or one built outside the solver and handed in as an [`ApplyInverse`] (the
+//! multigrid V-cycle of [`crate::multigrid`], which needs the case's grids).
 //!
 //! # The diagonal floor
 //! A cut cell whose part inside the body is a sliver of a few ulps gives its
@@ -27,10 +29,20 @@ use crate::error::Result;
 
 use super::krylov::breakdown;
 use super::{KrylovMethod, KrylovOptions, Preconditioner};
+use crate::error::Error;
 
-/// `M⁻¹` on the backend: `None` for the identity, else `D⁻¹` as a vector.
-pub(crate) struct Precond<B: Backend> {
+/// A preconditioner built outside the solver: `z = M⁻¹ r` on the backend's
+/// vectors. For CG, `M⁻¹` must be symmetric positive definite.
+pub trait ApplyInverse<B: Backend> {
+    /// `z = M⁻¹ r` (overwrites `z`).
+    fn apply_inverse(&self, r: &B::Vector, z: &mut B::Vector);
+}
+
+/// `M⁻¹` on the backend: the identity, `D⁻¹` as a vector, or an
+/// [`ApplyInverse`] built by the caller.
+pub(crate) struct Precond<'p, B: Backend> {
     inv_diag: Option<B::Vector>,
+    external: Option<&'p dyn ApplyInverse<B>>,
     floored: usize,
 }
 
@@ -67,22 +79,30 @@ pub fn floor_diagonal(d: &mut [f64], positive: bool) -> std::result::Result<usiz
     Ok(floored)
 }
 
-impl<B: Backend> Precond<B> {
+impl<'p, B: Backend> Precond<'p, B> {
     /// The preconditioner asked for in `opts`. For Jacobi, `diag` (or, when
     /// `None`, [`Backend::diagonal`] of `op`) is downloaded once, checked
     /// (finite; for CG, which needs `M` SPD, not negative beyond the floor),
-    /// floored (module doc), inverted and uploaded.
+    /// floored (module doc), inverted and uploaded. Multigrid cannot be built
+    /// from the operator alone: [`Error::InvalidSolverOptions`] (build it
+    /// with [`crate::multigrid`] and pass it to [`Precond::external`]).
     pub(crate) fn new(
         be: &B,
         op: &B::Operator<'_>,
         diag: Option<&B::Vector>,
         opts: &KrylovOptions,
     ) -> Result<Self> {
-        if opts.preconditioner == Preconditioner::None {
-            return Ok(Precond {
-                inv_diag: None,
-                floored: 0,
-            });
+        match opts.preconditioner {
+            Preconditioner::None => return Ok(Precond::external_or_none(None)),
+            Preconditioner::Jacobi => {}
+            Preconditioner::Multigrid => {
+                return Err(Error::InvalidSolverOptions {
+                    what: "preconditioner".into(),
+                    reason: "multigrid needs the case's grid hierarchy: it is built with \
+                             the set-up (crate::multigrid) and runs on the CPU backend"
+                        .into(),
+                })
+            }
         }
         let d = match diag {
             Some(d) => be.download(d),
@@ -111,8 +131,22 @@ impl<B: Backend> Precond<B> {
         let inv: Vec<f64> = d.iter().map(|v| 1.0 / v).collect();
         Ok(Precond {
             inv_diag: Some(be.upload(&inv)),
+            external: None,
             floored,
         })
+    }
+
+    /// `M⁻¹` applied by `pre`.
+    pub(crate) fn external(pre: &'p dyn ApplyInverse<B>) -> Self {
+        Precond::external_or_none(Some(pre))
+    }
+
+    fn external_or_none(external: Option<&'p dyn ApplyInverse<B>>) -> Self {
+        Precond {
+            inv_diag: None,
+            external,
+            floored: 0,
+        }
     }
 
     /// Diagonal entries Jacobi floored (0 without a preconditioner).
@@ -125,20 +159,29 @@ impl<B: Backend> Precond<B> {
         self.inv_diag.as_ref()
     }
 
+    /// Whether `M = I` (no work, no scratch).
+    fn is_identity(&self) -> bool {
+        self.inv_diag.is_none() && self.external.is_none()
+    }
+
     /// Scratch space for [`Precond::apply`]: `n` entries, or none for `M = I`.
     pub fn scratch(&self, be: &B, n: usize) -> B::Vector {
-        be.zeros(if self.inv_diag.is_some() { n } else { 0 })
+        be.zeros(if self.is_identity() { 0 } else { n })
     }
 
     /// `M⁻¹ r`: `r` itself for `M = I`, else written to `z` (from
     /// [`Precond::scratch`]) and returned.
     pub fn apply<'a>(&self, be: &B, r: &'a B::Vector, z: &'a mut B::Vector) -> &'a B::Vector {
-        match &self.inv_diag {
-            None => r,
-            Some(inv) => {
+        match (&self.inv_diag, self.external) {
+            (Some(inv), _) => {
                 be.pointwise_mul(inv, r, z);
                 z
             }
+            (None, Some(pre)) => {
+                pre.apply_inverse(r, z);
+                z
+            }
+            (None, None) => r,
         }
     }
 }
