@@ -168,6 +168,25 @@ fn vec3(v: [f64; 3]) -> String {
 
 /// The case text of a placement, and the applied load `∫ t dA` (zero for the
 /// torus, which is checked against its exact field).
+/// Steel, clamped on `clamped`, the traction `t` on `loaded` (of area
+/// `area`) appended to `text`; returns the applied load `t · area`.
+fn clamped_and_loaded(
+    text: &mut String,
+    clamped: &str,
+    loaded: &str,
+    t: [f64; 3],
+    area: f64,
+) -> [f64; 3] {
+    text.push_str(&format!(
+        "[material]\nyoung = 210000.0\npoisson = 0.3\n[dirichlet.{clamped}]\nvalue = [\"0\", \"0\", \"0\"]\n\
+         [neumann.{loaded}]\ntraction = [\"{}\", \"{}\", \"{}\"]\n",
+        f(t[0]),
+        f(t[1]),
+        f(t[2])
+    ));
+    t.map(|a| a * area)
+}
+
 fn case_text(p: &Placement) -> (String, [f64; 3]) {
     let s = p.scale;
     let r = rotation(p.axis, p.angle_deg.to_radians());
@@ -230,30 +249,22 @@ fn case_text(p: &Placement) -> (String, [f64; 3]) {
             ));
             [0.0; 3]
         }
-        Part::Bracket => {
-            // 10 MPa on the 10 mm × 40 mm top face of the upright.
-            let t = apply(&r, [10.0, 0.0, 0.0]);
-            text.push_str(&format!(
-                "[material]\nyoung = 210000.0\npoisson = 0.3\n[dirichlet.bolt_holes]\nvalue = [\"0\", \"0\", \"0\"]\n\
-                 [neumann.load]\ntraction = [\"{}\", \"{}\", \"{}\"]\n",
-                f(t[0]),
-                f(t[1]),
-                f(t[2])
-            ));
-            t.map(|a| a * 400.0 * s * s)
-        }
-        Part::Plate => {
-            // 100 MPa on the 2 × 0.25 right face.
-            let t = apply(&r, [100.0, 0.0, 0.0]);
-            text.push_str(&format!(
-                "[material]\nyoung = 210000.0\npoisson = 0.3\n[dirichlet.xmin]\nvalue = [\"0\", \"0\", \"0\"]\n\
-                 [neumann.xmax]\ntraction = [\"{}\", \"{}\", \"{}\"]\n",
-                f(t[0]),
-                f(t[1]),
-                f(t[2])
-            ));
-            t.map(|a| a * 0.5 * s * s)
-        }
+        // 10 MPa on the 10 mm × 40 mm top face of the upright.
+        Part::Bracket => clamped_and_loaded(
+            &mut text,
+            "bolt_holes",
+            "load",
+            apply(&r, [10.0, 0.0, 0.0]),
+            400.0 * s * s,
+        ),
+        // 100 MPa on the 2 × 0.25 right face.
+        Part::Plate => clamped_and_loaded(
+            &mut text,
+            "xmin",
+            "xmax",
+            apply(&r, [100.0, 0.0, 0.0]),
+            0.5 * s * s,
+        ),
     };
     (text, load)
 }

@@ -95,41 +95,7 @@ pub fn fixed_point_with_progress(
     let mut run_solve =
         |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
             krylov.rel_tol = tol;
-            let t = std::time::Instant::now();
-            let result = solver.solve(rhs, u, &krylov);
-            report.krylov_seconds += t.elapsed().as_secs_f64();
-            let stats: KrylovStats = match result {
-                Ok(stats) => stats,
-                Err(e) => {
-                    // The failed solve's iterations count too (what was spent).
-                    if let Error::MaxIterations { iterations, .. }
-                    | Error::Breakdown { iterations, .. } = &e
-                    {
-                        report.iterations_per_solve.push(*iterations);
-                        report.total_iterations += iterations;
-                    }
-                    return Err(e);
-                }
-            };
-            progress.event(&Event::KrylovSolve {
-                index: report.iterations_per_solve.len(),
-                iterations: stats.iterations,
-                relative_residual: stats.true_relative_residual,
-            });
-            tracing::debug!(
-                iterations = stats.iterations,
-                residual = stats.true_relative_residual,
-                tol,
-                "Krylov solve"
-            );
-            report.iterations_per_solve.push(stats.iterations);
-            report.total_iterations += stats.iterations;
-            report.tolerances.push(tol);
-            report.final_relative_residual = stats.true_relative_residual;
-            report.floored_diagonal_entries = report
-                .floored_diagonal_entries
-                .max(stats.floored_diagonal_entries);
-            Ok(())
+            recorded_solve(solver, rhs, u, &krylov, report, progress)
         };
     let mut u = vec![0.0; fixed.len()];
     let mut tau = opts.krylov.rel_tol;
@@ -138,17 +104,7 @@ pub fn fixed_point_with_progress(
     for k in 1..=opts.max_iterations {
         stop(report)?;
         let _span = tracing::info_span!("fixed_point", iteration = k).entered();
-        let t = std::time::Instant::now();
-        progress.event(&Event::Start {
-            phase: Phase::Recovery,
-            total: None,
-        });
-        let extra = recovered(&u);
-        progress.event(&Event::Finish {
-            phase: Phase::Recovery,
-        });
-        let extra = extra?;
-        report.recovery_seconds += t.elapsed().as_secs_f64();
+        let extra = recorded_recovery(recovered, &u, report, progress)?;
         let rhs: Vec<f64> = fixed.iter().zip(&extra).map(|(a, b)| a + b).collect();
         let mut next = u.clone();
         run_solve(&rhs, &mut next, tau, report)?;
@@ -181,6 +137,76 @@ pub fn fixed_point_with_progress(
         iterations: report.iterations,
         residual: report.eps_history.last().copied().unwrap_or(f64::NAN),
     })
+}
+
+/// Solves `A u = rhs` with `krylov` (warm-started at `u`), timed, announced
+/// to `progress` and recorded in `report`: iterations (also those of a solve
+/// that failed: what was spent), tolerance, true residual, floored diagonal
+/// entries. Both outer loops solve through it.
+pub(super) fn recorded_solve(
+    solver: &mut dyn LinearSolver,
+    rhs: &[f64],
+    u: &mut Vec<f64>,
+    krylov: &KrylovOptions,
+    report: &mut FixedPointReport,
+    progress: &dyn Progress,
+) -> Result<()> {
+    let t = std::time::Instant::now();
+    let result = solver.solve(rhs, u, krylov);
+    report.krylov_seconds += t.elapsed().as_secs_f64();
+    let stats: KrylovStats = match result {
+        Ok(stats) => stats,
+        Err(e) => {
+            if let Error::MaxIterations { iterations, .. } | Error::Breakdown { iterations, .. } =
+                &e
+            {
+                report.iterations_per_solve.push(*iterations);
+                report.total_iterations += iterations;
+            }
+            return Err(e);
+        }
+    };
+    progress.event(&Event::KrylovSolve {
+        index: report.iterations_per_solve.len(),
+        iterations: stats.iterations,
+        relative_residual: stats.true_relative_residual,
+    });
+    tracing::debug!(
+        iterations = stats.iterations,
+        residual = stats.true_relative_residual,
+        tol = krylov.rel_tol,
+        "Krylov solve"
+    );
+    report.iterations_per_solve.push(stats.iterations);
+    report.total_iterations += stats.iterations;
+    report.tolerances.push(krylov.rel_tol);
+    report.final_relative_residual = stats.true_relative_residual;
+    report.floored_diagonal_entries = report
+        .floored_diagonal_entries
+        .max(stats.floored_diagonal_entries);
+    Ok(())
+}
+
+/// `recovered(u)`, timed into `report.recovery_seconds` and announced to
+/// `progress` as the recovery phase.
+pub(super) fn recorded_recovery(
+    recovered: &mut dyn FnMut(&[f64]) -> Result<Vec<f64>>,
+    u: &[f64],
+    report: &mut FixedPointReport,
+    progress: &dyn Progress,
+) -> Result<Vec<f64>> {
+    let t = std::time::Instant::now();
+    progress.event(&Event::Start {
+        phase: Phase::Recovery,
+        total: None,
+    });
+    let extra = recovered(u);
+    progress.event(&Event::Finish {
+        phase: Phase::Recovery,
+    });
+    let extra = extra?;
+    report.recovery_seconds += t.elapsed().as_secs_f64();
+    Ok(extra)
 }
 
 impl FixedPointReport {

@@ -40,11 +40,11 @@
 //! basis is restarted every [`RESTART`] directions, so the memory is
 //! `2 (RESTART + 1)` vectors.
 
-use super::fixed_point::{FixedPointOptions, FixedPointReport};
+use super::fixed_point::{recorded_recovery, recorded_solve, FixedPointOptions, FixedPointReport};
 use super::linear::LinearSolver;
 use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
-use crate::progress::{Event, Phase, Progress};
+use crate::progress::{Event, Progress};
 
 /// Directions kept before the outer iteration restarts.
 pub const RESTART: usize = 10;
@@ -99,6 +99,7 @@ pub fn fgmres_fixed_point(
             return Ok(u);
         }
         if outer.report.iterations >= opts.max_iterations {
+            outer.report.final_relative_residual = estimate / b_norm;
             return Err(Error::MaxIterations {
                 method: "fixed point (fgmres)".into(),
                 iterations: outer.report.iterations,
@@ -138,52 +139,15 @@ impl Outer<'_, '_> {
 
     /// `R(x)`, timed and reported as a recovery.
     fn recover(&mut self, x: &[f64]) -> Result<Vec<f64>> {
-        let t = std::time::Instant::now();
-        self.progress.event(&Event::Start {
-            phase: Phase::Recovery,
-            total: None,
-        });
-        let rec = (self.recovered)(x);
-        self.progress.event(&Event::Finish {
-            phase: Phase::Recovery,
-        });
-        let rec = rec?;
-        self.report.recovery_seconds += t.elapsed().as_secs_f64();
-        Ok(rec)
+        recorded_recovery(self.recovered, x, self.report, self.progress)
     }
 
-    /// `z ≈ A⁻¹ v` to `inner_rel_tol`, counted as one solve of the report.
+    /// `z ≈ A⁻¹ v` to `inner_rel_tol` from `z = 0`, one solve of the report.
     fn precondition(&mut self, v: &[f64]) -> Result<Vec<f64>> {
         let mut krylov = self.opts.krylov.clone();
         krylov.rel_tol = self.opts.inner_rel_tol;
         let mut z = vec![0.0; v.len()];
-        let t = std::time::Instant::now();
-        let result = self.solver.solve(v, &mut z, &krylov);
-        self.report.krylov_seconds += t.elapsed().as_secs_f64();
-        let stats = match result {
-            Ok(stats) => stats,
-            Err(e) => {
-                if let Error::MaxIterations { iterations, .. }
-                | Error::Breakdown { iterations, .. } = &e
-                {
-                    self.report.iterations_per_solve.push(*iterations);
-                    self.report.total_iterations += iterations;
-                }
-                return Err(e);
-            }
-        };
-        self.progress.event(&Event::KrylovSolve {
-            index: self.report.iterations_per_solve.len(),
-            iterations: stats.iterations,
-            relative_residual: stats.true_relative_residual,
-        });
-        self.report.iterations_per_solve.push(stats.iterations);
-        self.report.total_iterations += stats.iterations;
-        self.report.tolerances.push(krylov.rel_tol);
-        self.report.floored_diagonal_entries = self
-            .report
-            .floored_diagonal_entries
-            .max(stats.floored_diagonal_entries);
+        recorded_solve(self.solver, v, &mut z, &krylov, self.report, self.progress)?;
         Ok(z)
     }
 
@@ -227,7 +191,8 @@ impl Outer<'_, '_> {
                     }
                 }
             }
-            column[j + 1] = norm(&w);
+            let w_norm = norm(&w);
+            column[j + 1] = w_norm;
             estimate = h.push(column);
             self.report.iterations += 1;
             let eps = estimate / b_norm;
@@ -244,12 +209,11 @@ impl Outer<'_, '_> {
                 eps,
                 krylov_iterations,
             });
-            let last = column_norm_last(&h);
-            if last == 0.0 {
+            if w_norm == 0.0 {
                 // Lucky breakdown: the space is invariant, the solve exact.
                 break;
             }
-            v.push(w.iter().map(|x| x / last).collect());
+            v.push(w.iter().map(|x| x / w_norm).collect());
         }
         let y = h.solve();
         let mut du = vec![0.0; n];
@@ -262,11 +226,6 @@ impl Outer<'_, '_> {
     }
 }
 
-/// The last subdiagonal entry `h_{j+1,j}` as it was before the rotations.
-fn column_norm_last(h: &Hessenberg) -> f64 {
-    h.subdiagonal.last().copied().unwrap_or(0.0)
-}
-
 /// The Arnoldi Hessenberg matrix reduced to upper triangular by Givens
 /// rotations as its columns arrive, with the rotated right-hand side `β e₁`.
 struct Hessenberg {
@@ -276,8 +235,6 @@ struct Hessenberg {
     rotations: Vec<(f64, f64)>,
     /// `g = Qᵀ β e₁`.
     g: Vec<f64>,
-    /// `h_{j+1,j}` of each column, before rotation.
-    subdiagonal: Vec<f64>,
 }
 
 impl Hessenberg {
@@ -286,7 +243,6 @@ impl Hessenberg {
             columns: Vec::new(),
             rotations: Vec::new(),
             g: vec![beta],
-            subdiagonal: Vec::new(),
         }
     }
 
@@ -294,7 +250,6 @@ impl Hessenberg {
     /// norm of the least-squares solution over the `j + 1` directions.
     fn push(&mut self, mut column: Vec<f64>) -> f64 {
         let j = self.columns.len();
-        self.subdiagonal.push(column[j + 1]);
         for (i, &(c, s)) in self.rotations.iter().enumerate() {
             let (a, b) = (column[i], column[i + 1]);
             column[i] = c * a + s * b;
