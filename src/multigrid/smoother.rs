@@ -201,7 +201,10 @@ fn rsub_assign(r: &mut [f64], b: &[f64]) {
 /// w = S q_k − β_k q_{k−1};  α_k = w·q_k;  w = w − α_k q_k;  β_{k+1} = ‖w‖
 /// ```
 /// and the top eigenvalue of the tridiagonal `(α, β)`
-/// ([`tridiagonal_eigenvalue`]).
+/// ([`tridiagonal_eigenvalue`]). Not `condition::lanczos`: that one keeps the
+/// whole basis (full reorthogonalisation, Ritz vectors) for κ; a smoother
+/// bound needs only the top Ritz value, so the three-term recurrence holds
+/// three vectors instead of `steps` at every level of the hierarchy.
 pub fn largest_eigenvalue(op: &dyn LinearOperator, inv_diag: &[f64], steps: usize) -> f64 {
     let n = inv_diag.len();
     let scale: Vec<f64> = inv_diag.iter().map(|v| v.sqrt()).collect();
