@@ -22,6 +22,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod grid;
 pub mod hyper;
+pub mod mesh;
 pub mod multigrid;
 pub mod output;
 pub mod plot;

@@ -144,11 +144,9 @@ impl GeometrySpec {
                 minor_radius,
             } => Geometry::torus(*center, *axis, *major_radius, *minor_radius),
             GeometrySpec::Union { of } => {
-                let parts = many(of)?;
-                Ok(parts
-                    .into_iter()
-                    .reduce(Geometry::union)
-                    .expect("non-empty"))
+                let mut parts = many(of)?.into_iter();
+                let first = parts.next().expect("non-empty");
+                parts.try_fold(first, Geometry::union)
             }
             GeometrySpec::Intersection { of } => {
                 let mut parts = many(of)?.into_iter();

@@ -1,4 +1,6 @@
-//! A bounding-volume hierarchy over triangles, with nearest-hit line queries.
+//! A bounding-volume hierarchy over triangles, with nearest-hit line queries
+//! (contact search), box queries and a node walk (the winding number of
+//! [`crate::mesh`]).
 //!
 //! **Why a BVH rather than a uniform spatial hash.** The master surface is a
 //! 2D set in 3D whose triangles range from cell-sized to slivers, and under
@@ -86,7 +88,20 @@ enum Children {
 struct Node {
     lo: [f64; 3],
     hi: [f64; 3],
+    /// The node's triangles are `order[start..start + count]`.
+    start: usize,
+    count: usize,
     children: Children,
+}
+
+/// A node as [`Bvh::visit`] shows it: its box (the triangles' padded boxes)
+/// and its triangles.
+pub struct NodeView<'a> {
+    /// Index of the node, below [`Bvh::num_nodes`].
+    pub id: usize,
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+    pub triangles: &'a [usize],
 }
 
 /// A bounding-volume hierarchy over a list of triangles (their corners).
@@ -127,6 +142,63 @@ impl Bvh {
         &self.triangles[i]
     }
 
+    /// The number of nodes (0 for no triangles).
+    pub fn num_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Node `id` as [`Bvh::visit`] shows it.
+    pub fn node(&self, id: usize) -> NodeView<'_> {
+        let n = &self.nodes[id];
+        NodeView {
+            id,
+            lo: n.lo,
+            hi: n.hi,
+            triangles: &self.order[n.start..n.start + n.count],
+        }
+    }
+
+    /// Depth-first walk from the root: `enter(node)` says whether to look
+    /// inside a node; the triangles of an entered leaf go to `leaf`.
+    pub fn visit(&self, mut enter: impl FnMut(&NodeView) -> bool, mut leaf: impl FnMut(usize)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = vec![0usize];
+        while let Some(id) = stack.pop() {
+            if !enter(&self.node(id)) {
+                continue;
+            }
+            match self.nodes[id].children {
+                Children::Leaf { start, count } => {
+                    self.order[start..start + count]
+                        .iter()
+                        .for_each(|&t| leaf(t));
+                }
+                Children::Inner { left, right } => {
+                    stack.push(right);
+                    stack.push(left);
+                }
+            }
+        }
+    }
+
+    /// Calls `f` for every triangle whose padded box meets the box `lo..hi`.
+    pub fn for_each_in_box(&self, lo: [f64; 3], hi: [f64; 3], mut f: impl FnMut(usize)) {
+        let meets =
+            |a_lo: &[f64; 3], a_hi: &[f64; 3]| (0..3).all(|i| a_lo[i] <= hi[i] && a_hi[i] >= lo[i]);
+        let boxes = |t: usize| padded_box(&self.triangles[t]);
+        self.visit(
+            |n| meets(&n.lo, &n.hi),
+            |t| {
+                let (tlo, thi) = boxes(t);
+                if meets(&tlo, &thi) {
+                    f(t)
+                }
+            },
+        );
+    }
+
     /// Builds the subtree over `items` (which start at `start` in the final
     /// order); returns its node index.
     fn build(
@@ -154,6 +226,8 @@ impl Bvh {
         self.nodes.push(Node {
             lo,
             hi,
+            start,
+            count: items.len(),
             children: leaf,
         });
         if items.len() <= LEAF_SIZE {

@@ -27,9 +27,9 @@ mod marching;
 pub mod report;
 pub mod search;
 pub mod surface;
-mod vec3;
+pub(crate) mod vec3;
 
-pub use bvh::{Bvh, Hit};
+pub use bvh::{intersect_line, Bvh, Hit, NodeView};
 pub use enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
     Enforcement, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,

@@ -8,6 +8,7 @@ impl Node {
     fn shifted(self, by: usize) -> Node {
         match self {
             Node::Leaf(i) => Node::Leaf(i + by),
+            Node::Mesh(m) => Node::Mesh(m),
             Node::Union(a, b) => Node::Union(Box::new(a.shifted(by)), Box::new(b.shifted(by))),
             Node::Intersection(a, b) => {
                 Node::Intersection(Box::new(a.shifted(by)), Box::new(b.shifted(by)))
@@ -38,17 +39,19 @@ impl Geometry {
         (self, a, other.root.shifted(by))
     }
 
-    /// `self ∪ other`.
-    pub fn union(self, other: Geometry) -> Geometry {
+    /// `self ∪ other`; an error for a mesh solid.
+    pub fn union(self, other: Geometry) -> Result<Geometry> {
+        self.refuse_mesh_operand(&other, "union")?;
         let bbox = self.bbox.union(&other.bbox);
         let (mut g, a, b) = self.merge(other);
         g.root = Node::Union(Box::new(a), Box::new(b));
         g.bbox = bbox;
-        g
+        Ok(g)
     }
 
     /// `self ∩ other`; an error when the bounding boxes are disjoint.
     pub fn intersection(self, other: Geometry) -> Result<Geometry> {
+        self.refuse_mesh_operand(&other, "intersection")?;
         let bbox = self.bbox.intersection(&other.bbox);
         if bbox.is_empty() {
             return Err(Error::EmptyGeometry {
@@ -65,6 +68,7 @@ impl Geometry {
     /// contains every corner and the centre of `self`'s box (a cheap emptiness
     /// test; the grid reports an empty result it finds later).
     pub fn difference(self, other: Geometry) -> Result<Geometry> {
+        self.refuse_mesh_operand(&other, "difference")?;
         let bbox = self.bbox;
         if bbox.is_finite() && bbox.intersection(&other.bbox) == bbox {
             let c = [0, 1, 2].map(|i| 0.5 * (bbox.lo[i] + bbox.hi[i]));
@@ -142,7 +146,9 @@ impl Geometry {
         for leaf in &mut self.leaves {
             leaf.frame = leaf.frame.moved(r, s);
         }
-        if self.bbox.is_finite() {
+        if self.mesh().is_some() {
+            self.move_mesh(r, s);
+        } else if self.bbox.is_finite() {
             let b = self.bbox;
             let mut out = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
             for k in 0..8 {
@@ -166,6 +172,7 @@ impl Geometry {
         for leaf in &mut self.leaves {
             leaf.tag = 0;
         }
+        self.retag_mesh(|_| 0);
         self
     }
 
@@ -180,13 +187,15 @@ impl Geometry {
         if let Some(new) = self.tag_id(to) {
             self.tags.remove(old as usize);
             let new = if new > old { new - 1 } else { new };
+            let renumber = |t: u16| match t.cmp(&old) {
+                std::cmp::Ordering::Equal => new,
+                std::cmp::Ordering::Greater => t - 1,
+                std::cmp::Ordering::Less => t,
+            };
             for leaf in &mut self.leaves {
-                if leaf.tag == old {
-                    leaf.tag = new;
-                } else if leaf.tag > old {
-                    leaf.tag -= 1;
-                }
+                leaf.tag = renumber(leaf.tag);
             }
+            self.retag_mesh(renumber);
         } else {
             self.tags[old as usize] = to.into();
         }

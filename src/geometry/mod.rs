@@ -9,10 +9,14 @@
 //! differently.
 
 mod csg;
+mod mesh_solid;
 mod primitives;
 pub mod scalar;
 pub mod surface;
 
+use std::sync::Arc;
+
+use crate::mesh::MeshSolid;
 use scalar::{Dual, Interval, Lattice};
 use surface::Leaf;
 
@@ -63,6 +67,9 @@ impl Aabb {
 #[derive(Clone, Debug, PartialEq)]
 enum Node {
     Leaf(usize),
+    /// A solid bounded by a triangle mesh (the whole tree, for now: see
+    /// [`Geometry::from_mesh`]).
+    Mesh(Arc<MeshSolid>),
     Union(Box<Node>, Box<Node>),
     Intersection(Box<Node>, Box<Node>),
     Difference(Box<Node>, Box<Node>),
@@ -86,6 +93,7 @@ impl Geometry {
     fn eval_node<T: Lattice>(&self, node: &Node, x: [T; 3]) -> T {
         match node {
             Node::Leaf(i) => self.leaves[*i].eval(x),
+            Node::Mesh(m) => T::mesh_level_set(m, x),
             Node::Union(a, b) => self.eval_node(a, x).min(self.eval_node(b, x)),
             Node::Intersection(a, b) => self.eval_node(a, x).max(self.eval_node(b, x)),
             Node::Difference(a, b) => self.eval_node(a, x).max(-self.eval_node(b, x)),
@@ -122,21 +130,25 @@ impl Geometry {
             return natural;
         }
         let leaf_bounds: Vec<Interval> = self.leaves.iter().map(|l| l.bounds(b).v).collect();
-        self.combine(&self.root, &leaf_bounds)
+        self.combine(&self.root, &leaf_bounds, b)
     }
 
-    fn combine<T: Lattice>(&self, node: &Node, leaf_values: &[T]) -> T {
+    fn combine(&self, node: &Node, leaf_values: &[Interval], bx: &Aabb) -> Interval {
         match node {
             Node::Leaf(i) => leaf_values[*i],
-            Node::Union(a, b) => self
-                .combine(a, leaf_values)
-                .min(self.combine(b, leaf_values)),
-            Node::Intersection(a, b) => self
-                .combine(a, leaf_values)
-                .max(self.combine(b, leaf_values)),
-            Node::Difference(a, b) => self
-                .combine(a, leaf_values)
-                .max(-self.combine(b, leaf_values)),
+            Node::Mesh(m) => Interval::mesh_level_set(m, bx.intervals()),
+            Node::Union(a, b) => {
+                self.combine(a, leaf_values, bx)
+                    .min(self.combine(b, leaf_values, bx))
+            }
+            Node::Intersection(a, b) => {
+                self.combine(a, leaf_values, bx)
+                    .max(self.combine(b, leaf_values, bx))
+            }
+            Node::Difference(a, b) => {
+                self.combine(a, leaf_values, bx)
+                    .max(-self.combine(b, leaf_values, bx))
+            }
         }
     }
 

@@ -4,6 +4,8 @@
 
 use std::ops::{Add, Mul, Neg, Sub};
 
+use crate::mesh::MeshSolid;
+
 /// Arithmetic a level set needs: ring operations and constants.
 pub trait Scalar:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
@@ -22,6 +24,12 @@ pub trait Scalar:
 pub trait Lattice: Scalar {
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
+    /// The level set `½ − w` of a mesh solid ([`MeshSolid::phi`]) at `x`: the
+    /// value at a point; over a box, the value at its centre when no triangle
+    /// meets the box (exact for a closed mesh, whose `w` is constant off the
+    /// surface) and `[−½, ½]` otherwise; for a dual, the value with a zero
+    /// gradient (exact off the surface of a closed mesh).
+    fn mesh_level_set(mesh: &MeshSolid, x: [Self; 3]) -> Self;
 }
 
 impl Scalar for f64 {
@@ -39,6 +47,9 @@ impl Lattice for f64 {
     }
     fn max(self, o: Self) -> Self {
         f64::max(self, o)
+    }
+    fn mesh_level_set(mesh: &MeshSolid, x: [Self; 3]) -> Self {
+        mesh.phi(x)
     }
 }
 
@@ -132,6 +143,15 @@ impl Lattice for Interval {
     }
     fn max(self, o: Self) -> Self {
         Interval::new(self.lo.max(o.lo), self.hi.max(o.hi))
+    }
+    fn mesh_level_set(mesh: &MeshSolid, x: [Self; 3]) -> Self {
+        let b = crate::geometry::Aabb::new(x.map(|i| i.lo), x.map(|i| i.hi));
+        if mesh.may_cross(&b) {
+            Interval::new(-0.5, 0.5)
+        } else {
+            let v = mesh.phi(x.map(|i| i.mid()));
+            Interval::new(v, v)
+        }
     }
 }
 
@@ -228,6 +248,12 @@ impl Lattice for Dual<f64> {
             o
         } else {
             self
+        }
+    }
+    fn mesh_level_set(mesh: &MeshSolid, x: [Self; 3]) -> Self {
+        Dual {
+            v: mesh.phi(x.map(|d| d.v)),
+            d: [0.0; 3],
         }
     }
 }

@@ -83,7 +83,7 @@ fn csg_combines_signs_and_tags() {
     let b = Geometry::sphere([1.0, 0.0, 0.0], 1.0)
         .unwrap()
         .with_tag("b");
-    let u = a.clone().union(b.clone());
+    let u = a.clone().union(b.clone()).unwrap();
     let i = a.clone().intersection(b.clone()).unwrap();
     let d = a.difference(b).unwrap();
     let p_only_a = [-0.5, 0.0, 0.0];
@@ -103,7 +103,8 @@ fn csg_combines_signs_and_tags() {
 fn interval_bounds_enclose_samples() {
     let g = Geometry::torus([0.1, 0.0, 0.0], [1.0, 1.0, 0.0], 0.8, 0.3)
         .unwrap()
-        .union(Geometry::cuboid([-0.2; 3], [0.4; 3]).unwrap());
+        .union(Geometry::cuboid([-0.2; 3], [0.4; 3]).unwrap())
+        .unwrap();
     let b = Aabb::new([0.2, -0.1, 0.0], [0.45, 0.2, 0.3]);
     let r = g.bounds(&b);
     for k in 0..1000 {

@@ -1,5 +1,6 @@
 //! Quadrature: Gauss rules and cut-cell rules for implicitly defined domains.
 pub mod gauss;
 mod lines;
+pub mod polyhedral;
 mod roots;
 pub mod saye;

@@ -177,7 +177,13 @@ pub(super) struct Ctx<'a> {
 /// `b ∩ ∂Ω`, with `q` Gauss points per segment and dimension. `free` lists the
 /// axes the box spans (three for a cell, two for a cell face; the others are
 /// degenerate in `b`).
+///
+/// A mesh solid gets the exact polyhedral rule instead
+/// ([`super::polyhedral::mesh_box_rule`], `q + 1` points per axis).
 pub fn box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
+    if let Some(mesh) = g.mesh() {
+        return super::polyhedral::mesh_box_rule(mesh, b, free, q);
+    }
     let (gauss_x, gauss_w) = super::gauss::gauss_legendre_unit(q);
     let ctx = Ctx {
         g,

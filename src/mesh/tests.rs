@@ -1,0 +1,141 @@
+//! Tests of mesh solids: cleaning, diagnostics, winding numbers, STL reading.
+
+use super::stl::parse_stl;
+use super::*;
+
+/// The 12 triangles of the box `lo..hi`, outward.
+pub(crate) fn box_triangles(lo: [f64; 3], hi: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
+    let c = |k: usize| [0, 1, 2].map(|i| if k >> i & 1 == 1 { hi[i] } else { lo[i] });
+    // Faces as corner-index quads, counter-clockwise seen from outside.
+    let quads = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    quads
+        .iter()
+        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+        .collect()
+}
+
+#[test]
+fn a_box_has_its_volume_area_and_no_open_edge() {
+    let tris = box_triangles([0.0; 3], [1.0, 2.0, 3.0]);
+    let m = MeshSolid::new(&tris, &[0; 12]).unwrap();
+    let d = m.diagnostics();
+    assert_eq!(
+        (d.triangles, d.vertices, d.open_edges, d.non_manifold_edges),
+        (12, 8, 0, 0)
+    );
+    assert_eq!(d.misoriented_edges, 0);
+    assert!(!d.flipped);
+    assert!((d.volume - 6.0).abs() < 1e-14 && (d.area - 22.0).abs() < 1e-13);
+    assert!((m.winding_number([0.5, 1.0, 1.5]) - 1.0).abs() < 1e-12);
+    assert!(m.winding_number([1.5, 1.0, 1.5]).abs() < 1e-12);
+}
+
+#[test]
+fn an_inverted_mesh_is_flipped_and_degenerate_triangles_are_dropped() {
+    let mut tris: Vec<_> = box_triangles([0.0; 3], [1.0; 3])
+        .into_iter()
+        .map(|t| [t[0], t[2], t[1]])
+        .collect();
+    tris.push([[0.0; 3], [1.0, 0.0, 0.0], [0.5, 0.0, 0.0]]);
+    tris.push([[0.0; 3], [0.0; 3], [1.0, 1.0, 0.0]]);
+    let m = MeshSolid::new(&tris, &[0; 14]).unwrap();
+    let d = m.diagnostics();
+    assert!(d.flipped);
+    assert_eq!(d.degenerate_dropped, 2);
+    assert!((d.volume - 1.0).abs() < 1e-14);
+    assert!(m.phi([0.5; 3]) < 0.0 && m.phi([0.5, 0.5, 1.5]) > 0.0);
+    // Removing one triangle opens three edges.
+    let open = MeshSolid::new(&tris[1..12], &[0; 11]).unwrap();
+    assert_eq!(open.diagnostics().open_edges, 3);
+}
+
+/// A sphere of radius `r` tessellated from an octahedron, `4^k · 8` triangles.
+pub(crate) fn sphere_triangles(r: f64, k: u32) -> Vec<[[f64; 3]; 3]> {
+    let mut tris: Vec<[[f64; 3]; 3]> = Vec::new();
+    for s in 0..8u32 {
+        let sg = |b: usize| if s >> b & 1 == 1 { -1.0 } else { 1.0 };
+        let (x, y, z) = ([sg(0), 0.0, 0.0], [0.0, sg(1), 0.0], [0.0, 0.0, sg(2)]);
+        let odd = (s.count_ones() % 2) == 1;
+        tris.push(if odd { [x, z, y] } else { [x, y, z] });
+    }
+    for _ in 0..k {
+        let unit = |a: [f64; 3], b: [f64; 3]| {
+            let m = [0, 1, 2].map(|i| a[i] + b[i]);
+            let l = norm(m);
+            m.map(|v| v / l)
+        };
+        tris = tris
+            .iter()
+            .flat_map(|t| {
+                let (a, b, c) = (unit(t[0], t[1]), unit(t[1], t[2]), unit(t[2], t[0]));
+                [[t[0], a, c], [a, t[1], b], [c, b, t[2]], [a, b, c]]
+            })
+            .collect();
+    }
+    tris.iter().map(|t| t.map(|p| p.map(|v| r * v))).collect()
+}
+
+#[test]
+fn the_far_field_winding_number_classifies_like_the_exact_sum() {
+    let m = MeshSolid::new(&sphere_triangles(1.0, 5), &vec![0; 8192]).unwrap();
+    assert!(!m.diagnostics().flipped);
+    let mut worst: f64 = 0.0;
+    for k in 0..200 {
+        let t = k as f64;
+        let p = [
+            (0.37 * t).sin() * 1.3,
+            (0.71 * t).cos() * 1.2,
+            (0.13 * t).sin() * 1.4,
+        ];
+        let (w, exact) = (m.winding_number(p), winding::winding_number_exact(&m, p));
+        worst = worst.max((w - exact).abs());
+        assert_eq!(w > 0.5, exact > 0.5, "{p:?}");
+        assert_eq!(exact > 0.5, norm(p) < 0.99, "{p:?}: {exact}");
+    }
+    assert!(worst < 0.02, "far field off by {worst}");
+}
+
+#[test]
+fn stl_reading_names_solids_and_rejects_non_stl() {
+    let ascii = "solid left\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n  endloop\n endfacet\nendsolid left\nsolid\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 1\n   vertex 1 0 1\n   vertex 0 1 1\n  endloop\n endfacet\nendsolid\n";
+    let solids = parse_stl(ascii.as_bytes()).unwrap();
+    assert_eq!(solids.len(), 2);
+    assert_eq!(
+        (solids[0].name.as_str(), solids[1].name.as_str()),
+        ("left", "")
+    );
+    assert_eq!(solids[1].triangles[0][1], [1.0, 0.0, 1.0]);
+    // A binary file whose header begins with `solid`.
+    let mut bin = b"solid but binary".to_vec();
+    bin.resize(80, 0);
+    bin.extend(1u32.to_le_bytes());
+    for v in [
+        0.0f32, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0, 0.0,
+    ] {
+        bin.extend(v.to_le_bytes());
+    }
+    bin.extend([0, 0]);
+    let solids = parse_stl(&bin).unwrap();
+    assert_eq!(
+        solids[0].triangles,
+        vec![[[0.0; 3], [2.0, 0.0, 0.0], [0.0, 3.0, 0.0]]]
+    );
+    let truncated = parse_stl(&bin[..bin.len() - 7]).unwrap_err();
+    assert!(
+        truncated.contains("announces 1 triangles (134 bytes) but the file has 127"),
+        "{truncated}"
+    );
+    assert!(parse_stl(b"").unwrap_err().contains("empty"));
+    assert!(parse_stl(&[7u8; 1000])
+        .unwrap_err()
+        .contains("not an STL file"));
+    let unclosed = parse_stl(b"solid a\n facet normal 0 0 1\n").unwrap_err();
+    assert!(unclosed.contains("no `endsolid`"), "{unclosed}");
+}

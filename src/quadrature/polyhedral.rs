@@ -1,0 +1,416 @@
+//! Exact cut-cell rules for solids bounded by triangle meshes ([`MeshSolid`]).
+//!
+//! On a box `B` (a cell, or a cell face for the consistency correction) the
+//! part `P = B ∩ Ω` is a polyhedron (a polygon on a face), so its moments can
+//! be had exactly from its boundary by the divergence theorem, with nothing
+//! but Gauss rules on flat pieces.
+//!
+//! **The rule.** With `n = q + 1` Gauss points `t_i` (weights `ω_i`) per axis of
+//! `B`, the volume rule is the tensor of those points with the weights
+//! `W_q = ∫_P L_q`, `L_q = ℓ_i(x)ℓ_j(y)ℓ_k(z)` the Lagrange polynomials of the
+//! points. It integrates every polynomial of `Q_q` (degree `≤ q` per axis)
+//! exactly over `P`: `Q_2` for Q1 elements (`q = 2`), `Q_4` for Q2 (`q = 4`),
+//! which are the spaces the moment-fitted element rules need
+//! ([`crate::fem::moment_fit`]). The weights may be negative and the points
+//! may lie outside `P`: the rule is an exact functional, not a sampling.
+//!
+//! **The moments, dimension by dimension.** Take the first free axis `a` and
+//! `Λ_i(x_a) = ∫_{lo_a}^{x_a} ℓ_i`, so that `∂_a (Λ_i L_J) = ℓ_i L_J`. Then
+//!
+//! ```text
+//! ∫_P ℓ_i L_J = ∫_{∂P} Λ_i L_J ν_a
+//!             = Σ_{pieces of ∂Ω ∩ B} ∫ Λ_i L_J ν_a  +  h_a ω_i ∫_{P ∩ {x_a = hi_a}} L_J,
+//! ```
+//! since `ν_a = 0` on the faces of `B` normal to the other axes, `Λ_i = 0` on
+//! the face `x_a = lo_a` and `Λ_i = h_a ω_i` on `x_a = hi_a`. In 3D the pieces
+//! are the mesh triangles clipped to `B` (Sutherland–Hodgman against its six
+//! planes) with their facet normals; the last term is the same problem one
+//! dimension down on the face. In 2D the pieces are the segments where the
+//! triangles cross the face's plane, clipped to the face, with the in-plane
+//! normal (the facet normal without its component across the plane,
+//! normalised); the last term is an edge of the face. In 1D the edge is split
+//! at its crossings with the triangles and each piece is inside or not by the
+//! winding number at its midpoint. Every integral is of a polynomial over a
+//! flat piece: triangles by the collapsed (Duffy) Gauss rule, segments by
+//! Gauss–Legendre, each exact for the degree at hand. The moments are thus
+//! exact to round-off for a closed mesh, and so are the divergence theorem
+//! between the volume, face and boundary rules and the patch test.
+//!
+//! **The boundary rule** is the clipped triangles' own: a collapsed Gauss rule
+//! on each fan triangle of each clipped polygon, exact for `Q_q` restricted to
+//! the plane (total degree `3q`), with the facet normal and the facet's tag.
+//!
+//! **Degenerate positions.** A vertex exactly on a clipping plane counts as on
+//! the plane's upper side, consistently, so a triangle lying in a grid plane
+//! contributes no crossing; such a part (a face of a box aligned with the
+//! grid) is integrated correctly only up to that convention.
+
+use crate::contact::intersect_line;
+use crate::contact::vec3::{cross, norm, sub};
+use crate::geometry::Aabb;
+use crate::mesh::MeshSolid;
+
+use super::gauss::gauss_legendre_unit;
+use super::saye::{BoxRule, SurfacePoint, VolumePoint};
+
+/// The Lagrange basis of the `n` Gauss points of `[0, 1]`, and the rules that
+/// integrate its products exactly on flat pieces.
+struct Basis {
+    n: usize,
+    /// Gauss points and weights of `[0, 1]` (`n` of them): the rule's nodes.
+    t: Vec<f64>,
+    w: Vec<f64>,
+    /// Collapsed rule for the moments (degree `3n − 2` on a triangle).
+    moment_tri: Vec<([f64; 2], f64)>,
+    /// Collapsed rule for the boundary points (degree `3q`).
+    surface_tri: Vec<([f64; 2], f64)>,
+}
+
+impl Basis {
+    fn new(q: usize) -> Basis {
+        let n = q + 1;
+        let (t, w) = gauss_legendre_unit(n);
+        Basis {
+            n,
+            t,
+            w,
+            moment_tri: collapsed_rule((3 * n).div_ceil(2)),
+            surface_tri: collapsed_rule((3 * q + 2).div_ceil(2)),
+        }
+    }
+
+    /// `ℓ_i(s)` for every `i`, `s` in unit coordinates.
+    fn lagrange(&self, s: f64) -> Vec<f64> {
+        (0..self.n)
+            .map(|i| {
+                (0..self.n)
+                    .filter(|&j| j != i)
+                    .map(|j| (s - self.t[j]) / (self.t[i] - self.t[j]))
+                    .product()
+            })
+            .collect()
+    }
+
+    /// `∫_0^s ℓ_i` for every `i` (the `n`-point rule is exact on `[0, s]`).
+    fn lagrange_integral(&self, s: f64) -> Vec<f64> {
+        let mut out = vec![0.0; self.n];
+        for (tg, wg) in self.t.iter().zip(&self.w) {
+            for (o, l) in out.iter_mut().zip(self.lagrange(s * tg)) {
+                *o += s * wg * l;
+            }
+        }
+        out
+    }
+}
+
+/// The collapsed Gauss rule on the reference triangle `{u, v ≥ 0, u + v ≤ 1}`
+/// with `m × m` points, exact for total degree `2m − 2`: barycentric-free
+/// coordinates `(u, uv)` of the square's points, weights summing to ½.
+fn collapsed_rule(m: usize) -> Vec<([f64; 2], f64)> {
+    let (x, w) = gauss_legendre_unit(m);
+    let mut out = Vec::with_capacity(m * m);
+    for (u, wu) in x.iter().zip(&w) {
+        for (v, wv) in x.iter().zip(&w) {
+            out.push(([u * (1.0 - v), u * v], u * wu * wv));
+        }
+    }
+    out
+}
+
+/// The cut rule of `b ∩ Ω` (`free` lists the axes `b` spans: three for a
+/// cell, two for a face), with `q + 1` points per axis.
+pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
+    let basis = Basis::new(q);
+    let mut rule = BoxRule::default();
+    let weights = if mesh.may_cross(b) {
+        moments(mesh, &basis, b, free)
+    } else if mesh.phi(center(b)) < 0.0 {
+        full_weights(&basis, b, free)
+    } else {
+        return rule;
+    };
+    let n = basis.n;
+    for (idx, &w) in weights.iter().enumerate() {
+        let mut x = b.lo;
+        let mut rest = idx;
+        for &a in free {
+            x[a] = b.lo[a] + (b.hi[a] - b.lo[a]) * basis.t[rest % n];
+            rest /= n;
+        }
+        rule.volume.push(VolumePoint { x, w });
+    }
+    if free.len() == 3 {
+        boundary_points(mesh, &basis, b, &mut rule.surface);
+    }
+    rule
+}
+
+fn center(b: &Aabb) -> [f64; 3] {
+    [0, 1, 2].map(|i| 0.5 * (b.lo[i] + b.hi[i]))
+}
+
+/// The tensor Gauss weights of the whole box (index `Σ i_m n^m`).
+fn full_weights(basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
+    let n = basis.n;
+    (0..n.pow(free.len() as u32))
+        .map(|idx| {
+            let mut rest = idx;
+            let mut w = 1.0;
+            for &a in free {
+                w *= (b.hi[a] - b.lo[a]) * basis.w[rest % n];
+                rest /= n;
+            }
+            w
+        })
+        .collect()
+}
+
+/// `W_J = ∫_{b∩Ω} L_J` over the free axes of `b` (index `Σ i_m n^m`).
+fn moments(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
+    let n = basis.n;
+    let a = free[0];
+    let h = b.hi[a] - b.lo[a];
+    if free.len() == 1 {
+        return edge_moments(mesh, basis, b, a);
+    }
+    let mut face = *b;
+    face.lo[a] = b.hi[a];
+    let lower = moments(mesh, basis, &face, &free[1..]);
+    let mut w = if free.len() == 3 {
+        triangle_flux(mesh, basis, b, free)
+    } else {
+        segment_flux(mesh, basis, b, free)
+    };
+    for (k, low) in lower.iter().enumerate() {
+        for i in 0..n {
+            w[i + n * k] += h * basis.w[i] * low;
+        }
+    }
+    w
+}
+
+/// The moments of the inside part of an edge along `a`.
+fn edge_moments(mesh: &MeshSolid, basis: &Basis, b: &Aabb, a: usize) -> Vec<f64> {
+    let h = b.hi[a] - b.lo[a];
+    let mut dir = [0.0; 3];
+    dir[a] = 1.0;
+    let mut cuts = vec![0.0, h];
+    mesh.for_each_triangle_in(b, |t| {
+        if let Some((s, _)) = intersect_line(mesh.triangle(t), b.lo, dir) {
+            if s > 0.0 && s < h {
+                cuts.push(s);
+            }
+        }
+    });
+    cuts.sort_by(f64::total_cmp);
+    let mut w = vec![0.0; basis.n];
+    for pair in cuts.windows(2) {
+        let (s0, s1) = (pair[0], pair[1]);
+        if s1 <= s0 {
+            continue;
+        }
+        let mut mid = b.lo;
+        mid[a] += 0.5 * (s0 + s1);
+        if mesh.phi(mid) >= 0.0 {
+            continue;
+        }
+        for (tg, wg) in basis.t.iter().zip(&basis.w) {
+            let s = (s0 + (s1 - s0) * tg) / h;
+            for (wi, l) in w.iter_mut().zip(basis.lagrange(s)) {
+                *wi += (s1 - s0) * wg * l;
+            }
+        }
+    }
+    w
+}
+
+/// `Σ ∫ Λ_i(x_a) ℓ_j(x_r) ν_a ds` over the segments where the triangles cross
+/// the plane of the face `b` (spanning `free = [a, r]`).
+fn segment_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
+    let (a, r) = (free[0], free[1]);
+    let p = 3 - a - r;
+    let c = b.lo[p];
+    let (ha, hr) = (b.hi[a] - b.lo[a], b.hi[r] - b.lo[r]);
+    let n = basis.n;
+    let mut w = vec![0.0; n * n];
+    mesh.for_each_triangle_in(b, |t| {
+        let Some((p0, p1)) = plane_crossing(mesh.triangle(t), p, c) else {
+            return;
+        };
+        let normal = mesh.normal(t);
+        let inplane = (normal[a] * normal[a] + normal[r] * normal[r]).sqrt();
+        if inplane == 0.0 {
+            return;
+        }
+        let Some((l0, l1)) = clip_segment(p0, p1, b, &[a, r]) else {
+            return;
+        };
+        let len =
+            (((p1[a] - p0[a]) * (l1 - l0)).powi(2) + ((p1[r] - p0[r]) * (l1 - l0)).powi(2)).sqrt();
+        let nu_a = normal[a] / inplane;
+        for (tg, wg) in basis.t.iter().zip(&basis.w) {
+            let lam = l0 + (l1 - l0) * tg;
+            let x = [0, 1, 2].map(|k| p0[k] + lam * (p1[k] - p0[k]));
+            let big = basis.lagrange_integral((x[a] - b.lo[a]) / ha);
+            let small = basis.lagrange((x[r] - b.lo[r]) / hr);
+            let f = wg * len * nu_a * ha;
+            for (j, lj) in small.iter().enumerate() {
+                for (i, li) in big.iter().enumerate() {
+                    w[i + n * j] += f * li * lj;
+                }
+            }
+        }
+    });
+    w
+}
+
+/// The segment where the triangle `v` crosses the plane `x_p = c`, endpoints
+/// computed from the edges' lower ends (so that neighbours agree bit for bit).
+fn plane_crossing(v: &[[f64; 3]; 3], p: usize, c: f64) -> Option<([f64; 3], [f64; 3])> {
+    let above = v.map(|x| x[p] >= c);
+    if above.iter().all(|&u| u) || above.iter().all(|&u| !u) {
+        return None;
+    }
+    let mut ends = Vec::with_capacity(2);
+    for k in 0..3 {
+        let (mut lo, mut hi) = (v[k], v[(k + 1) % 3]);
+        if above[k] == above[(k + 1) % 3] {
+            continue;
+        }
+        if lo[p] >= c {
+            std::mem::swap(&mut lo, &mut hi);
+        }
+        let s = (c - lo[p]) / (hi[p] - lo[p]);
+        let mut x = [0, 1, 2].map(|i| lo[i] + s * (hi[i] - lo[i]));
+        x[p] = c;
+        ends.push(x);
+    }
+    Some((ends[0], ends[1]))
+}
+
+/// The parameter range `[λ0, λ1] ⊂ [0, 1]` of `p0 + λ (p1 − p0)` inside the box
+/// along `axes` (Liang–Barsky), if not empty.
+fn clip_segment(p0: [f64; 3], p1: [f64; 3], b: &Aabb, axes: &[usize]) -> Option<(f64, f64)> {
+    let (mut l0, mut l1) = (0.0f64, 1.0f64);
+    for &k in axes {
+        let d = p1[k] - p0[k];
+        if d == 0.0 {
+            if p0[k] < b.lo[k] || p0[k] > b.hi[k] {
+                return None;
+            }
+            continue;
+        }
+        let (mut ta, mut tb) = ((b.lo[k] - p0[k]) / d, (b.hi[k] - p0[k]) / d);
+        if ta > tb {
+            std::mem::swap(&mut ta, &mut tb);
+        }
+        l0 = l0.max(ta);
+        l1 = l1.min(tb);
+    }
+    (l1 > l0).then_some((l0, l1))
+}
+
+/// The triangle `v` clipped to the box `b` (Sutherland–Hodgman): a convex
+/// polygon, empty when they do not meet.
+fn clip_triangle(v: &[[f64; 3]; 3], b: &Aabb) -> Vec<[f64; 3]> {
+    let mut poly: Vec<[f64; 3]> = v.to_vec();
+    for k in 0..3 {
+        for (bound, keep_above) in [(b.lo[k], true), (b.hi[k], false)] {
+            if poly.is_empty() {
+                return poly;
+            }
+            let inside = |x: &[f64; 3]| (x[k] >= bound) == keep_above || x[k] == bound;
+            let mut out = Vec::with_capacity(poly.len() + 1);
+            for i in 0..poly.len() {
+                let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);
+                let (ci, ni) = (inside(&cur), inside(&next));
+                if ci {
+                    out.push(cur);
+                }
+                if ci != ni {
+                    let (lo, hi) = if cur[k] < next[k] {
+                        (cur, next)
+                    } else {
+                        (next, cur)
+                    };
+                    let s = (bound - lo[k]) / (hi[k] - lo[k]);
+                    let mut x = [0, 1, 2].map(|i| lo[i] + s * (hi[i] - lo[i]));
+                    x[k] = bound;
+                    out.push(x);
+                }
+            }
+            poly = out;
+        }
+    }
+    if poly.len() < 3 {
+        poly.clear();
+    }
+    poly
+}
+
+/// Calls `f(x, w)` for the collapsed rule `tri` on every fan triangle of the
+/// convex polygon `poly`.
+fn for_each_polygon_point(
+    poly: &[[f64; 3]],
+    tri: &[([f64; 2], f64)],
+    mut f: impl FnMut([f64; 3], f64),
+) {
+    for k in 1..poly.len().saturating_sub(1) {
+        let (o, e1, e2) = (poly[0], sub(poly[k], poly[0]), sub(poly[k + 1], poly[0]));
+        let twice_area = norm(cross(e1, e2));
+        if twice_area == 0.0 {
+            continue;
+        }
+        for ([u, v], w) in tri {
+            f(
+                [0, 1, 2].map(|i| o[i] + u * e1[i] + v * e2[i]),
+                w * twice_area,
+            );
+        }
+    }
+}
+
+/// `Σ ∫ Λ_i(x_a) ℓ_j(x_r) ℓ_k(x_s) n_a dS` over the triangles clipped to the
+/// cell `b` (`free = [a, r, s]`).
+fn triangle_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
+    let (a, r, s) = (free[0], free[1], free[2]);
+    let h = [0, 1, 2].map(|k| b.hi[k] - b.lo[k]);
+    let n = basis.n;
+    let mut w = vec![0.0; n * n * n];
+    mesh.for_each_triangle_in(b, |t| {
+        let na = mesh.normal(t)[a];
+        if na == 0.0 {
+            return;
+        }
+        let poly = clip_triangle(mesh.triangle(t), b);
+        for_each_polygon_point(&poly, &basis.moment_tri, |x, wq| {
+            let la = basis.lagrange_integral((x[a] - b.lo[a]) / h[a]);
+            let lr = basis.lagrange((x[r] - b.lo[r]) / h[r]);
+            let ls = basis.lagrange((x[s] - b.lo[s]) / h[s]);
+            let f = wq * na * h[a];
+            for (k, lk) in ls.iter().enumerate() {
+                for (j, lj) in lr.iter().enumerate() {
+                    let fjk = f * lj * lk;
+                    for (i, li) in la.iter().enumerate() {
+                        w[i + n * (j + n * k)] += fjk * li;
+                    }
+                }
+            }
+        });
+    });
+    w
+}
+
+/// The boundary points of the cell `b`: the clipped triangles' rules.
+fn boundary_points(mesh: &MeshSolid, basis: &Basis, b: &Aabb, out: &mut Vec<SurfacePoint>) {
+    mesh.for_each_triangle_in(b, |t| {
+        let poly = clip_triangle(mesh.triangle(t), b);
+        let (n, tag) = (mesh.normal(t), mesh.tag(t));
+        for_each_polygon_point(&poly, &basis.surface_tri, |x, w| {
+            out.push(SurfacePoint { x, w, n, tag })
+        });
+    });
+}
+
+#[cfg(test)]
+mod tests;
