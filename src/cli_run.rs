@@ -146,6 +146,13 @@ pub fn run_case(
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
+    if let Some(mesh) = case.geometry.mesh() {
+        eprintln!(
+            "note: {}: mesh: {}",
+            case.file,
+            mesh.diagnostics().summary()
+        );
+    }
     let gpu = if cpu_only(&case, device)? {
         None
     } else {

@@ -95,6 +95,9 @@ pub struct Report {
     pub dofs: usize,
     pub cells: CellCounts,
     pub domain: Domain,
+    /// What loading the STL found, when the solid is a mesh.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<crate::mesh::MeshDiagnostics>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stabilisation: Option<Stabilisation>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -172,6 +175,7 @@ impl Report {
                 boundary_area: cells.boundary_area(),
                 boundary_area_by_tag: by_tag,
             },
+            mesh: geometry.mesh().map(|m| m.diagnostics().clone()),
             stabilisation: None,
             fixed_point: None,
             krylov: None,

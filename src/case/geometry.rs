@@ -17,10 +17,12 @@
 //! `union {of}`, `intersection {of}`, `difference {of}` (the first minus all
 //! others); `translate {by, of}`, `rotate {axis, angle_deg, of}` (about the
 //! origin); `tag {name, of}` (every part of `of` renamed) and `retag {from, to,
-//! of}`. Lengths are in the case's length unit; angles in degrees.
+//! of}`; `stl {path, scale, tag, parts}`, a solid bounded by a triangle mesh
+//! ([`super::stl`]). Lengths are in the case's length unit; angles in degrees.
 
 use serde::Deserialize;
 
+use super::stl::StlSpec;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 
@@ -89,6 +91,7 @@ pub enum GeometrySpec {
         to: String,
         of: Box<GeometrySpec>,
     },
+    Stl(StlSpec),
 }
 
 impl GeometrySpec {
@@ -166,6 +169,7 @@ impl GeometrySpec {
             } => one(of)?.rotate(*axis, angle_deg.to_radians()),
             GeometrySpec::Tag { name, of } => Ok(one(of)?.with_tag(name)),
             GeometrySpec::Retag { from, to, of } => one(of)?.retag(from, to),
+            GeometrySpec::Stl(stl) => stl.build(file, path),
         }
         .map_err(located)
     }

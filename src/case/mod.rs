@@ -7,6 +7,7 @@
 pub mod bodies;
 pub mod geometry;
 pub mod physics;
+pub mod stl;
 
 use std::path::Path;
 

@@ -20,7 +20,7 @@ impl Geometry {
         Geometry {
             leaves: Vec::new(),
             tags,
-            bbox: mesh.bounding_box(),
+            bbox: grid_box(&mesh),
             root: Node::Mesh(Arc::new(mesh)),
         }
     }
@@ -48,7 +48,7 @@ impl Geometry {
     pub(super) fn move_mesh(&mut self, r: &[[f64; 3]; 3], s: [f64; 3]) {
         if let Node::Mesh(m) = &self.root {
             let moved = m.moved(r, s);
-            self.bbox = moved.bounding_box();
+            self.bbox = grid_box(&moved);
             self.root = Node::Mesh(Arc::new(moved));
         }
     }
@@ -59,4 +59,17 @@ impl Geometry {
             self.root = Node::Mesh(Arc::new(m.retagged(f)));
         }
     }
+}
+
+/// The mesh's box grown by `10⁻⁹` of its diagonal on its upper sides: the
+/// polyhedral rules give each cell the half-open `[lo, hi)`, so a facet on
+/// the upper face of a grid fitted to the exact box would belong to no cell.
+fn grid_box(mesh: &MeshSolid) -> crate::geometry::Aabb {
+    let mut b = mesh.bounding_box();
+    let diag = (0..3)
+        .map(|i| (b.hi[i] - b.lo[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    b.hi = b.hi.map(|v| v + 1e-9 * diag);
+    b
 }

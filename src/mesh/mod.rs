@@ -193,9 +193,15 @@ impl MeshSolid {
 
     /// The same mesh with every tag passed through `f`.
     pub fn retagged(&self, f: impl Fn(u16) -> u16) -> MeshSolid {
-        let mut m = self.clone();
-        m.tags.iter_mut().for_each(|t| *t = f(*t));
-        m
+        self.clone()
+            .with_tags(self.tags.iter().map(|&t| f(t)).collect())
+    }
+
+    /// The mesh with the tags `tags`, one per triangle.
+    pub fn with_tags(mut self, tags: Vec<u16>) -> MeshSolid {
+        assert_eq!(tags.len(), self.tags.len(), "one tag per triangle");
+        self.tags = tags;
+        self
     }
 
     pub fn num_triangles(&self) -> usize {

@@ -40,10 +40,15 @@
 //! on each fan triangle of each clipped polygon, exact for `Q_q` restricted to
 //! the plane (total degree `3q`), with the facet normal and the facet's tag.
 //!
-//! **Degenerate positions.** A vertex exactly on a clipping plane counts as on
-//! the plane's upper side, consistently, so a triangle lying in a grid plane
-//! contributes no crossing; such a part (a face of a box aligned with the
-//! grid) is integrated correctly only up to that convention.
+//! **Degenerate positions** (a facet in a grid plane, which every part whose
+//! bounding box sets the grid has) are decided as if the mesh were moved by
+//! an infinitesimal `+0⁺` along every axis (simulation of simplicity): a
+//! vertex on a plane is above it, a box keeps the half-open `[lo, hi)` of each
+//! axis, and a piece of edge lying in a facet is inside when the point just
+//! below it (`−η` along every axis, `η = 10⁻⁹ h`) is. Every predicate follows
+//! the same convention, so each facet in a grid plane belongs to exactly one
+//! cell and the rules stay exact there (tested on boxes aligned with the
+//! lattice).
 
 use crate::contact::intersect_line;
 use crate::contact::vec3::{cross, norm, sub};
@@ -209,8 +214,9 @@ fn edge_moments(mesh: &MeshSolid, basis: &Basis, b: &Aabb, a: usize) -> Vec<f64>
         if s1 <= s0 {
             continue;
         }
-        let mut mid = b.lo;
-        mid[a] += 0.5 * (s0 + s1);
+        // Just below the edge (the mesh moved by +0⁺): see the module doc.
+        let mut mid = b.lo.map(|v| v - 1e-9 * h);
+        mid[a] = b.lo[a] + 0.5 * (s0 + s1);
         if mesh.phi(mid) >= 0.0 {
             continue;
         }
@@ -289,13 +295,14 @@ fn plane_crossing(v: &[[f64; 3]; 3], p: usize, c: f64) -> Option<([f64; 3], [f64
 }
 
 /// The parameter range `[λ0, λ1] ⊂ [0, 1]` of `p0 + λ (p1 − p0)` inside the box
-/// along `axes` (Liang–Barsky), if not empty.
+/// along `axes` (Liang–Barsky), if not empty; a segment on the box's upper
+/// side is outside (half-open box).
 fn clip_segment(p0: [f64; 3], p1: [f64; 3], b: &Aabb, axes: &[usize]) -> Option<(f64, f64)> {
     let (mut l0, mut l1) = (0.0f64, 1.0f64);
     for &k in axes {
         let d = p1[k] - p0[k];
         if d == 0.0 {
-            if p0[k] < b.lo[k] || p0[k] > b.hi[k] {
+            if p0[k] < b.lo[k] || p0[k] >= b.hi[k] {
                 return None;
             }
             continue;
@@ -310,8 +317,8 @@ fn clip_segment(p0: [f64; 3], p1: [f64; 3], b: &Aabb, axes: &[usize]) -> Option<
     (l1 > l0).then_some((l0, l1))
 }
 
-/// The triangle `v` clipped to the box `b` (Sutherland–Hodgman): a convex
-/// polygon, empty when they do not meet.
+/// The triangle `v` clipped to the half-open box `[lo, hi)` of `b`
+/// (Sutherland–Hodgman): a convex polygon, empty when they do not meet.
 fn clip_triangle(v: &[[f64; 3]; 3], b: &Aabb) -> Vec<[f64; 3]> {
     let mut poly: Vec<[f64; 3]> = v.to_vec();
     for k in 0..3 {
@@ -319,7 +326,7 @@ fn clip_triangle(v: &[[f64; 3]; 3], b: &Aabb) -> Vec<[f64; 3]> {
             if poly.is_empty() {
                 return poly;
             }
-            let inside = |x: &[f64; 3]| (x[k] >= bound) == keep_above || x[k] == bound;
+            let inside = |x: &[f64; 3]| (x[k] >= bound) == keep_above;
             let mut out = Vec::with_capacity(poly.len() + 1);
             for i in 0..poly.len() {
                 let (cur, next) = (poly[i], poly[(i + 1) % poly.len()]);

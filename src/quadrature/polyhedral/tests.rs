@@ -137,3 +137,38 @@ fn every_cell_satisfies_the_divergence_theorem_in_every_direction() {
     }
     assert!(checked > 50, "{checked}");
 }
+
+#[test]
+fn faces_on_grid_planes_are_counted_once() {
+    // A box whose faces lie on the planes of the lattice, and one whose faces
+    // lie inside cells, in the same lattice.
+    for (lo, hi) in [([0.0; 3], [1.0, 0.75, 0.5]), ([0.0; 3], [0.9, 0.75, 0.3])] {
+        let tris = crate::mesh::tests::box_triangles(lo, hi);
+        let m = MeshSolid::new(&tris, &[0; 12]).unwrap();
+        let h = 0.25;
+        let mut vol = 0.0;
+        let mut area = 0.0;
+        for k in -1..5 {
+            for j in -1..5 {
+                for i in -1..5 {
+                    let cl = [i, j, k].map(|v| f64::from(v) * h);
+                    let b = Aabb::new(cl, cl.map(|v| v + h));
+                    let r = mesh_box_rule(&m, &b, &[0, 1, 2], 2);
+                    vol += r.volume.iter().map(|p| p.w).sum::<f64>();
+                    area += r.surface.iter().map(|p| p.w).sum::<f64>();
+                }
+            }
+        }
+        let d = m.diagnostics();
+        assert!(
+            (vol - d.volume).abs() < 1e-14,
+            "{hi:?}: volume {vol} vs {}",
+            d.volume
+        );
+        assert!(
+            (area - d.area).abs() < 1e-14,
+            "{hi:?}: area {area} vs {}",
+            d.area
+        );
+    }
+}
