@@ -66,6 +66,10 @@ pub struct Cells {
     pub volume: Vec<VolumePoint>,
     pub surface_start: Vec<usize>,
     pub surface: Vec<SurfacePoint>,
+    /// Sample points of the cut cells whose volume points are not all in
+    /// the body ([`BoxRule::samples`]), flat like the rules.
+    pub sample_start: Vec<usize>,
+    pub samples: Vec<[f64; 3]>,
     pub num_inside: usize,
     /// Cut cells of negligible volume merged into a neighbour ([`merge`]).
     pub merged: usize,
@@ -134,6 +138,8 @@ impl Cells {
             volume: Vec::new(),
             surface_start: vec![0],
             surface: Vec::new(),
+            sample_start: vec![0],
+            samples: Vec::new(),
             num_inside: 0,
             merged,
         };
@@ -145,6 +151,8 @@ impl Cells {
             cells.volume_start.push(cells.volume.len());
             cells.surface.extend(rule.surface);
             cells.surface_start.push(cells.surface.len());
+            cells.samples.extend(rule.samples);
+            cells.sample_start.push(cells.samples.len());
         }
         cells.num_inside = cells
             .kinds
@@ -168,6 +176,13 @@ impl Cells {
     /// Volume points of the `i`-th cut cell.
     pub fn volume_points(&self, i: usize) -> &[VolumePoint] {
         &self.volume[self.volume_start[i]..self.volume_start[i + 1]]
+    }
+
+    /// Sample points of the `i`-th cut cell for least-squares fits: its own
+    /// list when its volume points are not all in the body, else empty (use
+    /// the volume points).
+    pub fn sample_points(&self, i: usize) -> &[[f64; 3]] {
+        &self.samples[self.sample_start[i]..self.sample_start[i + 1]]
     }
 
     /// Boundary points of the `i`-th cut cell.

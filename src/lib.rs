@@ -22,6 +22,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod grid;
 pub mod hyper;
+pub mod inspect;
 pub mod mesh;
 pub mod multigrid;
 pub mod output;

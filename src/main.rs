@@ -71,6 +71,23 @@ enum Command {
         #[arg(long)]
         plots: bool,
     },
+    /// Classify a case's grid against its solid without solving: writes
+    /// DIR/cells.vtu, DIR/boundary.vtp (the boundary points with their tags)
+    /// and DIR/report.json (with the STL diagnostics), to check a part and
+    /// its boundary parts in ParaView.
+    Geometry {
+        /// The case file (TOML).
+        case: PathBuf,
+        /// Grid level (overrides grid.level).
+        #[arg(long)]
+        level: Option<u32>,
+        /// Override any case key (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Output folder (default: out/<case name>/geometry).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// List the GPU adapters: backend, device type, driver, f64 and subgroup
     /// support, storage and dispatch limits.
     Info,
@@ -161,6 +178,45 @@ fn main() -> ExitCode {
     }
 }
 
+/// The `geometry` command: classify and write, no solve.
+fn geometry(
+    path: &std::path::Path,
+    level: Option<u32>,
+    set: &[String],
+    out: Option<PathBuf>,
+    progress: &Terminal,
+) -> anyhow::Result<()> {
+    let case = cgfem_gpu::case::Case::from_file_with(path, set)?;
+    if let Some(mesh) = case.geometry.mesh() {
+        eprintln!(
+            "note: {}: mesh: {}",
+            case.file,
+            mesh.diagnostics().summary()
+        );
+    }
+    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
+    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name).join("geometry"));
+    let written = cgfem_gpu::inspect::write_geometry(&case, level, &dir, progress);
+    progress.finish();
+    let r = written?.report;
+    println!(
+        "case {name} ({}): level {}, h = {:.4e}, {} inside, {} cut cells ({} merged)",
+        case.file, r.level, r.h, r.cells.inside, r.cells.cut, r.cells.merged
+    );
+    println!(
+        "  volume {:.10e}, boundary area {:.10e}",
+        r.domain.volume, r.domain.boundary_area
+    );
+    for (tag, area) in &r.domain.boundary_area_by_tag {
+        println!("  boundary part '{tag}': area {area:.6e}");
+    }
+    println!(
+        "  wrote {}/cells.vtu, boundary.vtp and report.json",
+        dir.display()
+    );
+    Ok(())
+}
+
 fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
     match cli.command {
         Command::Run {
@@ -192,6 +248,12 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             }
             run_case(&case, level, &set, &outputs, condition, &device, progress)
         }
+        Command::Geometry {
+            case,
+            level,
+            set,
+            out,
+        } => geometry(&case, level, &set, out, progress),
         Command::Info => {
             info();
             Ok(())

@@ -347,3 +347,55 @@ fn multigrid_on_the_gpu_backend() {
     assert!(report.contains("\"multigrid\""), "{report}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// An `stl` geometry on `path`, the rest as [`GOOD`].
+fn stl_case(path: &Path) -> String {
+    format!(
+        "[geometry]\ntype = \"stl\"\npath = \"{}\"\n[grid]\nlevel = 2\n[material]\nyoung = 1000.0\npoisson = 0.3\n",
+        path.display()
+    )
+}
+
+#[test]
+fn stl_files_that_are_not_solids() {
+    let dir = std::env::temp_dir().join(format!("cgfem-bad-stl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let part = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases/parts")
+            .join(name)
+    };
+    let plate = std::fs::read(part("plate_holes.stl")).unwrap();
+    let random: Vec<u8> = (0..5000u32)
+        .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
+        .collect();
+    let files: [(&str, Option<Vec<u8>>, &str); 5] = [
+        ("empty.stl", Some(Vec::new()), "the file is empty"),
+        (
+            "truncated.stl",
+            Some(plate[..plate.len() - 30].to_vec()),
+            "truncated?",
+        ),
+        ("random.stl", Some(random), "not an STL file"),
+        ("absent.stl", None, "No such file"),
+        (
+            "soup.stl",
+            Some(std::fs::read(part("soup.stl")).unwrap()),
+            "not a solid",
+        ),
+    ];
+    for (name, bytes, reason) in files {
+        let path = dir.join(name);
+        if let Some(b) = bytes {
+            std::fs::write(&path, b).unwrap();
+        }
+        let stderr = bad(
+            "stl",
+            Some(&stl_case(&path)),
+            &[],
+            &[name, "geometry.path", reason],
+        );
+        println!("{stderr}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

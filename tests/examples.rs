@@ -133,6 +133,39 @@ fn bracket_reactions_balance_the_load() {
     assert!(num(&r["cells"]["cut"]) > 0.0);
 }
 
+/// The STL examples: the part's volume and area by the cut-cell rules equal
+/// the mesh's own, and the reactions balance the applied tractions.
+#[test]
+fn stl_parts_measure_exactly_and_balance_their_loads() {
+    // (case, level, loaded tag, traction, clamped tag)
+    for (name, level, loaded, t, clamped) in [
+        ("cube_corner", 4, "top", [0.0, 0.0, -20.0], "bottom"),
+        ("plate_holes", 5, "pulled", [0.0, 50.0, 0.0], "bolted"),
+    ] {
+        let r = run(name, level);
+        let (vol, mesh_vol) = (num(&r["domain"]["volume"]), num(&r["mesh"]["volume"]));
+        let (area, mesh_area) = (num(&r["domain"]["boundary_area"]), num(&r["mesh"]["area"]));
+        assert!(
+            (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
+            "{name}: volume {vol} vs {mesh_vol}"
+        );
+        assert!(
+            (area - mesh_area).abs() < 1e-12 * mesh_area,
+            "{name}: area {area} vs {mesh_area}"
+        );
+        let a = num(&r["domain"]["boundary_area_by_tag"][loaded]);
+        let reaction = vec3(&r["reactions"][clamped]);
+        let applied = t.map(|c| c * a);
+        let scale = applied.iter().map(|c| c * c).sum::<f64>().sqrt();
+        for i in 0..3 {
+            assert!(
+                (reaction[i] + applied[i]).abs() < 1e-5 * scale,
+                "{name}: reaction {reaction:?} against the applied {applied:?}"
+            );
+        }
+    }
+}
+
 #[test]
 fn shell_under_pressure_converges_to_lame() {
     let (errors, rates) = rates("shell_pressure", &[3, 4, 5]);

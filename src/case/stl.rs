@@ -31,6 +31,12 @@ use crate::geometry::Geometry;
 use crate::mesh::stl::read_stl;
 use crate::mesh::MeshSolid;
 
+/// Largest share of ambiguous winding numbers ([`MeshSolid::ambiguity`]) a
+/// mesh may have: a closed surface has none (measured: the STL parts of
+/// `cases/parts/`, T-junctions included), a surface with one facet in 24
+/// removed 10%, a triangle soup 63%.
+const MAX_AMBIGUITY: f64 = 0.2;
+
 /// One file or several.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(untagged)]
@@ -140,6 +146,18 @@ impl StlSpec {
         }
         let mesh = MeshSolid::new(&triangles, &tri_tags)
             .ok_or_else(|| err("path", "every triangle is degenerate (no area)".into()))?;
+        let ambiguity = mesh.ambiguity();
+        if ambiguity > MAX_AMBIGUITY {
+            return Err(err(
+                "path",
+                format!(
+                    "{}: not a solid: the winding number is neither 0 nor 1 at {:.0}% of the points of its box (a triangle soup, or overlapping shells); mesh: {}",
+                    names.iter().map(|n| base.join(n).display().to_string()).collect::<Vec<_>>().join(", "),
+                    100.0 * ambiguity,
+                    mesh.diagnostics().summary()
+                ),
+            ));
+        }
         let (tri_tags, tags) = self.select_parts(&mesh, tags, &err)?;
         Ok(Geometry::from_mesh(mesh.with_tags(tri_tags), tags))
     }

@@ -14,6 +14,7 @@ use super::setup::Setup;
 use crate::cells::CellKind;
 use crate::element::ElementOrder;
 use crate::error::Result;
+use crate::grid::Grid;
 use crate::vtu::{write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
 
 /// Von Mises stress of a Voigt stress (xx, yy, zz, yz, xz, xy).
@@ -25,21 +26,21 @@ pub fn von_mises(s: &[f64; 6]) -> f64 {
 /// The element nodes of the body cells, as VTU points: each node once (in
 /// order of first appearance), with one cell holding it, and the cells on
 /// those points.
-struct BodyMesh {
-    nodes: Vec<usize>,
-    node_cell: Vec<usize>,
-    cells: Vec<VtuCell>,
+pub(crate) struct BodyMesh {
+    pub nodes: Vec<usize>,
+    pub node_cell: Vec<usize>,
+    pub cells: Vec<VtuCell>,
 }
 
-fn body_mesh(setup: &Setup, body: &[usize]) -> BodyMesh {
-    let order = setup.op.dofs.order;
+/// The [`BodyMesh`] of the cells `body` of `grid` for elements of `order`.
+pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> BodyMesh {
     let npe = order.nodes_per_cell();
     let mut point_of: HashMap<usize, usize> = HashMap::with_capacity(npe * body.len());
     let (mut nodes, mut node_cell) = (Vec::new(), Vec::new());
     let mut local = vec![0usize; npe];
     let mut cells = Vec::with_capacity(body.len());
     for &c in body {
-        setup.grid.cell_nodes(order, c, &mut local);
+        grid.cell_nodes(order, c, &mut local);
         for n in local.iter_mut() {
             *n = *point_of.entry(*n).or_insert_with(|| {
                 nodes.push(*n);
@@ -68,7 +69,7 @@ pub fn write_solution(setup: &Setup, u: &[f64], path: &Path) -> Result<()> {
     let body: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| setup.cells.kinds[c] != CellKind::Outside)
         .collect();
-    let mesh = body_mesh(setup, &body);
+    let mesh = body_mesh(grid, dofs.order, &body);
     let points: Vec<[f64; 3]> = mesh
         .nodes
         .iter()

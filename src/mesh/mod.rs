@@ -45,6 +45,9 @@ pub struct MeshDiagnostics {
     pub non_manifold_edges: usize,
     /// Manifold edges that both of their triangles run the same way.
     pub misoriented_edges: usize,
+    /// Edges that pass through the inside of a triangle they do not share a
+    /// corner with: the surface intersects itself.
+    pub self_intersections: usize,
     /// True when the mesh was inverted (negative volume) and has been flipped.
     pub flipped: bool,
     /// Enclosed volume `Σ v₀·(v₁×v₂)/6` after flipping.
@@ -67,6 +70,12 @@ impl MeshDiagnostics {
             s += &format!(
                 ", {} edges with inconsistent orientation",
                 self.misoriented_edges
+            );
+        }
+        if self.self_intersections > 0 {
+            s += &format!(
+                ", {} edges through other triangles",
+                self.self_intersections
             );
         }
         if self.flipped {
@@ -154,7 +163,38 @@ impl MeshSolid {
         }
         diagnostics.volume = volume.abs();
         let corner_list: Vec<[[f64; 3]; 3]> = kept.iter().map(corners).collect();
-        Some(MeshSolid::from_corners(corner_list, kept_tags, diagnostics))
+        let mut mesh = MeshSolid::from_corners(corner_list, kept_tags, diagnostics);
+        mesh.diagnostics.self_intersections = mesh.count_self_intersections(&kept);
+        Some(mesh)
+    }
+
+    /// Edges crossing the inside of a triangle with no common vertex
+    /// (`ids`: the welded vertex ids of each triangle).
+    fn count_self_intersections(&self, ids: &[[u32; 3]]) -> usize {
+        const INTERIOR: f64 = 1e-9;
+        let mut count = 0;
+        for (t, tid) in ids.iter().enumerate() {
+            let p = self.triangle(t);
+            for k in 0..3 {
+                let (a, b) = (p[k], p[(k + 1) % 3]);
+                let lo = [0, 1, 2].map(|i| a[i].min(b[i]));
+                let hi = [0, 1, 2].map(|i| a[i].max(b[i]));
+                let d = sub(b, a);
+                self.bvh.for_each_in_box(lo, hi, |o| {
+                    if ids[o].iter().any(|v| tid.contains(v)) {
+                        return;
+                    }
+                    if let Some((s, bary)) = crate::contact::intersect_line(self.triangle(o), a, d)
+                    {
+                        let inside = bary.iter().all(|&w| w > INTERIOR);
+                        if inside && s > INTERIOR && s < 1.0 - INTERIOR {
+                            count += 1;
+                        }
+                    }
+                });
+            }
+        }
+        count
     }
 
     fn from_corners(
@@ -250,10 +290,64 @@ impl MeshSolid {
         winding::winding_number(self, x)
     }
 
+    /// The share of the points of a `16³` lattice in the mesh's box where the
+    /// winding number is not within 0.2 of 0 or 1: about zero for a closed
+    /// surface (T-junctions included), small for a mesh with a small hole,
+    /// large for a triangle soup or overlapping shells (where `w` reaches 2).
+    pub fn ambiguity(&self) -> f64 {
+        let k = 16;
+        let b = self.bbox;
+        let mut ambiguous = 0;
+        for idx in 0..k * k * k {
+            let ijk = [idx % k, (idx / k) % k, idx / (k * k)];
+            let x =
+                [0, 1, 2].map(|a| b.lo[a] + (b.hi[a] - b.lo[a]) * (ijk[a] as f64 + 0.5) / k as f64);
+            let w = self.winding_number(x);
+            if w.min((w - 1.0).abs()).abs() > 0.2 {
+                ambiguous += 1;
+            }
+        }
+        f64::from(ambiguous) / (k * k * k) as f64
+    }
+
     /// The level set `½ − w(x)`, negative inside.
     pub fn phi(&self, x: [f64; 3]) -> f64 {
         0.5 - self.winding_number(x)
     }
+}
+
+/// A sphere of radius `r` about `center` tessellated from an octahedron by
+/// `k` midpoint subdivisions pushed to the sphere: `8 · 4^k` triangles,
+/// outward (for tests and benchmarks of STL parts).
+pub fn tessellated_sphere(center: [f64; 3], r: f64, k: u32) -> Vec<[[f64; 3]; 3]> {
+    let mut tris: Vec<[[f64; 3]; 3]> = Vec::new();
+    for s in 0..8u32 {
+        let sg = |b: u32| if s >> b & 1 == 1 { -1.0 } else { 1.0 };
+        let (x, y, z) = ([sg(0), 0.0, 0.0], [0.0, sg(1), 0.0], [0.0, 0.0, sg(2)]);
+        // A reflection in an odd number of planes reverses the orientation.
+        tris.push(if s.count_ones() % 2 == 1 {
+            [x, z, y]
+        } else {
+            [x, y, z]
+        });
+    }
+    let unit = |a: [f64; 3], b: [f64; 3]| {
+        let m = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+        let l = norm(m);
+        m.map(|v| v / l)
+    };
+    for _ in 0..k {
+        tris = tris
+            .iter()
+            .flat_map(|t| {
+                let (a, b, c) = (unit(t[0], t[1]), unit(t[1], t[2]), unit(t[2], t[0]));
+                [[t[0], a, c], [a, t[1], b], [c, b, t[2]], [a, b, c]]
+            })
+            .collect();
+    }
+    tris.iter()
+        .map(|t| t.map(|p| [0, 1, 2].map(|i| center[i] + r * p[i])))
+        .collect()
 }
 
 /// Counts open, non-manifold and misoriented edges.

@@ -38,6 +38,30 @@ pub fn read_stl(path: &Path) -> Result<Vec<StlSolid>> {
     Ok(solids)
 }
 
+/// Writes `triangles` as a binary STL (single precision, as the format is).
+pub fn write_binary_stl(path: &Path, triangles: &[[[f64; 3]; 3]]) -> Result<()> {
+    let fail = |e: std::io::Error| Error::Io {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    };
+    let mesh: Vec<stl_io::Triangle> = triangles
+        .iter()
+        .map(|t| {
+            let v = t.map(|p| stl_io::Vertex::new(p.map(|c| c as f32)));
+            let n = crate::contact::vec3::normalize(crate::contact::vec3::cross(
+                crate::contact::vec3::sub(t[1], t[0]),
+                crate::contact::vec3::sub(t[2], t[0]),
+            ));
+            stl_io::Triangle {
+                normal: stl_io::Normal::new(n.map(|c| c as f32)),
+                vertices: v,
+            }
+        })
+        .collect();
+    let mut file = std::io::BufWriter::new(std::fs::File::create(path).map_err(fail)?);
+    stl_io::write_stl(&mut file, mesh.iter()).map_err(fail)
+}
+
 /// [`read_stl`] on the bytes of a file; the error is the reason.
 pub fn parse_stl(bytes: &[u8]) -> std::result::Result<Vec<StlSolid>, String> {
     if bytes.is_empty() {

@@ -56,30 +56,9 @@ fn an_inverted_mesh_is_flipped_and_degenerate_triangles_are_dropped() {
     assert_eq!(open.diagnostics().open_edges, 3);
 }
 
-/// A sphere of radius `r` tessellated from an octahedron, `4^k · 8` triangles.
+/// The sphere of `tessellated_sphere` about the origin.
 pub(crate) fn sphere_triangles(r: f64, k: u32) -> Vec<[[f64; 3]; 3]> {
-    let mut tris: Vec<[[f64; 3]; 3]> = Vec::new();
-    for s in 0..8u32 {
-        let sg = |b: usize| if s >> b & 1 == 1 { -1.0 } else { 1.0 };
-        let (x, y, z) = ([sg(0), 0.0, 0.0], [0.0, sg(1), 0.0], [0.0, 0.0, sg(2)]);
-        let odd = (s.count_ones() % 2) == 1;
-        tris.push(if odd { [x, z, y] } else { [x, y, z] });
-    }
-    for _ in 0..k {
-        let unit = |a: [f64; 3], b: [f64; 3]| {
-            let m = [0, 1, 2].map(|i| a[i] + b[i]);
-            let l = norm(m);
-            m.map(|v| v / l)
-        };
-        tris = tris
-            .iter()
-            .flat_map(|t| {
-                let (a, b, c) = (unit(t[0], t[1]), unit(t[1], t[2]), unit(t[2], t[0]));
-                [[t[0], a, c], [a, t[1], b], [c, b, t[2]], [a, b, c]]
-            })
-            .collect();
-    }
-    tris.iter().map(|t| t.map(|p| p.map(|v| r * v))).collect()
+    super::tessellated_sphere([0.0; 3], r, k)
 }
 
 #[test]

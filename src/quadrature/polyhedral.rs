@@ -36,6 +36,10 @@
 //! exact to round-off for a closed mesh, and so are the divergence theorem
 //! between the volume, face and boundary rules and the patch test.
 //!
+//! **Samples.** The least-squares fits of the recovery need points of the
+//! body, which the volume points need not be; the rule lists inside points of
+//! a sub-lattice (and boundary points in a sliver) for them.
+//!
 //! **The boundary rule** is the clipped triangles' own: a collapsed Gauss rule
 //! on each fan triangle of each clipped polygon, exact for `Q_q` restricted to
 //! the plane (total degree `3q`), with the facet normal and the facet's tag.
@@ -146,8 +150,31 @@ pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> Bo
     }
     if free.len() == 3 {
         boundary_points(mesh, &basis, b, &mut rule.surface);
+        rule.samples = sample_points(mesh, b, q, &rule.surface);
     }
     rule
+}
+
+/// Points of `b ∩ Ω` for least-squares fits (the volume points above may
+/// lie outside the body): the centres of a `k³` sub-lattice that are inside
+/// (`k = q/2 + 2`, so at least twice the element's Gauss points when the cell
+/// is full), topped up with boundary points when the cell holds fewer.
+fn sample_points(mesh: &MeshSolid, b: &Aabb, q: usize, surface: &[SurfacePoint]) -> Vec<[f64; 3]> {
+    let k = q / 2 + 2;
+    let want = 2 * (q / 2 + 1).pow(3);
+    let mut out = Vec::with_capacity(k * k * k);
+    for idx in 0..k * k * k {
+        let ijk = [idx % k, (idx / k) % k, idx / (k * k)];
+        let x = [0, 1, 2].map(|a| b.lo[a] + (b.hi[a] - b.lo[a]) * (ijk[a] as f64 + 0.5) / k as f64);
+        if mesh.phi(x) < 0.0 {
+            out.push(x);
+        }
+    }
+    if out.len() < want && !surface.is_empty() {
+        let stride = surface.len().div_ceil(want - out.len()).max(1);
+        out.extend(surface.iter().step_by(stride).map(|p| p.x));
+    }
+    out
 }
 
 fn center(b: &Aabb) -> [f64; 3] {

@@ -53,6 +53,10 @@ pub struct SurfacePoint {
 pub struct BoxRule {
     pub volume: Vec<VolumePoint>,
     pub surface: Vec<SurfacePoint>,
+    /// Points of the body for least-squares fits (SPR samples) when the
+    /// volume points are not all in it (the polyhedral rules); empty when
+    /// they are (Saye's).
+    pub samples: Vec<[f64; 3]>,
 }
 
 const MAX_TOP_DEPTH: u32 = 3;
