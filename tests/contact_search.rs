@@ -111,7 +111,8 @@ fn bvh_equals_brute_force_on_random_rays() {
     // A torus and a sphere, deformed by a smooth non-affine field.
     let g = Geometry::torus([0.0; 3], [0.3, 0.2, 1.0], 0.8, 0.25)
         .unwrap()
-        .union(Geometry::sphere([0.5, -0.4, 0.3], 0.5).unwrap());
+        .union(Geometry::sphere([0.5, -0.4, 0.3], 0.5).unwrap())
+        .unwrap();
     let grid = Grid::new(&g.bounding_box(), 4, OFFSET).unwrap();
     let s = Surface::whole_boundary(&grid, &g);
     let current = s.deformed(|_, x| {

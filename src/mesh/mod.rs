@@ -132,7 +132,9 @@ impl MeshSolid {
             let ids = t.map(&mut weld);
             let twice_area = norm(cross(sub(t[1], t[0]), sub(t[2], t[0])));
             let repeated = ids[0] == ids[1] || ids[1] == ids[2] || ids[0] == ids[2];
-            if repeated || !(twice_area > 1e-14 * diag2) {
+            let degenerate =
+                twice_area.partial_cmp(&(1e-14 * diag2)) != Some(std::cmp::Ordering::Greater);
+            if repeated || degenerate {
                 continue;
             }
             kept.push(ids);

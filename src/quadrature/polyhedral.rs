@@ -41,8 +41,14 @@
 //! a sub-lattice (and boundary points in a sliver) for them.
 //!
 //! **The boundary rule** is the clipped triangles' own: a collapsed Gauss rule
-//! on each fan triangle of each clipped polygon, exact for `Q_q` restricted to
-//! the plane (total degree `3q`), with the facet normal and the facet's tag.
+//! of `q × q` points on each fan triangle of each clipped polygon (exact for
+//! total degree `2q − 2`: the Dirichlet penalty's `N_a N_b` on a facet for Q1,
+//! and more for Q2), with the facet normal and the facet's tag. Its flux of
+//! higher-degree polynomials need not be exact: the consistency correction
+//! ([`crate::fem::flux_consistency`]) makes the boundary flux agree with the
+//! exact volume and face rules, as it does for Saye's rules. (A rule exact for
+//! `Q_q` would need `(3q/2 + 1)²` points per fan triangle, which on a level-6
+//! plate gave 660 000 boundary points.)
 //!
 //! **Degenerate positions** (a facet in a grid plane, which every part whose
 //! bounding box sets the grid has) are decided as if the mesh were moved by
@@ -71,7 +77,7 @@ struct Basis {
     w: Vec<f64>,
     /// Collapsed rule for the moments (degree `3n − 2` on a triangle).
     moment_tri: Vec<([f64; 2], f64)>,
-    /// Collapsed rule for the boundary points (degree `3q`).
+    /// Collapsed rule for the boundary points (degree `2q − 2`).
     surface_tri: Vec<([f64; 2], f64)>,
 }
 
@@ -84,7 +90,7 @@ impl Basis {
             t,
             w,
             moment_tri: collapsed_rule((3 * n).div_ceil(2)),
-            surface_tri: collapsed_rule((3 * q + 2).div_ceil(2)),
+            surface_tri: collapsed_rule(q),
         }
     }
 
