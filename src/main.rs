@@ -138,6 +138,10 @@ enum Command {
         /// Skip the end-to-end solves.
         #[arg(long)]
         no_solve: bool,
+        /// Levels at which to cut a 131 072-facet STL sphere against the
+        /// analytic one (load, classification and rules; none by default).
+        #[arg(long = "stl-level")]
+        stl_levels: Vec<u32>,
         /// Seconds spent on each timed measurement.
         #[arg(long, default_value_t = 1.0)]
         budget: f64,
@@ -287,6 +291,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             threads,
             solve_levels,
             no_solve,
+            stl_levels,
             budget,
             backend,
             out,
@@ -302,41 +307,33 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 // Refuse early, with the adapters found, rather than bench the CPU only.
                 cgfem_gpu::gpu::GpuContext::new(None, Default::default())?;
             }
-            let gpu = backend != BackendChoice::Cpu;
-            bench(levels, threads, solve_levels, budget, gpu, out, elements)
+            let opts = cgfem_gpu::bench::BenchOptions {
+                levels: if levels.is_empty() {
+                    vec![5, 6]
+                } else {
+                    levels
+                },
+                threads: if threads.is_empty() {
+                    vec![1, 2]
+                } else {
+                    threads
+                },
+                solve_levels,
+                budget,
+                gpu: backend != BackendChoice::Cpu,
+                elements: if elements.is_empty() {
+                    vec![ElementOrder::Q1]
+                } else {
+                    elements
+                },
+                stl_levels,
+            };
+            bench(opts, out)
         }
     }
 }
 
-fn bench(
-    levels: Vec<u32>,
-    threads: Vec<usize>,
-    solve_levels: Vec<u32>,
-    budget: f64,
-    gpu: bool,
-    out: Option<PathBuf>,
-    elements: Vec<ElementOrder>,
-) -> anyhow::Result<()> {
-    let opts = cgfem_gpu::bench::BenchOptions {
-        levels: if levels.is_empty() {
-            vec![5, 6]
-        } else {
-            levels
-        },
-        threads: if threads.is_empty() {
-            vec![1, 2]
-        } else {
-            threads
-        },
-        solve_levels,
-        budget,
-        gpu,
-        elements: if elements.is_empty() {
-            vec![ElementOrder::Q1]
-        } else {
-            elements
-        },
-    };
+fn bench(opts: cgfem_gpu::bench::BenchOptions, out: Option<PathBuf>) -> anyhow::Result<()> {
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));
     let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
     let rows = cgfem_gpu::bench::run(&case, &opts, |r| {

@@ -34,9 +34,8 @@ const PATCH_TOL: f64 = 1e-10;
 const RESIDUAL_TOL: f64 = 1e-12;
 
 /// Tight solves, so that what is left is the discretisation's: the outer
-/// FGMRES to a residual of 2e-14 (at 1e-13 the rotated bracket kept 2e-10 of
-/// solver error in the energy; 1e-14 is below the round-off floor of some
-/// placements: the rotated STL 7/8 cube in Q2 stalls at 1.3e-14).
+/// FGMRES to a residual of 1e-14 (at 1e-13 the rotated bracket kept 2e-10 of
+/// solver error in the energy; at 2e-14 the rotated STL plate kept 1.1e-10).
 const SOLVER: &str = r#"
 [solver]
 method = "cg"
@@ -44,7 +43,7 @@ preconditioner = "jacobi"
 rel_tol = 1e-12
 min_rel_tol = 1e-14
 max_iterations = 50000
-fixed_point_tol = 2e-14
+fixed_point_tol = 1e-14
 max_fixed_point = 500
 "#;
 
@@ -70,11 +69,13 @@ struct Part {
 #[derive(PartialEq)]
 enum Q2Solved {
     All,
-    /// The aligned one: the thin STL plate rotated at level 4 (every cell a
+    /// The aligned one. The thin STL plate rotated at level 4 (every cell a
     /// sliver) needs hundreds of outer iterations (measured: ε still 3.5e-8
-    /// after 233 iterations and 300 s), a cost of the fixed point on a part
-    /// the grid does not resolve, not of the rules (the interpolant's residual
-    /// is 1e-15 there).
+    /// after 233 iterations and 300 s); the rotated STL 7/8 cube at level 2
+    /// stalls at an outer residual of 1.3e-14, above the 1e-14 asked (and at
+    /// 2e-14 its energy error is 1.2e-10). Both are the fixed point's limits
+    /// on grids that barely resolve the part, not the rules': the
+    /// interpolant's residual is 1e-15 on both.
     AlignedOnly,
     /// None: the bracket needs level 4 and a thousand iterations.
     None,
@@ -142,7 +143,7 @@ const PARTS: [Part; 7] = [
         scale: 20.0,
         young: 1000.0,
         extra_level: 0,
-        q2_solved: Q2Solved::All,
+        q2_solved: Q2Solved::AlignedOnly,
     },
     Part {
         name: "plate with holes (STL)",

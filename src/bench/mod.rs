@@ -23,6 +23,9 @@
 //!   nested-dissection ordering [`ordering`]), each with its peak resident
 //!   memory and the Krylov rows with their iterations.
 //!
+//! - `stl_load` and `classify` ([`stl`], with `--stl-level`): reading and
+//!   cutting a 131 072-facet STL sphere against the analytic sphere.
+//!
 //! - on the preferred GPU adapter, when `gpu` is asked for and one is found:
 //!   its copy-kernel bandwidth and the same apply and iteration rows
 //!   ([`gpu`]), per precision.
@@ -36,6 +39,7 @@ mod direct;
 mod gpu;
 mod measure;
 mod ordering;
+mod stl;
 mod table;
 
 use rayon::ThreadPool;
@@ -93,6 +97,8 @@ pub struct BenchOptions {
     pub gpu: bool,
     /// Element orders, each run at every level.
     pub elements: Vec<ElementOrder>,
+    /// Levels of the STL rows ([`stl`]); none when empty.
+    pub stl_levels: Vec<u32>,
 }
 
 /// Iterations timed per Krylov method (beyond the 2 subtracted).
@@ -113,6 +119,12 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
             bytes_per_dof: TRIAD_BYTES_PER_ENTRY,
             ..row("bandwidth", "cpu", 0, dofs, t, seconds)
         });
+    }
+    if !opts.stl_levels.is_empty() {
+        let threads = opts.threads.iter().copied().max().unwrap_or(1);
+        for r in pool(threads)?.install(|| stl::rows(&opts.stl_levels, threads))? {
+            emit(r);
+        }
     }
     let gpus = if opts.gpu {
         gpu::backends()

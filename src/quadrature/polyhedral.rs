@@ -68,13 +68,15 @@ use crate::mesh::MeshSolid;
 use super::gauss::gauss_legendre_unit;
 use super::saye::{BoxRule, SurfacePoint, VolumePoint};
 
-/// The Lagrange basis of the `n` Gauss points of `[0, 1]`, and the rules that
-/// integrate its products exactly on flat pieces.
+/// The Lagrange basis of the `n` Gauss points of `[0, 1]` in monomial form,
+/// and the rules that integrate its products exactly on flat pieces.
 struct Basis {
     n: usize,
     /// Gauss points and weights of `[0, 1]` (`n` of them): the rule's nodes.
     t: Vec<f64>,
     w: Vec<f64>,
+    /// `ℓ_i(s) = Σ_k coef[i][k] s^k`.
+    coef: Vec<Vec<f64>>,
     /// Collapsed rule for the moments (degree `3n − 2` on a triangle).
     moment_tri: Vec<([f64; 2], f64)>,
     /// Collapsed rule for the boundary points (degree `2q − 2`).
@@ -85,36 +87,54 @@ impl Basis {
     fn new(q: usize) -> Basis {
         let n = q + 1;
         let (t, w) = gauss_legendre_unit(n);
+        // Multiply out Π_{j≠i} (s − t_j) / (t_i − t_j).
+        let coef = (0..n)
+            .map(|i| {
+                let mut c = vec![1.0];
+                for tj in t
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, _)| j != i)
+                    .map(|(_, tj)| tj)
+                {
+                    let d = t[i] - tj;
+                    let mut next = vec![0.0; c.len() + 1];
+                    for (k, ck) in c.iter().enumerate() {
+                        next[k + 1] += ck / d;
+                        next[k] -= ck * tj / d;
+                    }
+                    c = next;
+                }
+                c
+            })
+            .collect();
         Basis {
             n,
             t,
             w,
+            coef,
             moment_tri: collapsed_rule((3 * n).div_ceil(2)),
             surface_tri: collapsed_rule(q),
         }
     }
 
-    /// `ℓ_i(s)` for every `i`, `s` in unit coordinates.
-    fn lagrange(&self, s: f64) -> Vec<f64> {
-        (0..self.n)
-            .map(|i| {
-                (0..self.n)
-                    .filter(|&j| j != i)
-                    .map(|j| (s - self.t[j]) / (self.t[i] - self.t[j]))
-                    .product()
-            })
-            .collect()
+    /// `ℓ_i(s)` for every `i` into `out`, `s` in unit coordinates.
+    fn lagrange(&self, s: f64, out: &mut [f64]) {
+        for (o, c) in out.iter_mut().zip(&self.coef) {
+            *o = c.iter().rev().fold(0.0, |acc, ck| acc * s + ck);
+        }
     }
 
-    /// `∫_0^s ℓ_i` for every `i` (the `n`-point rule is exact on `[0, s]`).
-    fn lagrange_integral(&self, s: f64) -> Vec<f64> {
-        let mut out = vec![0.0; self.n];
-        for (tg, wg) in self.t.iter().zip(&self.w) {
-            for (o, l) in out.iter_mut().zip(self.lagrange(s * tg)) {
-                *o += s * wg * l;
-            }
+    /// `∫_0^s ℓ_i` for every `i` into `out`.
+    fn lagrange_integral(&self, s: f64, out: &mut [f64]) {
+        for (o, c) in out.iter_mut().zip(&self.coef) {
+            let p = c
+                .iter()
+                .enumerate()
+                .rev()
+                .fold(0.0, |acc, (k, ck)| acc * s + ck / (k + 1) as f64);
+            *o = p * s;
         }
-        out
     }
 }
 
@@ -165,14 +185,31 @@ pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> Bo
 /// lie outside the body): the centres of a `k³` sub-lattice that are inside
 /// (`k = q/2 + 2`, so at least twice the element's Gauss points when the cell
 /// is full), topped up with boundary points when the cell holds fewer.
+///
+/// One winding number decides the cell's centre; a lattice point is inside
+/// when the segment from the centre to it crosses the surface an even number
+/// of times from an inside centre (odd from an outside one). A crossing
+/// counted twice where the segment grazes a shared edge only misplaces a
+/// sample, which costs the fit a little and never the rule's exactness.
 fn sample_points(mesh: &MeshSolid, b: &Aabb, q: usize, surface: &[SurfacePoint]) -> Vec<[f64; 3]> {
     let k = q / 2 + 2;
     let want = 2 * (q / 2 + 1).pow(3);
+    let mut near = Vec::new();
+    mesh.for_each_triangle_in(b, |t| near.push(t));
+    let c = center(b);
+    let center_inside = mesh.phi(c) < 0.0;
     let mut out = Vec::with_capacity(k * k * k);
     for idx in 0..k * k * k {
         let ijk = [idx % k, (idx / k) % k, idx / (k * k)];
         let x = [0, 1, 2].map(|a| b.lo[a] + (b.hi[a] - b.lo[a]) * (ijk[a] as f64 + 0.5) / k as f64);
-        if mesh.phi(x) < 0.0 {
+        let d = sub(x, c);
+        let crossings = near
+            .iter()
+            .filter(|&&t| {
+                intersect_line(mesh.triangle(t), c, d).is_some_and(|(s, _)| s > 0.0 && s < 1.0)
+            })
+            .count();
+        if center_inside == (crossings % 2 == 0) {
             out.push(x);
         }
     }
@@ -242,6 +279,7 @@ fn edge_moments(mesh: &MeshSolid, basis: &Basis, b: &Aabb, a: usize) -> Vec<f64>
     });
     cuts.sort_by(f64::total_cmp);
     let mut w = vec![0.0; basis.n];
+    let mut l = vec![0.0; basis.n];
     for pair in cuts.windows(2) {
         let (s0, s1) = (pair[0], pair[1]);
         if s1 <= s0 {
@@ -254,9 +292,9 @@ fn edge_moments(mesh: &MeshSolid, basis: &Basis, b: &Aabb, a: usize) -> Vec<f64>
             continue;
         }
         for (tg, wg) in basis.t.iter().zip(&basis.w) {
-            let s = (s0 + (s1 - s0) * tg) / h;
-            for (wi, l) in w.iter_mut().zip(basis.lagrange(s)) {
-                *wi += (s1 - s0) * wg * l;
+            basis.lagrange((s0 + (s1 - s0) * tg) / h, &mut l);
+            for (wi, li) in w.iter_mut().zip(&l) {
+                *wi += (s1 - s0) * wg * li;
             }
         }
     }
@@ -272,6 +310,7 @@ fn segment_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Ve
     let (ha, hr) = (b.hi[a] - b.lo[a], b.hi[r] - b.lo[r]);
     let n = basis.n;
     let mut w = vec![0.0; n * n];
+    let (mut big, mut small) = (vec![0.0; n], vec![0.0; n]);
     mesh.for_each_triangle_in(b, |t| {
         let Some((p0, p1)) = plane_crossing(mesh.triangle(t), p, c) else {
             return;
@@ -290,8 +329,8 @@ fn segment_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Ve
         for (tg, wg) in basis.t.iter().zip(&basis.w) {
             let lam = l0 + (l1 - l0) * tg;
             let x = [0, 1, 2].map(|k| p0[k] + lam * (p1[k] - p0[k]));
-            let big = basis.lagrange_integral((x[a] - b.lo[a]) / ha);
-            let small = basis.lagrange((x[r] - b.lo[r]) / hr);
+            basis.lagrange_integral((x[a] - b.lo[a]) / ha, &mut big);
+            basis.lagrange((x[r] - b.lo[r]) / hr, &mut small);
             let f = wg * len * nu_a * ha;
             for (j, lj) in small.iter().enumerate() {
                 for (i, li) in big.iter().enumerate() {
@@ -417,6 +456,7 @@ fn triangle_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> V
     let h = [0, 1, 2].map(|k| b.hi[k] - b.lo[k]);
     let n = basis.n;
     let mut w = vec![0.0; n * n * n];
+    let (mut la, mut lr, mut ls) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     mesh.for_each_triangle_in(b, |t| {
         let na = mesh.normal(t)[a];
         if na == 0.0 {
@@ -424,9 +464,9 @@ fn triangle_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> V
         }
         let poly = clip_triangle(mesh.triangle(t), b);
         for_each_polygon_point(&poly, &basis.moment_tri, |x, wq| {
-            let la = basis.lagrange_integral((x[a] - b.lo[a]) / h[a]);
-            let lr = basis.lagrange((x[r] - b.lo[r]) / h[r]);
-            let ls = basis.lagrange((x[s] - b.lo[s]) / h[s]);
+            basis.lagrange_integral((x[a] - b.lo[a]) / h[a], &mut la);
+            basis.lagrange((x[r] - b.lo[r]) / h[r], &mut lr);
+            basis.lagrange((x[s] - b.lo[s]) / h[s], &mut ls);
             let f = wq * na * h[a];
             for (k, lk) in ls.iter().enumerate() {
                 for (j, lj) in lr.iter().enumerate() {
