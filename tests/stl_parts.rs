@@ -164,3 +164,141 @@ fn imperfect_meshes_solve_and_say_what_is_wrong() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The 7/8 cube's facets split in two: those facing −z, and the rest.
+fn split_cube() -> (Vec<[[f64; 3]; 3]>, Vec<[[f64; 3]; 3]>) {
+    let parts = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/parts");
+    let tris = read_stl(&parts.join("7_8ths_cube.stl"))
+        .unwrap()
+        .remove(0)
+        .triangles;
+    tris.into_iter().partition(|t| {
+        let n = [0, 1, 2].map(|i| {
+            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+            (t[1][a] - t[0][a]) * (t[2][b] - t[0][b]) - (t[1][b] - t[0][b]) * (t[2][a] - t[0][a])
+        });
+        n[2] < -0.5 * (n[0].abs() + n[1].abs() + n[2].abs())
+    })
+}
+
+fn ascii_solid(name: &str, tris: &[[[f64; 3]; 3]]) -> String {
+    let mut s = format!("solid {name}\n");
+    for t in tris {
+        s += " facet normal 0 0 0\n  outer loop\n";
+        for p in t {
+            s += &format!("   vertex {} {} {}\n", p[0], p[1], p[2]);
+        }
+        s += "  endloop\n endfacet\n";
+    }
+    s + &format!("endsolid {name}\n")
+}
+
+/// `geometry` on `case_text` written to `dir/case.toml`: the report.
+fn geometry(dir: &Path, case_text: &str) -> Value {
+    let case = dir.join("case.toml");
+    std::fs::write(&case, case_text).unwrap();
+    let out = dir.join("geometry");
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .args([
+            "geometry",
+            case.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["cells.vtu", "boundary.vtp", "report.json"] {
+        assert!(out.join(f).is_file(), "{f} not written");
+    }
+    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn boundary_parts_from_solid_names_files_and_selectors() {
+    let dir = std::env::temp_dir().join(format!("cgfem-stl-tags-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (bottom, rest) = split_cube();
+    let grid =
+        "[grid]\nlevel = 3\noffset = [0.3, 0.3, 0.3]\n[material]\nyoung = 1.0\npoisson = 0.3\n";
+    // The file's corners are ±20 only to single precision (19.999998, …), so
+    // the faces' areas are 1600 to about 1e-3.
+    let area = |r: &Value, tag: &str| r["domain"]["boundary_area_by_tag"][tag].as_f64().unwrap();
+    // One ASCII file with two named solids: the names are the parts.
+    std::fs::write(
+        dir.join("named.stl"),
+        ascii_solid("base", &bottom) + &ascii_solid("walls", &rest),
+    )
+    .unwrap();
+    let r = geometry(
+        &dir,
+        &format!("[geometry]\ntype = \"stl\"\npath = \"named.stl\"\n{grid}"),
+    );
+    assert_eq!(
+        r["boundary_tags"],
+        serde_json::json!(["surface", "base", "walls"])
+    );
+    // The facets facing −z: the 40 × 40 bottom (the notch is in the +x +y +z octant).
+    assert!(
+        (area(&r, "base") - 1600.0).abs() < 1e-2,
+        "{}",
+        area(&r, "base")
+    );
+    assert!((area(&r, "walls") + area(&r, "base") - 9600.0).abs() < 1e-2);
+    // The same surface as two files: the file stems are the parts.
+    write_binary_stl(&dir.join("floor.stl"), &bottom).unwrap();
+    write_binary_stl(&dir.join("sides.stl"), &rest).unwrap();
+    let r = geometry(
+        &dir,
+        &format!("[geometry]\ntype = \"stl\"\npath = [\"floor.stl\", \"sides.stl\"]\n{grid}"),
+    );
+    assert!((area(&r, "floor") - 1600.0).abs() < 1e-2);
+    let (vol, mesh_vol) = (
+        r["domain"]["volume"].as_f64().unwrap(),
+        r["mesh"]["volume"].as_f64().unwrap(),
+    );
+    assert!(
+        (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
+        "{vol} vs {mesh_vol}"
+    );
+    // Selectors combine (a cone of normals within a box) and later ones win.
+    let selectors = "parts = [\n  { name = \"low\", normal = { direction = [0, 0, -1], angle_deg = 1 }, box = { min = [-21, -21, -21], max = [21, 21, -19] } },\n  { name = \"corner\", box = { min = [-21, -21, -21], max = [-19, 21, 21] }, normal = { direction = [-1, 0, 0], angle_deg = 1 } },\n]";
+    let r = geometry(
+        &dir,
+        &format!("[geometry]\ntype = \"stl\"\npath = [\"floor.stl\", \"sides.stl\"]\n{selectors}\n{grid}"),
+    );
+    assert!(
+        (area(&r, "low") - 1600.0).abs() < 1e-2,
+        "{}",
+        area(&r, "low")
+    );
+    assert!(
+        (area(&r, "corner") - 1600.0).abs() < 1e-2,
+        "{}",
+        area(&r, "corner")
+    );
+    // A selector that takes nothing is an error naming it.
+    let case = dir.join("empty.toml");
+    std::fs::write(
+        &case,
+        format!("[geometry]\ntype = \"stl\"\npath = [\"floor.stl\", \"sides.stl\"]\nparts = [{{ name = \"none\", box = {{ min = [100, 100, 100], max = [101, 101, 101] }} }}]\n{grid}"),
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .args([
+            "geometry",
+            case.to_str().unwrap(),
+            "--out",
+            dir.join("none").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("geometry.parts[0]") && stderr.contains("takes no facet"),
+        "{stderr}"
+    );
+    assert!(!dir.join("none").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
