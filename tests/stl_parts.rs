@@ -165,8 +165,11 @@ fn imperfect_meshes_solve_and_say_what_is_wrong() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Triangles by their corners.
+type Triangles = Vec<[[f64; 3]; 3]>;
+
 /// The 7/8 cube's facets split in two: those facing −z, and the rest.
-fn split_cube() -> (Vec<[[f64; 3]; 3]>, Vec<[[f64; 3]; 3]>) {
+fn split_cube() -> (Triangles, Triangles) {
     let parts = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/parts");
     let tris = read_stl(&parts.join("7_8ths_cube.stl"))
         .unwrap()
