@@ -35,21 +35,29 @@ struct Cli {
     quiet: bool,
 }
 
+/// The case and where its results go, as `run` and `geometry` take them.
+#[derive(clap::Args)]
+struct CaseArgs {
+    /// The case file (TOML).
+    case: PathBuf,
+    /// Grid level (overrides grid.level).
+    #[arg(long)]
+    level: Option<u32>,
+    /// Override any case key: --set solver.method=cg (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Output folder (default: out/<case name> for run, out/<case name>/geometry
+    /// for geometry).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Solve a case; writes DIR/report.json and DIR/solution.vtu.
     Run {
-        /// The case file (TOML).
-        case: PathBuf,
-        /// Grid level (overrides grid.level).
-        #[arg(long)]
-        level: Option<u32>,
-        /// Override any case key: --set solver.method=cg (repeatable).
-        #[arg(long = "set", value_name = "KEY=VALUE")]
-        set: Vec<String>,
-        /// Output folder (default: out/<case name>).
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        case: CaseArgs,
         /// Also estimate the condition numbers of the operator (plain and
         /// Jacobi-scaled; assembles the matrix and factorises it).
         #[arg(long)]
@@ -76,17 +84,8 @@ enum Command {
     /// and DIR/report.json (with the STL diagnostics), to check a part and
     /// its boundary parts in ParaView.
     Geometry {
-        /// The case file (TOML).
-        case: PathBuf,
-        /// Grid level (overrides grid.level).
-        #[arg(long)]
-        level: Option<u32>,
-        /// Override any case key (repeatable).
-        #[arg(long = "set", value_name = "KEY=VALUE")]
-        set: Vec<String>,
-        /// Output folder (default: out/<case name>/geometry).
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        case: CaseArgs,
     },
     /// List the GPU adapters: backend, device type, driver, f64 and subgroup
     /// support, storage and dispatch limits.
@@ -183,14 +182,9 @@ fn main() -> ExitCode {
 }
 
 /// The `geometry` command: classify and write, no solve.
-fn geometry(
-    path: &std::path::Path,
-    level: Option<u32>,
-    set: &[String],
-    out: Option<PathBuf>,
-    progress: &Terminal,
-) -> anyhow::Result<()> {
-    let case = cgfem_gpu::case::Case::from_file_with(path, set)?;
+fn geometry(args: &CaseArgs, progress: &Terminal) -> anyhow::Result<()> {
+    let (level, out) = (args.level, args.out.clone());
+    let case = cgfem_gpu::case::Case::from_file_with(&args.case, &args.set)?;
     if let Some(mesh) = case.geometry.mesh() {
         eprintln!(
             "note: {}: mesh: {}",
@@ -224,10 +218,13 @@ fn geometry(
 fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
     match cli.command {
         Command::Run {
-            case,
-            level,
-            set,
-            out,
+            case:
+                CaseArgs {
+                    case,
+                    level,
+                    set,
+                    out,
+                },
             condition,
             backend,
             adapter,
@@ -252,12 +249,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             }
             run_case(&case, level, &set, &outputs, condition, &device, progress)
         }
-        Command::Geometry {
-            case,
-            level,
-            set,
-            out,
-        } => geometry(&case, level, &set, out, progress),
+        Command::Geometry { case } => geometry(&case, progress),
         Command::Info => {
             info();
             Ok(())

@@ -96,6 +96,18 @@ fn an_stl_sphere_converges_like_the_analytic_one() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The cut cells' volume equals the mesh's signed-volume sum to 1e-12.
+fn assert_volume_is_the_meshs(r: &Value) {
+    let (vol, mesh_vol) = (
+        r["domain"]["volume"].as_f64().unwrap(),
+        r["mesh"]["volume"].as_f64().unwrap(),
+    );
+    assert!(
+        (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
+        "{vol} vs {mesh_vol}"
+    );
+}
+
 /// Runs `run` on an `stl` case of `path` clamped on the facets facing −z and
 /// returns the report.
 fn run_part(path: &Path, out: &Path) -> Value {
@@ -137,14 +149,7 @@ fn imperfect_meshes_solve_and_say_what_is_wrong() {
     // the rules still measure the mesh's own volume.
     let r = run_part(&parts.join("featuretype.stl"), &dir.join("featuretype"));
     assert_eq!(r["mesh"]["open_edges"], 576);
-    let (vol, mesh_vol) = (
-        r["domain"]["volume"].as_f64().unwrap(),
-        r["mesh"]["volume"].as_f64().unwrap(),
-    );
-    assert!(
-        (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
-        "{vol} vs {mesh_vol}"
-    );
+    assert_volume_is_the_meshs(&r);
     // A hole punched in a closed mesh (one facet of the plate removed): it
     // solves; the gap is reported and changes the volume by the sliver of
     // winding number it leaves.
@@ -256,14 +261,7 @@ fn boundary_parts_from_solid_names_files_and_selectors() {
         &format!("[geometry]\ntype = \"stl\"\npath = [\"floor.stl\", \"sides.stl\"]\n{grid}"),
     );
     assert!((area(&r, "floor") - 1600.0).abs() < 1e-2);
-    let (vol, mesh_vol) = (
-        r["domain"]["volume"].as_f64().unwrap(),
-        r["mesh"]["volume"].as_f64().unwrap(),
-    );
-    assert!(
-        (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
-        "{vol} vs {mesh_vol}"
-    );
+    assert_volume_is_the_meshs(&r);
     // Selectors combine (a cone of normals within a box) and later ones win.
     let selectors = "parts = [\n  { name = \"low\", normal = { direction = [0, 0, -1], angle_deg = 1 }, box = { min = [-21, -21, -21], max = [21, 21, -19] } },\n  { name = \"corner\", box = { min = [-21, -21, -21], max = [-19, 21, 21] }, normal = { direction = [-1, 0, 0], angle_deg = 1 } },\n]";
     let r = geometry(
