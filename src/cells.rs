@@ -5,7 +5,8 @@
 //! set bounds (interval arithmetic) are strictly negative is inside as a whole,
 //! strictly positive outside; only blocks the boundary may cross are split, so
 //! the work follows the number of cut cells (~4× per level), not the number of
-//! cells (8× per level). Single candidate cells get Saye's rule (in parallel).
+//! cells (8× per level). A mesh solid is classified by flood fill instead
+//! ([`flood`]). Single candidate cells get their cut rule (in parallel).
 //! A candidate whose rule has no volume is outside; one with full volume and no
 //! boundary points is inside; the rest are cut. A cell with a boundary part on
 //! one of its faces and the body on its side is cut with volume fraction 1: it
@@ -14,6 +15,7 @@
 //! their area rules are in [`faces`].
 
 mod faces;
+mod flood;
 mod merge;
 
 pub use faces::{face_box, face_neighbour, face_rule};
@@ -99,7 +101,10 @@ impl Cells {
         }
         let mut kinds = vec![CellKind::Outside; grid.num_cells()];
         let mut candidates = Vec::new();
-        descend(grid, geometry, [0; 3], grid.n, &mut kinds, &mut candidates);
+        match geometry.mesh() {
+            Some(mesh) => candidates = flood::classify(grid, mesh, &mut kinds),
+            None => descend(grid, geometry, [0; 3], grid.n, &mut kinds, &mut candidates),
+        }
         candidates.sort_unstable();
         let phase = Phase::Quadrature;
         progress.event(&Event::Start {
