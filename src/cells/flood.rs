@@ -78,5 +78,7 @@ pub(super) fn classify(grid: &Grid, mesh: &MeshSolid, kinds: &mut [CellKind]) ->
             }
         }
     }
-    (0..state.len()).filter(|&c| state[c] == CANDIDATE).collect()
+    (0..state.len())
+        .filter(|&c| state[c] == CANDIDATE)
+        .collect()
 }
