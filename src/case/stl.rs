@@ -178,30 +178,18 @@ impl StlSpec {
                     "gives no selector: give box, plane or normal".into(),
                 ));
             }
-            let plane = match &part.plane {
-                Some(p) => Some((
-                    p,
-                    unit(p.normal).ok_or_else(|| {
-                        err(
-                            &format!("{key}.plane.normal"),
-                            "must be a non-zero vector".into(),
-                        )
-                    })?,
-                )),
-                None => None,
+            let unit_at = |v: [f64; 3], at: String| {
+                unit(v).ok_or_else(|| err(&at, "must be a non-zero vector".into()))
             };
-            let cone = match &part.normal {
-                Some(c) => Some((
-                    unit(c.direction).ok_or_else(|| {
-                        err(
-                            &format!("{key}.normal.direction"),
-                            "must be a non-zero vector".into(),
-                        )
-                    })?,
-                    c.angle_deg.to_radians().cos(),
-                )),
-                None => None,
-            };
+            let plane = (part.plane.as_ref())
+                .map(|p| unit_at(p.normal, format!("{key}.plane.normal")).map(|n| (p, n)))
+                .transpose()?;
+            let cone = (part.normal.as_ref())
+                .map(|c| {
+                    let d = unit_at(c.direction, format!("{key}.normal.direction"))?;
+                    Ok::<_, Error>((d, c.angle_deg.to_radians().cos()))
+                })
+                .transpose()?;
             let id = tag_index(&mut tags, &part.name);
             let mut taken = 0;
             for (t, tag) in per_triangle.iter_mut().enumerate() {

@@ -157,8 +157,26 @@ fn collapsed_rule(m: usize) -> Vec<([f64; 2], f64)> {
 pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
     let basis = Basis::new(q);
     let mut rule = BoxRule::default();
-    let weights = if mesh.may_cross(b) {
-        moments(mesh, &basis, b, free)
+    // A cell's facets are gathered and clipped once, for its moments, its
+    // boundary points and its samples.
+    let mut near = Vec::new();
+    mesh.for_each_triangle_in(b, |t| near.push(t));
+    let pieces: Vec<Piece> = if free.len() == 3 {
+        near.iter()
+            .map(|&t| Piece {
+                t,
+                poly: clip_triangle(mesh.triangle(t), b),
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let weights = if !near.is_empty() {
+        if free.len() == 3 {
+            cell_moments(mesh, &basis, b, free, &pieces)
+        } else {
+            moments(mesh, &basis, b, free)
+        }
     } else if mesh.phi(center(b)) < 0.0 {
         full_weights(&basis, b, free)
     } else {
@@ -175,10 +193,16 @@ pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> Bo
         rule.volume.push(VolumePoint { x, w });
     }
     if free.len() == 3 {
-        boundary_points(mesh, &basis, b, &mut rule.surface);
-        rule.samples = sample_points(mesh, b, q, &rule.surface);
+        boundary_points(mesh, &basis, &pieces, &mut rule.surface);
+        rule.samples = sample_points(mesh, b, q, &near, &rule.surface);
     }
     rule
+}
+
+/// A facet near a cell and its part in the cell (empty when they only touch).
+struct Piece {
+    t: usize,
+    poly: Vec<[f64; 3]>,
 }
 
 /// Points of `b ∩ Ω` for least-squares fits (the volume points above may
@@ -191,11 +215,15 @@ pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> Bo
 /// of times from an inside centre (odd from an outside one). A crossing
 /// counted twice where the segment grazes a shared edge only misplaces a
 /// sample, which costs the fit a little and never the rule's exactness.
-fn sample_points(mesh: &MeshSolid, b: &Aabb, q: usize, surface: &[SurfacePoint]) -> Vec<[f64; 3]> {
+fn sample_points(
+    mesh: &MeshSolid,
+    b: &Aabb,
+    q: usize,
+    near: &[usize],
+    surface: &[SurfacePoint],
+) -> Vec<[f64; 3]> {
     let k = q / 2 + 2;
     let want = 2 * (q / 2 + 1).pow(3);
-    let mut near = Vec::new();
-    mesh.for_each_triangle_in(b, |t| near.push(t));
     let c = center(b);
     let center_inside = mesh.phi(c) < 0.0;
     let mut out = Vec::with_capacity(k * k * k);
@@ -240,28 +268,43 @@ fn full_weights(basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
         .collect()
 }
 
-/// `W_J = ∫_{b∩Ω} L_J` over the free axes of `b` (index `Σ i_m n^m`).
+/// `W_J = ∫_{b∩Ω} L_J` over the three axes of the cell `b` (index
+/// `Σ i_m n^m`): the flux through the clipped facets `pieces` plus the face
+/// `x_a = hi_a` one dimension down.
+fn cell_moments(
+    mesh: &MeshSolid,
+    basis: &Basis,
+    b: &Aabb,
+    free: &[usize],
+    pieces: &[Piece],
+) -> Vec<f64> {
+    let mut w = triangle_flux(mesh, basis, b, free, pieces);
+    add_upper_face(mesh, basis, b, free, &mut w);
+    w
+}
+
+/// [`cell_moments`] on a face (two free axes) or an edge (one).
 fn moments(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
-    let n = basis.n;
-    let a = free[0];
-    let h = b.hi[a] - b.lo[a];
     if free.len() == 1 {
-        return edge_moments(mesh, basis, b, a);
+        return edge_moments(mesh, basis, b, free[0]);
     }
+    let mut w = segment_flux(mesh, basis, b, free);
+    add_upper_face(mesh, basis, b, free, &mut w);
+    w
+}
+
+/// Adds `h_a ω_i ∫_{P ∩ {x_a = hi_a}} L_J` (the moments of the face one
+/// dimension down, `a = free[0]`) to `w`.
+fn add_upper_face(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize], w: &mut [f64]) {
+    let (n, a) = (basis.n, free[0]);
+    let h = b.hi[a] - b.lo[a];
     let mut face = *b;
     face.lo[a] = b.hi[a];
-    let lower = moments(mesh, basis, &face, &free[1..]);
-    let mut w = if free.len() == 3 {
-        triangle_flux(mesh, basis, b, free)
-    } else {
-        segment_flux(mesh, basis, b, free)
-    };
-    for (k, low) in lower.iter().enumerate() {
+    for (k, low) in moments(mesh, basis, &face, &free[1..]).iter().enumerate() {
         for i in 0..n {
             w[i + n * k] += h * basis.w[i] * low;
         }
     }
-    w
 }
 
 /// The moments of the inside part of an edge along `a`.
@@ -451,19 +494,24 @@ fn for_each_polygon_point(
 
 /// `Σ ∫ Λ_i(x_a) ℓ_j(x_r) ℓ_k(x_s) n_a dS` over the triangles clipped to the
 /// cell `b` (`free = [a, r, s]`).
-fn triangle_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> Vec<f64> {
+fn triangle_flux(
+    mesh: &MeshSolid,
+    basis: &Basis,
+    b: &Aabb,
+    free: &[usize],
+    pieces: &[Piece],
+) -> Vec<f64> {
     let (a, r, s) = (free[0], free[1], free[2]);
     let h = [0, 1, 2].map(|k| b.hi[k] - b.lo[k]);
     let n = basis.n;
     let mut w = vec![0.0; n * n * n];
     let (mut la, mut lr, mut ls) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    mesh.for_each_triangle_in(b, |t| {
-        let na = mesh.normal(t)[a];
+    for Piece { t, poly } in pieces {
+        let na = mesh.normal(*t)[a];
         if na == 0.0 {
-            return;
+            continue;
         }
-        let poly = clip_triangle(mesh.triangle(t), b);
-        for_each_polygon_point(&poly, &basis.moment_tri, |x, wq| {
+        for_each_polygon_point(poly, &basis.moment_tri, |x, wq| {
             basis.lagrange_integral((x[a] - b.lo[a]) / h[a], &mut la);
             basis.lagrange((x[r] - b.lo[r]) / h[r], &mut lr);
             basis.lagrange((x[s] - b.lo[s]) / h[s], &mut ls);
@@ -477,19 +525,18 @@ fn triangle_flux(mesh: &MeshSolid, basis: &Basis, b: &Aabb, free: &[usize]) -> V
                 }
             }
         });
-    });
+    }
     w
 }
 
-/// The boundary points of the cell `b`: the clipped triangles' rules.
-fn boundary_points(mesh: &MeshSolid, basis: &Basis, b: &Aabb, out: &mut Vec<SurfacePoint>) {
-    mesh.for_each_triangle_in(b, |t| {
-        let poly = clip_triangle(mesh.triangle(t), b);
-        let (n, tag) = (mesh.normal(t), mesh.tag(t));
-        for_each_polygon_point(&poly, &basis.surface_tri, |x, w| {
+/// The boundary points of a cell: the rules of its clipped facets.
+fn boundary_points(mesh: &MeshSolid, basis: &Basis, pieces: &[Piece], out: &mut Vec<SurfacePoint>) {
+    for Piece { t, poly } in pieces {
+        let (n, tag) = (mesh.normal(*t), mesh.tag(*t));
+        for_each_polygon_point(poly, &basis.surface_tri, |x, w| {
             out.push(SurfacePoint { x, w, n, tag })
         });
-    });
+    }
 }
 
 #[cfg(test)]
