@@ -141,7 +141,7 @@ fn tangent_at_zero_is_the_linear_operator() {
         young: E,
         poisson: NU,
         beta: BETA,
-        dirichlet_tags: &[true],
+        dirichlet: &|_, _| Some([true; 3]),
     };
     let linear = ElasticOperator::new(&grid, &cells, ElementOrder::Q1, &params);
     for material in materials() {

@@ -90,9 +90,11 @@ fn check(order: ElementOrder, level: u32) {
     assert!(setup.cells.cut.len() > 50, "too few cut cells");
     assert!(!setup.omega_star.is_empty(), "no pathological cell");
     let p = &setup.problem;
-    let tags = p.dirichlet_tags();
+    let held = |tag, x| p.dirichlet_mask(tag, x);
     assert!(
-        tags.iter().all(|t| *t),
+        (0..setup.cells.cut.len())
+            .flat_map(|i| setup.cells.surface_points(i))
+            .all(|q| held(q.tag, q.x) == Some([true; 3])),
         "the sphere is Dirichlet everywhere"
     );
     let (young, poisson, beta) = (p.young, p.poisson, setup.beta);
@@ -117,7 +119,7 @@ fn check(order: ElementOrder, level: u32) {
         young,
         poisson,
         beta,
-        dirichlet_tags: &tags,
+        dirichlet: &held,
     };
     let op = ElasticOperator::new(grid, cells, order, &params);
     let e = worst(&setup, &op, beta, none);
@@ -125,9 +127,8 @@ fn check(order: ElementOrder, level: u32) {
     assert!(e < 1e-13, "{order:?} penalty: {e:e}");
 
     // No Dirichlet part at all.
-    let no_tags = vec![false; tags.len()];
     let params = OperatorParams {
-        dirichlet_tags: &no_tags,
+        dirichlet: &|_, _| None,
         ..params
     };
     let op = ElasticOperator::new(grid, cells, order, &params);

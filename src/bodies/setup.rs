@@ -12,7 +12,8 @@ use std::sync::Arc;
 
 use super::contact::{ContactCoupling, ContactSide};
 use super::problem::BodiesProblem;
-use crate::case::bodies::{BodiesCase, Component, HyperModel};
+use crate::case::bodies::{BodiesCase, HyperModel};
+use crate::case::boundary::Component;
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
@@ -151,14 +152,15 @@ fn body_problem(
     let mut dirichlet = Vec::new();
     let mut regions: Vec<Option<Region>> = Vec::new();
     for (name, d) in &spec.dirichlet {
-        let exprs = d.value.clone();
+        let exprs = d.components();
         dirichlet.push(DirichletCondition {
             tag: tag(name),
-            components: d.value.clone().map(|c| c != Component::Free),
+            components: d.mask(),
+            // "exact" is refused in [[body]] cases (no exact field).
             value: Arc::new(move |x: [f64; 3]| {
                 [0, 1, 2].map(|a| match &exprs[a] {
                     Component::Given(e) => e.eval(x),
-                    Component::Free => 0.0,
+                    Component::Free | Component::Exact => 0.0,
                 })
             }),
         });
@@ -172,11 +174,10 @@ fn body_problem(
         .neumann
         .iter()
         .map(|(name, n)| {
-            let t = n.traction.clone();
-            (
-                tag(name),
-                Arc::new(move |x: [f64; 3], _: [f64; 3]| t.eval(x)) as TractionField,
-            )
+            let n = n.clone();
+            // "exact" is refused in [[body]] cases (no exact field).
+            let field = move |x: [f64; 3], normal: [f64; 3]| n.eval(x, normal, |_, _| [0.0; 3]);
+            (tag(name), Arc::new(field) as TractionField)
         })
         .collect();
     let loads = Loads {

@@ -38,13 +38,14 @@
 //! grid = { level = 3 }
 //! material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }
 //! dirichlet.bottom = { value = ["0", "0", "0"] }
-//! # components may be "free", and a condition may be restricted to a box:
+//! # the boundary vocabulary of every case (super::boundary): components may be
+//! # "free", and a condition may be restricted to a box:
 //! # dirichlet.outer = { value = ["0", "0.5", "free"], region = { max = [-0.95, inf, inf] } }
 //!
 //! [[body]]
 //! name = "upper"
 //! # ...
-//! neumann.top = { traction = ["0", "0", "-10"] }
+//! neumann.top = { traction = ["0", "0", "-10"] }   # or { pressure = "10" }: −p N
 //!
 //! [[body]]                     # a plane-strain body (see "Plane strain")
 //! name = "ring"
@@ -70,17 +71,14 @@
 //! holds `u_z = 0` at every node (strongly). The geometry must span the slab
 //! (z from −h/2 to h/2 at least); it is meant to be a prism along z.
 
-use std::collections::BTreeMap;
-
-use serde::de::{self, Deserializer};
 use serde::Deserialize;
 
+use super::boundary::{check_boundary, DirichletTable, NeumannTable};
 use super::geometry::GeometrySpec;
 use super::physics::StabilisationSpec;
 use super::{bad_key, deserialize, file_stem, grid_of, parse_table, GridSpec};
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
-use crate::expr::{Expr, VectorExpr};
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 use crate::solver::{KrylovMethod, Preconditioner};
@@ -196,9 +194,9 @@ pub struct BodySpec {
     pub grid: GridSpec,
     pub material: HyperMaterialSpec,
     #[serde(default)]
-    pub dirichlet: BTreeMap<String, ComponentDirichletSpec>,
+    pub dirichlet: DirichletTable,
     #[serde(default)]
-    pub neumann: BTreeMap<String, TractionSpec>,
+    pub neumann: NeumannTable,
     /// Solve as a plane-strain slab (see the module doc).
     #[serde(default)]
     pub plane_strain: bool,
@@ -230,67 +228,6 @@ pub enum HyperModel {
     NeoHookean,
     /// `W = λ/2 (tr E)² + μ E:E`.
     StVenantKirchhoff,
-}
-
-/// `dirichlet.<tag>` of a body: three components, each an expression or
-/// `"free"`, optionally only inside a box.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ComponentDirichletSpec {
-    pub value: [Component; 3],
-    #[serde(default)]
-    pub region: Option<RegionSpec>,
-}
-
-/// One prescribed displacement component.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Component {
-    Free,
-    Given(Expr),
-}
-
-impl<'de> Deserialize<'de> for Component {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        let text = String::deserialize(d)?;
-        if text.trim() == "free" {
-            return Ok(Component::Free);
-        }
-        Expr::parse(&text)
-            .map(Component::Given)
-            .map_err(|e| de::Error::custom(e.to_string()))
-    }
-}
-
-/// A box `min ≤ x ≤ max` (components may be ±inf) where a condition applies.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct RegionSpec {
-    #[serde(default = "minus_infinity")]
-    pub min: [f64; 3],
-    #[serde(default = "plus_infinity")]
-    pub max: [f64; 3],
-}
-
-fn minus_infinity() -> [f64; 3] {
-    [f64::NEG_INFINITY; 3]
-}
-
-fn plus_infinity() -> [f64; 3] {
-    [f64::INFINITY; 3]
-}
-
-impl RegionSpec {
-    /// Is `x` in the region?
-    pub fn contains(&self, x: [f64; 3]) -> bool {
-        (0..3).all(|a| self.min[a] <= x[a] && x[a] <= self.max[a])
-    }
-}
-
-/// `neumann.<tag>` of a body: a traction (per unit reference area).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct TractionSpec {
-    pub traction: VectorExpr,
 }
 
 /// One `[[contact]]` pair.
@@ -508,27 +445,16 @@ impl BodiesCase {
                 format!("ν must lie in (-1, 0.5), got {}", m.poisson),
             ));
         }
-        let known = b.geometry.tag_names().join(", ");
-        for tag in b.spec.dirichlet.keys().chain(b.spec.neumann.keys()) {
-            if b.geometry.tag_id(tag).is_none() {
-                return Err(self.bad(
-                    &key(&format!("dirichlet.{tag}")),
-                    format!("body '{name}' has no boundary part tagged '{tag}' (known: {known})"),
-                ));
-            }
-        }
-        if let Some(tag) = b
-            .spec
-            .neumann
-            .keys()
-            .find(|t| b.spec.dirichlet.contains_key(*t))
-        {
-            return Err(self.bad(
-                &key(&format!("neumann.{tag}")),
-                format!("'{tag}' already has a Dirichlet condition"),
-            ));
-        }
-        Ok(())
+        let prefix = format!("body[{i}].");
+        let s = &b.spec;
+        check_boundary(
+            &self.file,
+            &prefix,
+            &b.geometry,
+            &s.dirichlet,
+            &s.neumann,
+            false,
+        )
     }
 
     /// Resolves `body.tag` of every pair.

@@ -5,6 +5,7 @@
 //! `--set key=value` overrides any key (dotted path) before checking.
 
 pub mod bodies;
+pub mod boundary;
 pub mod geometry;
 pub mod physics;
 pub mod stl;
@@ -18,11 +19,9 @@ use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
+use boundary::{check_boundary, DirichletTable, NeumannTable};
 pub use geometry::GeometrySpec;
-use physics::{
-    BodyLoadSpec, DirichletTable, ExactSpec, FieldValue, MaterialSpec, NeumannTable, SolverSpec,
-    StabilisationSpec,
-};
+use physics::{BodyLoadSpec, ExactSpec, FieldValue, MaterialSpec, SolverSpec, StabilisationSpec};
 
 /// A case as written in its file.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -212,44 +211,16 @@ impl Case {
         if so.max_iterations == 0 || so.max_fixed_point == 0 {
             return Err(self.bad_key("solver", "iteration limits must be at least 1".into()));
         }
-        let known = self.geometry.tag_names().join(", ");
-        let uses_exact = |v: &FieldValue| *v == FieldValue::Exact;
-        for (tag, d) in &s.dirichlet {
-            if self.geometry.tag_id(tag).is_none() {
-                return Err(self.bad_key(
-                    &format!("dirichlet.{tag}"),
-                    format!("no boundary part is tagged '{tag}' (known: {known})"),
-                ));
-            }
-            if uses_exact(&d.value) && s.exact.is_none() {
-                return Err(self.bad_key(
-                    &format!("dirichlet.{tag}.value"),
-                    "\"exact\" needs [exact]".into(),
-                ));
-            }
-        }
-        for (tag, n) in &s.neumann {
-            if self.geometry.tag_id(tag).is_none() {
-                return Err(self.bad_key(
-                    &format!("neumann.{tag}"),
-                    format!("no boundary part is tagged '{tag}' (known: {known})"),
-                ));
-            }
-            if s.dirichlet.contains_key(tag) {
-                return Err(self.bad_key(
-                    &format!("neumann.{tag}"),
-                    format!("'{tag}' already has a Dirichlet condition"),
-                ));
-            }
-            if uses_exact(&n.traction) && s.exact.is_none() {
-                return Err(self.bad_key(
-                    &format!("neumann.{tag}.traction"),
-                    "\"exact\" needs [exact]".into(),
-                ));
-            }
-        }
+        check_boundary(
+            &self.file,
+            "",
+            &self.geometry,
+            &s.dirichlet,
+            &s.neumann,
+            s.exact.is_some(),
+        )?;
         if let Some(b) = &s.body_load {
-            if uses_exact(&b.value) && s.exact.is_none() {
+            if b.value == FieldValue::Exact && s.exact.is_none() {
                 return Err(self.bad_key("body_load.value", "\"exact\" needs [exact]".into()));
             }
         }

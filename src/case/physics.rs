@@ -12,10 +12,10 @@
 //! [body_load]             # optional: default from the exact field, else zero
 //! value = ["0", "0", "-9.81"]
 //!
-//! [dirichlet.surface]     # per boundary tag: "exact" or three expressions
+//! [dirichlet.surface]     # per boundary tag (see [`super::boundary`])
 //! value = "exact"
 //!
-//! [neumann.top]           # per tag: traction, "exact" (σ(u) n) or expressions
+//! [neumann.top]
 //! traction = ["0", "0", "-1"]
 //!
 //! [stabilisation]          # defaults: the paper's stabilised method
@@ -37,7 +37,6 @@
 //! ```
 //! Boundary parts named in neither table are traction free.
 
-use std::collections::BTreeMap;
 use std::fmt;
 
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
@@ -67,20 +66,6 @@ pub struct ExactSpec {
 #[serde(deny_unknown_fields)]
 pub struct BodyLoadSpec {
     pub value: FieldValue,
-}
-
-/// `[dirichlet.<tag>]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DirichletSpec {
-    pub value: FieldValue,
-}
-
-/// `[neumann.<tag>]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct NeumannSpec {
-    pub traction: FieldValue,
 }
 
 /// A vector field given as three expressions, or `"exact"`: derived from the
@@ -244,8 +229,3 @@ impl Default for SolverSpec {
         }
     }
 }
-
-/// Boundary conditions per tag.
-pub type DirichletTable = BTreeMap<String, DirichletSpec>;
-/// Tractions per tag.
-pub type NeumannTable = BTreeMap<String, NeumannSpec>;

@@ -111,7 +111,7 @@ fn physics_tables_and_overrides() {
     assert_eq!(case.spec.grid.level, 2);
     assert_eq!(
         case.spec.dirichlet["surface"].value,
-        physics::FieldValue::Exact
+        boundary::DirichletValue::Exact
     );
     assert_eq!(case.spec.stabilisation.k1, 30.0);
 }
@@ -128,6 +128,13 @@ fn physics_errors_name_the_key() {
         ("[material]\nyoung = 1\npoisson = 0.3\n[solver]\nmethod = \"gmres\"\n", "solver.method"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[stabilisation]\nk1 = 0\n", "stabilisation.k1"),
         ("[materail]\nyoung = 1\npoisson = 0.3\n", "materail"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"free\",\"free\",\"free\"]\n", "dirichlet.surface.value"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"free\",\"exact\"]\n", "dirichlet.surface.value"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"0\",\"0\"]\nregion = { min = [0, 0, 1], max = [1, 1, 0] }\n", "dirichlet.surface.region"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"0\",\"0\"]\nregion = { mid = [0, 0, 1] }\n", "dirichlet.surface.region.mid"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\npressure = \"1\"\ntraction = [\"0\",\"0\",\"0\"]\n", "neumann.surface"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\n", "neumann.surface"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\npressure = \"1 +\"\n", "neumann.surface.pressure"),
     ];
     for (physics, key) in cases {
         let text = format!("{SPHERE}{physics}");

@@ -7,6 +7,7 @@
 use super::dofs::DofMap;
 use super::problem::{Boundary, Problem};
 use super::rhs::DirichletPoint;
+use crate::case::boundary::DirichletValue;
 use crate::case::physics::FieldValue;
 use crate::case::Case;
 use crate::cells::{CellKind, Cells};
@@ -32,10 +33,10 @@ fn finite(v: [f64; 3]) -> bool {
 }
 
 /// The key a field comes from: its own, or the exact field it is derived from.
-fn source(value: Option<&FieldValue>, key: String, derived: &str) -> String {
-    match value {
-        Some(FieldValue::Given(_)) => key,
-        _ => format!("exact.displacement (the {derived} of {key})"),
+fn source(from_exact: bool, key: String, derived: &str) -> String {
+    match from_exact {
+        false => key,
+        true => format!("exact.displacement (the {derived} of {key})"),
     }
 }
 
@@ -78,8 +79,8 @@ pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
     for p in a.dirichlet {
         if !finite(p.g) {
             let t = tag(p.tag);
-            let value = s.dirichlet.get(&t).map(|d| &d.value);
-            let key = source(value, format!("dirichlet.{t}.value"), "value");
+            let exact = s.dirichlet.get(&t).map(|d| &d.value) == Some(&DirichletValue::Exact);
+            let key = source(exact, format!("dirichlet.{t}.value"), "value");
             return Err(bad(key, format!("not finite at {:?}: {:?}", p.x, p.g)));
         }
     }
@@ -89,16 +90,22 @@ pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
                 let t = a.problem.traction(q.tag, q.x, q.n);
                 if !finite(t) {
                     let name = tag(q.tag);
-                    let value = s.neumann.get(&name).map(|n| &n.traction);
-                    let key = source(value, format!("neumann.{name}.traction"), "traction");
+                    let spec = s.neumann.get(&name);
+                    let key = match spec.is_some_and(|n| n.pressure.is_some()) {
+                        true => format!("neumann.{name}.pressure"),
+                        false => {
+                            let exact = spec.is_some_and(|n| n.is_exact());
+                            source(exact, format!("neumann.{name}.traction"), "traction")
+                        }
+                    };
                     return Err(bad(key, format!("not finite at {:?}: {t:?}", q.x)));
                 }
             }
         }
     }
     let body_key = || {
-        let value = s.body_load.as_ref().map(|b| &b.value);
-        source(value, "body_load.value".into(), "body load")
+        let given = matches!(&s.body_load, Some(b) if matches!(b.value, FieldValue::Given(_)));
+        source(!given, "body_load.value".into(), "body load")
     };
     let body_at = |x: [f64; 3]| -> Result<()> {
         let b = a.problem.body_load(x);

@@ -49,11 +49,17 @@
 //!
 //! # Which field a cell's correction uses
 //! `τ` must be a flux density defined in the cell: the exact stress on
-//! exact-traction parts, the recovered stress `σ̂` on Dirichlet parts. A cell
+//! exact-traction parts, `−p I` on a pressure part (its traction `−p n` is a
+//! flux), the recovered stress `σ̂` on Dirichlet parts. A cell
 //! whose boundary points belong to several parts splits `D` by their share of
 //! the boundary weight (any split is exact in the patch test, where the fields
-//! agree). Traction-free parts and given vector tractions carry no flux density
-//! and get no correction. A cut cell without boundary points (its surface lies
+//! agree). A Dirichlet part that holds only some components (a roller)
+//! carries the recovered flux in all three: `σ̂` is the cell's stress
+//! whatever the mask, and its tangential traction is what the free
+//! components' zero traction approximates (with a share for the held
+//! components only, a roller cell keeps a defect of 1e-3 in the patch test).
+//! Traction-free parts and given vector tractions carry no flux density and
+//! get no correction. A cut cell without boundary points (its surface lies
 //! on a face claimed by a neighbour, or it received a merged sliver's face)
 //! uses `σ̂` when the problem has Dirichlet parts, else the exact stress.
 
@@ -65,7 +71,6 @@ use super::dofs::DofMap;
 use super::moment_fit::{lagrange, lagrange_derivative, FitBasis};
 use super::problem::{Boundary, Problem};
 use super::rhs::{add_point_load, DirichletPoint};
-use crate::case::physics::FieldValue;
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
 use crate::element::ElementOrder;
 use crate::error::Result;
@@ -86,6 +91,9 @@ pub struct FluxCorrection {
     exact_share: Vec<f64>,
     /// Per cut cell: the share carried by the recovered stress.
     recovered_share: Vec<f64>,
+    /// (cut cell, pressure tag, share) for the cells with pressure points:
+    /// the share carried by that part's stress `−p I`.
+    pressure_share: Vec<(usize, u16, f64)>,
 }
 
 impl FluxCorrection {
@@ -108,25 +116,32 @@ impl FluxCorrection {
             .into_par_iter()
             .flat_map_iter(|i| cell_defect(grid, cells, geometry, &basis, q, i))
             .collect();
-        let has_dirichlet = problem
-            .boundary
-            .iter()
-            .any(|b| matches!(b, Boundary::Dirichlet(_)));
+        let has_dirichlet = problem.has_dirichlet();
         let mut exact_share = vec![0.0; cells.cut.len()];
         let mut recovered_share = vec![0.0; cells.cut.len()];
+        let mut pressure_share = Vec::new();
         for i in 0..cells.cut.len() {
             let (mut total, mut exact, mut recovered) = (0.0, 0.0, 0.0);
+            let mut pressure: Vec<(u16, f64)> = Vec::new();
             for p in cells.surface_points(i) {
                 total += p.w;
-                match problem.boundary[p.tag as usize] {
-                    Boundary::Dirichlet(_) => recovered += p.w,
-                    Boundary::Neumann(FieldValue::Exact) => exact += p.w,
-                    _ => {}
+                if problem.dirichlet_mask(p.tag, p.x).is_some() {
+                    recovered += p.w;
+                } else if let Boundary::Neumann(n) = &problem.boundary[p.tag as usize] {
+                    if n.is_exact() {
+                        exact += p.w;
+                    } else if n.pressure.is_some() {
+                        match pressure.iter_mut().find(|(t, _)| *t == p.tag) {
+                            Some((_, w)) => *w += p.w,
+                            None => pressure.push((p.tag, p.w)),
+                        }
+                    }
                 }
             }
             if total > 0.0 {
                 exact_share[i] = exact / total;
                 recovered_share[i] = recovered / total;
+                pressure_share.extend(pressure.into_iter().map(|(t, w)| (i, t, w / total)));
             } else if has_dirichlet {
                 recovered_share[i] = 1.0;
             } else if problem.exact.is_some() {
@@ -139,6 +154,7 @@ impl FluxCorrection {
             defect,
             exact_share,
             recovered_share,
+            pressure_share,
         }
     }
 
@@ -149,7 +165,9 @@ impl FluxCorrection {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        24 * self.defect.len() + 8 * (self.exact_share.len() + self.recovered_share.len())
+        24 * self.defect.len()
+            + 8 * (self.exact_share.len() + self.recovered_share.len())
+            + 24 * self.pressure_share.len()
     }
 
     /// The cut cells whose correction uses the recovered stress (positions in
@@ -182,8 +200,9 @@ impl FluxCorrection {
         Ok(())
     }
 
-    /// Adds the corrections carried by the exact stress to `rhs`.
-    pub fn add_exact(
+    /// Adds the corrections carried by the given stresses to `rhs`: the exact
+    /// stress, and `−p I` of the pressure parts.
+    pub fn add_given(
         &self,
         grid: &Grid,
         cells: &Cells,
@@ -197,6 +216,16 @@ impl FluxCorrection {
             let mut sink = |x, f| add_point_load(grid, dofs, c, x, f, rhs);
             self.for_each_load(grid, cells, i, self.exact_share[i], &mut tau, &mut sink)
                 .expect("the exact stress is infallible");
+        }
+        for &(i, tag, share) in &self.pressure_share {
+            let c = cells.cut[i];
+            let mut tau = |x: [f64; 3]| {
+                let p = problem.pressure(tag, x);
+                Ok([[-p, 0.0, 0.0], [0.0, -p, 0.0], [0.0, 0.0, -p]])
+            };
+            let mut sink = |x, f| add_point_load(grid, dofs, c, x, f, rhs);
+            self.for_each_load(grid, cells, i, share, &mut tau, &mut sink)
+                .expect("a pressure is infallible");
         }
     }
 
@@ -221,9 +250,12 @@ impl FluxCorrection {
 
 impl FluxCorrection {
     /// Per Dirichlet point, the traction density that carries its cell's
-    /// recovered correction: the cell's correction force `Σ_r f_r` spread
-    /// evenly (per unit area) over the cell's Dirichlet points, so that the
-    /// reactions `Σ_q w_q λ_q` balance the loads of the corrected system.
+    /// recovered correction: each component of the cell's correction force
+    /// `Σ_r f_r` spread evenly (per unit area) over the cell's Dirichlet
+    /// points that hold that component, so that the reactions `Σ_q w_q λ_q`
+    /// balance the loads of the corrected system. A component that no point
+    /// of the cell holds (a roller's free one) has no reaction: its
+    /// correction stays a load on the free boundary.
     pub fn dirichlet_densities(
         &self,
         grid: &Grid,
@@ -231,25 +263,30 @@ impl FluxCorrection {
         sigma: &Recovered<6>,
         dirichlet: &[DirichletPoint],
     ) -> Result<Vec<[f64; 3]>> {
-        let mut area: HashMap<usize, f64> = HashMap::new();
+        let mut area: HashMap<usize, [f64; 3]> = HashMap::new();
         for p in dirichlet {
-            *area.entry(p.cell).or_default() += p.w;
+            let a = area.entry(p.cell).or_default();
+            (0..3).for_each(|k| a[k] += p.w * p.mask[k]);
         }
         let mut density: HashMap<usize, [f64; 3]> = HashMap::new();
         for i in self.recovered_cells() {
             let c = cells.cut[i];
-            let Some(&a) = area.get(&c).filter(|a| **a > 0.0) else {
+            let Some(&a) = area.get(&c) else {
                 continue;
             };
             let mut force = [0.0; 3];
             let mut tau = |x: [f64; 3]| sigma.eval(c, x).map(|s| voigt_matrix(&s));
             let mut sink = |_, f: [f64; 3]| (0..3).for_each(|k| force[k] += f[k]);
             self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
-            density.insert(c, force.map(|f| f / a));
+            let d = [0, 1, 2].map(|k| if a[k] > 0.0 { force[k] / a[k] } else { 0.0 });
+            density.insert(c, d);
         }
         Ok(dirichlet
             .iter()
-            .map(|p| density.get(&p.cell).copied().unwrap_or([0.0; 3]))
+            .map(|p| {
+                let d = density.get(&p.cell).copied().unwrap_or([0.0; 3]);
+                [0, 1, 2].map(|k| d[k] * p.mask[k])
+            })
             .collect())
     }
 }

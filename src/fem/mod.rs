@@ -2,6 +2,7 @@
 //! assembled), right-hand sides, the discrete field and its error norms.
 pub mod assembled;
 pub mod checks;
+pub mod component_penalty;
 pub mod cut_apply;
 pub mod dofs;
 pub mod fast_apply;

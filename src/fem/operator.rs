@@ -27,6 +27,7 @@ use rayon::prelude::*;
 use std::sync::Mutex;
 
 pub use super::assembled::AssembledOperator;
+use super::component_penalty::{ComponentPenalty, HeldComponents};
 use super::cut_apply::CutKernel;
 use super::dofs::{node_cells, DofMap};
 use super::fast_apply::{CellData, FastApply};
@@ -60,6 +61,8 @@ pub struct ElasticOperator {
     /// Lamé parameters `(λ, μ)`.
     lame: (f64, f64),
     basis: FitBasis,
+    /// The penalty of the Dirichlet points that hold only some components.
+    partial: ComponentPenalty,
     /// The fast apply's plan (Q1 only) and its reused scratch.
     fast: Option<FastApply>,
     scratch: Scratch,
@@ -87,14 +90,16 @@ impl Clone for Scratch {
 }
 
 /// What the operator needs to know about the material and the Dirichlet parts.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy)]
 pub struct OperatorParams<'a> {
     pub young: f64,
     pub poisson: f64,
-    /// Penalty `β = k1 E`; the Dirichlet term is `w (β/h) NᵀN`.
+    /// Penalty `β = k1 E`; the Dirichlet term is `w (β/h) NᵀM N`, `M` the
+    /// diagonal mask of the components held.
     pub beta: f64,
-    /// Per boundary tag id: does it carry a Dirichlet condition?
-    pub dirichlet_tags: &'a [bool],
+    /// The components held at a boundary point (tag, position); `None` where
+    /// no Dirichlet condition applies.
+    pub dirichlet: &'a HeldComponents<'a>,
 }
 
 impl ElasticOperator {
@@ -126,6 +131,7 @@ impl ElasticOperator {
             data,
         };
         let lame = lame(p.young, p.poisson);
+        let partial = ComponentPenalty::new(grid, cells, order, p.beta, p.dirichlet);
         let cut = match order {
             ElementOrder::Q1 => CutData::Forms(Q1Forms::new(&basis, &weights, lame, grid.h)),
             ElementOrder::Q2 => CutData::Weights {
@@ -143,6 +149,7 @@ impl ElasticOperator {
             own_cells: cells.cut.clone(),
             lame,
             basis,
+            partial,
             fast: None,
             scratch: Scratch::default(),
         };
@@ -184,26 +191,31 @@ impl ElasticOperator {
         }
     }
 
-    /// The dense matrix of slot `s`, from its form or weights.
+    /// The dense matrix of slot `s`, from its form or weights and its
+    /// partial-mask penalty.
     fn own_matrix(&self, s: usize) -> Vec<f64> {
-        match &self.cut {
+        let mut m = match &self.cut {
             CutData::Forms(forms) => forms.expand(s),
             CutData::Weights { weights, .. } => {
                 let (w, m) = weights.cell(s);
                 self.basis.expand(w, m, self.lame, 1.0 / self.grid.h)
             }
-        }
+        };
+        self.partial.add_to_matrix(s, &mut m);
+        m
     }
 
     /// The diagonal of slot `s`'s matrix.
     fn own_diagonal(&self, s: usize) -> Vec<f64> {
-        match &self.cut {
+        let mut d = match &self.cut {
             CutData::Forms(forms) => forms.diagonal(s),
             CutData::Weights { weights, .. } => {
                 let (w, m) = weights.cell(s);
                 self.basis.diagonal(w, m, self.lame, 1.0 / self.grid.h)
             }
-        }
+        };
+        self.partial.add_to_diagonal(s, &mut d);
+        d
     }
 
     /// Adds `factor · M_c` (the whole-cell vector mass `h³ M_ref`) to a cut
@@ -248,10 +260,11 @@ impl ElasticOperator {
 
     /// Bytes of the cut cells' data (forms or weights).
     pub fn cut_bytes(&self) -> usize {
-        match &self.cut {
-            CutData::Forms(forms) => forms.bytes(),
-            CutData::Weights { weights, .. } => 8 * weights.data.len(),
-        }
+        self.partial.bytes()
+            + match &self.cut {
+                CutData::Forms(forms) => forms.bytes(),
+                CutData::Weights { weights, .. } => 8 * weights.data.len(),
+            }
     }
 
     /// Cells with their own matrix.
@@ -350,6 +363,7 @@ impl ElasticOperator {
                     }
                 },
             );
+        self.partial.apply_add(&self.grid, &self.dofs, x, y);
     }
 
     /// Calls `f(cell, local, matrix)` for the non-outside cells around an
@@ -445,6 +459,7 @@ impl LinearOperator for ElasticOperator {
         scratch.resize(fast.scratch_len(), 0.0);
         let data = self.cell_data(forms);
         fast.apply(&data, x, y, scratch);
+        self.partial.apply_add(&self.grid, &self.dofs, x, y);
     }
 
     fn diagonal(&self) -> Vec<f64> {
@@ -474,7 +489,7 @@ impl LinearOperator for ElasticOperator {
 
 /// The moment-fitted weights of the `i`-th cut cell (see
 /// [`super::moment_fit`]): `W_q = Σ_vol w L_q(ξ)`, then
-/// `M_q = (β/h) Σ_{Dirichlet points} w L_q(ξ)`.
+/// `M_q = (β/h) Σ_{Dirichlet points holding every component} w L_q(ξ)`.
 fn cut_cell_weights(
     grid: &Grid,
     cells: &Cells,
@@ -491,8 +506,9 @@ fn cut_cell_weights(
     for q in cells.volume_points(i) {
         basis.add_point(xi(q.x), q.w, stiffness);
     }
+    // Points holding some components only: [`ComponentPenalty`].
     for q in cells.surface_points(i) {
-        if p.dirichlet_tags[q.tag as usize] {
+        if (p.dirichlet)(q.tag, q.x) == Some([true; 3]) {
             basis.add_point(xi(q.x), q.w * p.beta * inv_h, mass);
         }
     }

@@ -1,8 +1,10 @@
 //! A case's loads and boundary conditions resolved into functions of the
-//! position: body load, Dirichlet data and tractions per boundary tag, each
-//! given by expressions or derived from the exact displacement field
-//! (`g = u`, `t = σ(u) n`, `b = −∇·σ(u)`, by automatic differentiation).
+//! position: body load, Dirichlet data (with the components it holds and the
+//! region where it applies) and tractions per boundary tag, each given by
+//! expressions or derived from the exact displacement field (`g = u`,
+//! `t = σ(u) n`, `b = −∇·σ(u)`, by automatic differentiation).
 
+use crate::case::boundary::{Component, DirichletSpec, NeumannSpec};
 use crate::case::physics::FieldValue;
 use crate::case::Case;
 use crate::element::reference::lame;
@@ -13,10 +15,10 @@ use crate::expr::{body_load_from_displacement, stress_from_displacement, VectorE
 pub enum Boundary {
     /// Traction free.
     Free,
-    /// Prescribed displacement, imposed weakly.
-    Dirichlet(FieldValue),
-    /// Prescribed traction.
-    Neumann(FieldValue),
+    /// Prescribed displacement components, imposed weakly.
+    Dirichlet(DirichletSpec),
+    /// Prescribed traction or pressure.
+    Neumann(NeumannSpec),
 }
 
 /// Loads and boundary conditions of a case.
@@ -49,9 +51,9 @@ impl Problem {
             .iter()
             .map(|t| {
                 if let Some(d) = s.dirichlet.get(t) {
-                    Boundary::Dirichlet(d.value.clone())
+                    Boundary::Dirichlet(d.clone())
                 } else if let Some(n) = s.neumann.get(t) {
-                    Boundary::Neumann(n.traction.clone())
+                    Boundary::Neumann(n.clone())
                 } else {
                     Boundary::Free
                 }
@@ -74,12 +76,20 @@ impl Problem {
             .expect("\"exact\" is checked against [exact] when the case is read")
     }
 
-    /// Per tag: is it a Dirichlet part?
-    pub fn dirichlet_tags(&self) -> Vec<bool> {
+    /// Does some boundary part carry a Dirichlet condition?
+    pub fn has_dirichlet(&self) -> bool {
         self.boundary
             .iter()
-            .map(|b| matches!(b, Boundary::Dirichlet(_)))
-            .collect()
+            .any(|b| matches!(b, Boundary::Dirichlet(_)))
+    }
+
+    /// The components held at `x` on part `tag`: `None` where no Dirichlet
+    /// condition applies (another kind of part, or outside its region).
+    pub fn dirichlet_mask(&self, tag: u16, x: [f64; 3]) -> Option<[bool; 3]> {
+        match &self.boundary[tag as usize] {
+            Boundary::Dirichlet(d) if d.applies_at(x) => Some(d.mask()),
+            _ => None,
+        }
     }
 
     /// True when some body load is applied.
@@ -104,24 +114,43 @@ impl Problem {
         Some(stress_from_displacement(u, self.lambda, self.mu, x))
     }
 
-    /// The prescribed displacement at `x` on a Dirichlet part.
+    /// The prescribed displacement at `x` on a Dirichlet part (0 in its
+    /// free components).
     pub fn dirichlet_value(&self, tag: u16, x: [f64; 3]) -> [f64; 3] {
+        let Boundary::Dirichlet(d) = &self.boundary[tag as usize] else {
+            return [0.0; 3];
+        };
+        let exact = d.components().contains(&Component::Exact);
+        let u = match exact {
+            true => self.exact().eval(x),
+            false => [0.0; 3],
+        };
+        let c = d.components();
+        [0, 1, 2].map(|a| match &c[a] {
+            Component::Free => 0.0,
+            Component::Exact => u[a],
+            Component::Given(e) => e.eval(x),
+        })
+    }
+
+    /// The pressure at `x` on a pressure part (0 elsewhere).
+    pub fn pressure(&self, tag: u16, x: [f64; 3]) -> f64 {
         match &self.boundary[tag as usize] {
-            Boundary::Dirichlet(FieldValue::Given(v)) => v.eval(x),
-            Boundary::Dirichlet(FieldValue::Exact) => self.exact().eval(x),
-            _ => [0.0; 3],
+            Boundary::Neumann(NeumannSpec {
+                pressure: Some(p), ..
+            }) => p.eval(x),
+            _ => 0.0,
         }
     }
 
     /// The prescribed traction at `x` (outward normal `n`) on a Neumann part.
     pub fn traction(&self, tag: u16, x: [f64; 3], n: [f64; 3]) -> [f64; 3] {
-        match &self.boundary[tag as usize] {
-            Boundary::Neumann(FieldValue::Given(v)) => v.eval(x),
-            Boundary::Neumann(FieldValue::Exact) => {
-                let s = stress_from_displacement(self.exact(), self.lambda, self.mu, x);
-                [0, 1, 2].map(|i| s[i][0] * n[0] + s[i][1] * n[1] + s[i][2] * n[2])
-            }
-            _ => [0.0; 3],
-        }
+        let Boundary::Neumann(spec) = &self.boundary[tag as usize] else {
+            return [0.0; 3];
+        };
+        spec.eval(x, n, |x, n| {
+            let s = stress_from_displacement(self.exact(), self.lambda, self.mu, x);
+            [0, 1, 2].map(|i| s[i][0] * n[0] + s[i][1] * n[1] + s[i][2] * n[2])
+        })
     }
 }

@@ -101,7 +101,7 @@ pub fn recover_stress(setup: &Setup, u: &[f64], nodes: &[usize]) -> Result<Recov
     )
 }
 
-/// `t̂ = σ̂ n` at the Dirichlet points.
+/// `t̂ = M σ̂ n` at the Dirichlet points (`M` the mask of the held components).
 pub fn recovered_tractions(
     points: &[DirichletPoint],
     sigma: &Recovered<6>,
@@ -110,7 +110,8 @@ pub fn recovered_tractions(
         .iter()
         .map(|p| {
             let s = sigma.eval(p.cell, p.x)?;
-            Ok(voigt_times(&s, p.n))
+            let t = voigt_times(&s, p.n);
+            Ok([0, 1, 2].map(|i| p.mask[i] * t[i]))
         })
         .collect()
 }
@@ -124,7 +125,7 @@ pub fn voigt_times(s: &[f64; 6], n: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-/// `λ_q = t̂_q − (β/h)(u_h(x_q) − g_q)` at each Dirichlet point.
+/// `λ_q = t̂_q − (β/h) M_q (u_h(x_q) − g_q)` at each Dirichlet point.
 pub fn reactions(setup: &Setup, u: &[f64], t_hat: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let k = setup.beta / setup.grid.h;
     setup
@@ -133,7 +134,7 @@ pub fn reactions(setup: &Setup, u: &[f64], t_hat: &[[f64; 3]]) -> Vec<[f64; 3]> 
         .zip(t_hat)
         .map(|(p, t)| {
             let (v, _) = value_and_gradient(&setup.grid, &setup.op.dofs, u, p.cell, p.x);
-            [0, 1, 2].map(|i| t[i] - k * (v[i] - p.g[i]))
+            [0, 1, 2].map(|i| t[i] - k * p.mask[i] * (v[i] - p.g[i]))
         })
         .collect()
 }

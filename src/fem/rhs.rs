@@ -1,6 +1,8 @@
 //! Right-hand sides (DESIGN §3.1): body load `F_b`, tractions `F_N`, the
-//! penalty part of the Dirichlet data `F_p = Σ_q w_q (β/h) N_qᵀ g_q` and the
-//! recovered-traction part `F_T = Σ_q w_q N_qᵀ t̂_q` over the Dirichlet points.
+//! penalty part of the Dirichlet data `F_p = Σ_q w_q (β/h) N_qᵀ M_q g_q` and the
+//! recovered-traction part `F_T = Σ_q w_q N_qᵀ M_q t̂_q` over the Dirichlet
+//! points, `M_q` the diagonal mask of the components a point holds (a free
+//! component is traction free).
 
 use super::dofs::DofMap;
 use super::problem::{Boundary, Problem};
@@ -16,15 +18,19 @@ pub struct DirichletPoint {
     pub x: [f64; 3],
     pub w: f64,
     pub n: [f64; 3],
+    /// The prescribed value (0 in the free components).
     pub g: [f64; 3],
+    /// 1 for a held component, 0 for a free one.
+    pub mask: [f64; 3],
 }
 
-/// The Dirichlet points of the cut cells, in cut-cell order.
+/// The Dirichlet points of the cut cells (the boundary points where a
+/// Dirichlet condition applies), in cut-cell order.
 pub fn dirichlet_points(cells: &Cells, problem: &Problem) -> Vec<DirichletPoint> {
     let mut out = Vec::new();
     for (i, &cell) in cells.cut.iter().enumerate() {
         for q in cells.surface_points(i) {
-            if let Boundary::Dirichlet(_) = problem.boundary[q.tag as usize] {
+            if let Some(mask) = problem.dirichlet_mask(q.tag, q.x) {
                 out.push(DirichletPoint {
                     cell,
                     tag: q.tag,
@@ -32,6 +38,7 @@ pub fn dirichlet_points(cells: &Cells, problem: &Problem) -> Vec<DirichletPoint>
                     w: q.w,
                     n: q.n,
                     g: problem.dirichlet_value(q.tag, q.x),
+                    mask: mask.map(|m| if m { 1.0 } else { 0.0 }),
                 });
             }
         }
@@ -109,7 +116,8 @@ pub fn fixed_rhs(
     rhs
 }
 
-/// `F_T = Σ_q w_q N_qᵀ t̂_q` for recovered tractions `t̂` at the Dirichlet points.
+/// `F_T = Σ_q w_q N_qᵀ t̂_q` for recovered tractions `t̂` at the Dirichlet
+/// points (already masked, [`super::recovery::recovered_tractions`]).
 pub fn traction_rhs(
     grid: &Grid,
     dofs: &DofMap,

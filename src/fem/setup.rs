@@ -44,12 +44,11 @@ impl LevelOperator {
         order: ElementOrder,
     ) -> LevelOperator {
         let beta = case.spec.stabilisation.k1 * problem.young;
-        let dirichlet_tags = problem.dirichlet_tags();
         let params = OperatorParams {
             young: problem.young,
             poisson: problem.poisson,
             beta,
-            dirichlet_tags: &dirichlet_tags,
+            dirichlet: &|tag, x| problem.dirichlet_mask(tag, x),
         };
         let mut op = ElasticOperator::new(grid, cells, order, &params);
         let st = &case.spec.stabilisation;
@@ -139,7 +138,7 @@ impl Setup {
             case.rule_points(),
             &problem,
         );
-        flux.add_exact(&grid, &cells, &op.dofs, &problem, &mut fixed_rhs);
+        flux.add_given(&grid, &cells, &op.dofs, &problem, &mut fixed_rhs);
         let diagonal = op.diagonal();
         check_finite(
             case,

@@ -2,6 +2,7 @@
 //! input names its key.
 
 use super::*;
+use crate::case::boundary::Component;
 use crate::error::Error;
 
 /// Two blocks stacked along z, 0.01 apart, the upper pushed down.
@@ -50,10 +51,11 @@ fn parses_two_bodies_and_a_pair() {
     assert_eq!(upper.material.model, HyperModel::StVenantKirchhoff);
     assert_eq!(case.bodies[0].spec.material.model, HyperModel::NeoHookean);
     let d = &upper.dirichlet["zmax"];
-    assert_eq!(d.value[0], Component::Free);
-    match &d.value[2] {
+    let value = d.components();
+    assert_eq!(value[0], Component::Free);
+    match &value[2] {
         Component::Given(e) => assert_eq!(e.eval([0.0, 0.0, 2.0]), -0.2),
-        Component::Free => panic!("z is given"),
+        other => panic!("z is given, got {other:?}"),
     }
     let region = d.region.as_ref().unwrap();
     assert!(region.contains([5.0, -5.0, 1.01]) && !region.contains([0.0, 0.0, 0.5]));
@@ -152,6 +154,10 @@ fn other_bad_inputs_name_their_key() {
             "contact[0].slave",
         ),
         (format!("{BLOCKS}penalty = -1.0\n"), "contact[0].penalty"),
+        (
+            BLOCKS.replace("\"-0.1*z\"", "\"exact\""),
+            "body[1].dirichlet.zmax.value",
+        ),
     ];
     for (text, key) in cases {
         assert_eq!(key_of(parse(&text)), key, "{text}");

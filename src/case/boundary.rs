@@ -1,0 +1,244 @@
+//! The boundary-condition vocabulary shared by every body of every case
+//! (single-body linear cases and `[[body]]` cases alike), and its checks.
+//!
+//! ```toml
+//! [dirichlet.clamp]              # a prescribed displacement, imposed weakly
+//! value = ["0", "0", "0"]        # three expressions of x, y, z ...
+//! # value = "exact"              # ... or the exact field ([exact] cases)
+//! # value = ["0", "free", "free"] # a roller / symmetry plane: only u_x held
+//! # value = ["exact", "free", "0"] # components may also be "exact"
+//! region = { min = [-inf, -inf, 0.5] }   # optional: only where min ≤ x ≤ max
+//!
+//! [neumann.load]                 # a traction per unit area ...
+//! traction = ["0", "0", "-1"]    # ... three expressions, or "exact" (σ(u) n)
+//! # pressure = "100"             # or a scalar pressure p: t = −p n
+//! ```
+//! A free component of a Dirichlet part is traction free. A point of a
+//! Dirichlet part outside its `region` is traction free too. Parts named in
+//! neither table are traction free.
+
+use std::collections::BTreeMap;
+
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+
+use super::bad_key;
+use super::physics::FieldValue;
+use crate::error::Result;
+use crate::expr::Expr;
+use crate::geometry::Geometry;
+
+/// `dirichlet.<tag>`: a prescribed displacement, optionally only in a box.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DirichletSpec {
+    pub value: DirichletValue,
+    #[serde(default)]
+    pub region: Option<RegionSpec>,
+}
+
+/// The prescribed value: `"exact"` (every component from `[exact]`) or three
+/// components.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DirichletValue {
+    Exact,
+    Components([Component; 3]),
+}
+
+/// One prescribed displacement component.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Component {
+    /// Not prescribed: traction free in this direction.
+    Free,
+    /// The exact field's component.
+    Exact,
+    Given(Expr),
+}
+
+impl<'de> Deserialize<'de> for Component {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        match text.trim() {
+            "free" => Ok(Component::Free),
+            "exact" => Ok(Component::Exact),
+            _ => Expr::parse(&text)
+                .map(Component::Given)
+                .map_err(|e| de::Error::custom(e.to_string())),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for DirichletValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = DirichletValue;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("\"exact\" or an array of three components (expressions or \"free\")")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> std::result::Result<DirichletValue, E> {
+                match s {
+                    "exact" => Ok(DirichletValue::Exact),
+                    _ => Err(E::custom(format!(
+                        "expected \"exact\" or an array of three components, got \"{s}\""
+                    ))),
+                }
+            }
+            fn visit_seq<A: SeqAccess<'de>>(
+                self,
+                seq: A,
+            ) -> std::result::Result<DirichletValue, A::Error> {
+                let c = <[Component; 3]>::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(DirichletValue::Components(c))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl DirichletSpec {
+    /// The three components (`"exact"` as three exact components).
+    pub fn components(&self) -> [Component; 3] {
+        match &self.value {
+            DirichletValue::Exact => [Component::Exact, Component::Exact, Component::Exact],
+            DirichletValue::Components(c) => c.clone(),
+        }
+    }
+
+    /// Which components are held.
+    pub fn mask(&self) -> [bool; 3] {
+        self.components().map(|c| c != Component::Free)
+    }
+
+    /// Does the condition apply at `x` (inside its region, if any)?
+    pub fn applies_at(&self, x: [f64; 3]) -> bool {
+        self.region.as_ref().is_none_or(|r| r.contains(x))
+    }
+
+    fn uses_exact(&self) -> bool {
+        self.components().contains(&Component::Exact)
+    }
+}
+
+/// A box `min ≤ x ≤ max` (components may be ±inf) where a condition applies.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    #[serde(default = "minus_infinity")]
+    pub min: [f64; 3],
+    #[serde(default = "plus_infinity")]
+    pub max: [f64; 3],
+}
+
+fn minus_infinity() -> [f64; 3] {
+    [f64::NEG_INFINITY; 3]
+}
+
+fn plus_infinity() -> [f64; 3] {
+    [f64::INFINITY; 3]
+}
+
+impl RegionSpec {
+    /// Is `x` in the region?
+    pub fn contains(&self, x: [f64; 3]) -> bool {
+        (0..3).all(|a| self.min[a] <= x[a] && x[a] <= self.max[a])
+    }
+}
+
+/// `neumann.<tag>`: a traction, or a pressure `p` (traction `−p n`, `n` the
+/// outward normal). Exactly one of the two.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NeumannSpec {
+    #[serde(default)]
+    pub traction: Option<FieldValue>,
+    #[serde(default)]
+    pub pressure: Option<Expr>,
+}
+
+impl NeumannSpec {
+    /// The traction at `x` with outward normal `n`; `exact_traction` gives
+    /// `σ(u) n` of the exact field for `traction = "exact"`.
+    pub fn eval(
+        &self,
+        x: [f64; 3],
+        n: [f64; 3],
+        exact_traction: impl Fn([f64; 3], [f64; 3]) -> [f64; 3],
+    ) -> [f64; 3] {
+        match (&self.traction, &self.pressure) {
+            (Some(FieldValue::Given(v)), _) => v.eval(x),
+            (Some(FieldValue::Exact), _) => exact_traction(x, n),
+            (None, Some(p)) => {
+                let p = p.eval(x);
+                n.map(|c| -p * c)
+            }
+            (None, None) => [0.0; 3],
+        }
+    }
+
+    /// Is the traction `"exact"`?
+    pub fn is_exact(&self) -> bool {
+        self.traction == Some(FieldValue::Exact)
+    }
+}
+
+/// Boundary conditions per tag.
+pub type DirichletTable = BTreeMap<String, DirichletSpec>;
+/// Tractions per tag.
+pub type NeumannTable = BTreeMap<String, NeumannSpec>;
+
+/// Checks a body's boundary tables against its `geometry`: every tag exists,
+/// no tag has both kinds, a Dirichlet part holds a component and its region
+/// is a box, a Neumann part has one of `traction` and `pressure`, `"exact"`
+/// only where the body has an exact field. `prefix` is the tables' key path
+/// (`""` or `"body[2]."`).
+pub(super) fn check_boundary(
+    file: &str,
+    prefix: &str,
+    geometry: &Geometry,
+    dirichlet: &DirichletTable,
+    neumann: &NeumannTable,
+    has_exact: bool,
+) -> Result<()> {
+    let known = geometry.tag_names().join(", ");
+    let key = |k: String| format!("{prefix}{k}");
+    let bad = |k: String, reason: String| Err(bad_key(file, &key(k), reason));
+    let needs_exact = "\"exact\" needs an [exact] field".to_string();
+    for (tag, d) in dirichlet {
+        if geometry.tag_id(tag).is_none() {
+            let reason = format!("no boundary part is tagged '{tag}' (known: {known})");
+            return bad(format!("dirichlet.{tag}"), reason);
+        }
+        if d.mask() == [false; 3] {
+            let reason = "every component is \"free\": hold at least one".to_string();
+            return bad(format!("dirichlet.{tag}.value"), reason);
+        }
+        if d.uses_exact() && !has_exact {
+            return bad(format!("dirichlet.{tag}.value"), needs_exact);
+        }
+        if let Some(r) = &d.region {
+            if (0..3).any(|a| r.min[a].is_nan() || r.max[a].is_nan() || r.min[a] > r.max[a]) {
+                let reason = format!("min {:?} must not exceed max {:?}", r.min, r.max);
+                return bad(format!("dirichlet.{tag}.region"), reason);
+            }
+        }
+    }
+    for (tag, n) in neumann {
+        if geometry.tag_id(tag).is_none() {
+            let reason = format!("no boundary part is tagged '{tag}' (known: {known})");
+            return bad(format!("neumann.{tag}"), reason);
+        }
+        if dirichlet.contains_key(tag) {
+            let reason = format!("'{tag}' already has a Dirichlet condition");
+            return bad(format!("neumann.{tag}"), reason);
+        }
+        if n.traction.is_some() == n.pressure.is_some() {
+            let reason = "give exactly one of `traction` and `pressure`".to_string();
+            return bad(format!("neumann.{tag}"), reason);
+        }
+        if n.is_exact() && !has_exact {
+            return bad(format!("neumann.{tag}.traction"), needs_exact);
+        }
+    }
+    Ok(())
+}

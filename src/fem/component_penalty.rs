@@ -1,0 +1,157 @@
+//! The Dirichlet penalty of the boundary points that hold only some of the
+//! three components (rollers, symmetry planes, `["0", "free", "free"]`):
+//!
+//! ```text
+//! K_p,c[3a+i, 3b+i] = Σ_q m_{q,i} w_q (β/h) N_a(x_q) N_b(x_q),
+//! ```
+//! with `m_q` the point's component mask. Points that hold all three
+//! components carry the same term with `m = (1, 1, 1)`, which is a scalar mass
+//! and lives in the cut cells' fitted weights ([`super::moment_fit`],
+//! [`super::q1_forms`]); a partial mask is not a scalar mass, so its points are
+//! kept here as three dense `npc × npc` masses per cell (one per component)
+//! and added to the cell's product after the main apply. Only the cells a
+//! partial Dirichlet part crosses have one: a handful of boundary cells.
+
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+
+use super::dofs::DofMap;
+use crate::cells::Cells;
+use crate::element::{shape_values, ElementOrder};
+use crate::grid::Grid;
+
+/// The components held at a boundary point `(tag, x)`; `None` where no
+/// Dirichlet condition applies.
+pub type HeldComponents<'a> = dyn Fn(u16, [f64; 3]) -> Option<[bool; 3]> + Sync + 'a;
+
+/// The partial-mask penalty masses of the cut cells that have such points.
+#[derive(Clone, Debug, Default)]
+pub struct ComponentPenalty {
+    /// Nodes per cell.
+    npc: usize,
+    /// Per cell with a mass: its grid cell.
+    cells: Vec<usize>,
+    /// Per cell: three `npc × npc` masses (component 0, 1, 2), row-major.
+    masses: Vec<f64>,
+    /// The position in `cells` of a cut-cell slot.
+    by_slot: HashMap<usize, usize>,
+}
+
+impl ComponentPenalty {
+    /// The masses of the cut cells of `cells` whose boundary points have a
+    /// partial mask (`held(tag, x)`; `None` off the Dirichlet parts),
+    /// weighted by `β/h`.
+    pub fn new(
+        grid: &Grid,
+        cells: &Cells,
+        order: ElementOrder,
+        beta: f64,
+        held: &HeldComponents<'_>,
+    ) -> ComponentPenalty {
+        let npc = order.nodes_per_cell();
+        let per_cell: Vec<(usize, Vec<f64>)> = (0..cells.cut.len())
+            .into_par_iter()
+            .filter_map(|s| {
+                let cell = cells.cut[s];
+                let lo = grid.cell_box(cell).lo;
+                let mut masses: Option<Vec<f64>> = None;
+                let mut n = vec![0.0; npc];
+                for q in cells.surface_points(s) {
+                    let Some(mask) = held(q.tag, q.x).filter(|m| *m != [true; 3]) else {
+                        continue;
+                    };
+                    let xi = [0, 1, 2].map(|a| (q.x[a] - lo[a]) / grid.h);
+                    shape_values(order, xi, &mut n);
+                    let m = masses.get_or_insert_with(|| vec![0.0; 3 * npc * npc]);
+                    let scale = q.w * beta / grid.h;
+                    for (i, held) in mask.iter().enumerate() {
+                        if !held {
+                            continue;
+                        }
+                        let mi = &mut m[i * npc * npc..(i + 1) * npc * npc];
+                        for a in 0..npc {
+                            for b in 0..npc {
+                                mi[a * npc + b] += scale * n[a] * n[b];
+                            }
+                        }
+                    }
+                }
+                masses.map(|m| (s, m))
+            })
+            .collect();
+        let mut out = ComponentPenalty {
+            npc,
+            ..ComponentPenalty::default()
+        };
+        for (s, m) in per_cell {
+            out.by_slot.insert(s, out.cells.len());
+            out.cells.push(cells.cut[s]);
+            out.masses.extend(m);
+        }
+        out
+    }
+
+    /// The mass of component `i` of the `k`-th cell with a mass.
+    fn mass(&self, k: usize, i: usize) -> &[f64] {
+        let n2 = self.npc * self.npc;
+        &self.masses[(3 * k + i) * n2..(3 * k + i + 1) * n2]
+    }
+
+    /// `y += K_p,c x` (serial: few cells).
+    pub fn apply_add(&self, grid: &Grid, dofs: &DofMap, x: &[f64], y: &mut [f64]) {
+        let npc = self.npc;
+        let mut nodes = vec![0usize; npc];
+        for (k, &cell) in self.cells.iter().enumerate() {
+            dofs.cell_active_nodes(grid, cell, &mut nodes);
+            for i in 0..3 {
+                let m = self.mass(k, i);
+                for (a, &na) in nodes.iter().enumerate() {
+                    let row = &m[a * npc..(a + 1) * npc];
+                    let sum: f64 = row
+                        .iter()
+                        .zip(&nodes)
+                        .map(|(v, &nb)| v * x[3 * nb + i])
+                        .sum();
+                    y[3 * na + i] += sum;
+                }
+            }
+        }
+    }
+
+    /// Adds slot `s`'s masses to its dense cell matrix (row-major, side
+    /// `3 npc`, dof `3a + i`).
+    pub fn add_to_matrix(&self, s: usize, matrix: &mut [f64]) {
+        let Some(&k) = self.by_slot.get(&s) else {
+            return;
+        };
+        let (npc, ne) = (self.npc, 3 * self.npc);
+        for i in 0..3 {
+            let m = self.mass(k, i);
+            for a in 0..npc {
+                for b in 0..npc {
+                    matrix[(3 * a + i) * ne + 3 * b + i] += m[a * npc + b];
+                }
+            }
+        }
+    }
+
+    /// Adds slot `s`'s masses to its cell matrix's diagonal (dof `3a + i`).
+    pub fn add_to_diagonal(&self, s: usize, diagonal: &mut [f64]) {
+        let Some(&k) = self.by_slot.get(&s) else {
+            return;
+        };
+        let npc = self.npc;
+        for i in 0..3 {
+            let m = self.mass(k, i);
+            for a in 0..npc {
+                diagonal[3 * a + i] += m[a * npc + a];
+            }
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        8 * (self.masses.len() + 2 * self.cells.len())
+    }
+}
