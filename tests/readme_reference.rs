@@ -16,7 +16,8 @@
 //! Names: dotted paths from the case's top level, `<tag>` for a boundary tag,
 //! no index for an array of tables (`body.material.young`,
 //! `contact.penalty`); a key holding a table of its own is documented by its
-//! leaves only.
+//! leaves only. A nested table added to a spec shows up here as one key (its
+//! name) until a probe for it is added below, which then lists its leaves.
 
 use std::collections::BTreeSet;
 
