@@ -249,7 +249,7 @@ fn hertz_contact_radius_and_pressure_near_the_analytic_ones() {
     // The peak is the recovered one, max −T̂_N (the pointwise λ_N is noisy).
     let peak = num(&row["peak_recovered_pressure"]);
     println!("hertz level 3: F = {force:.4}, a = {measured:.4} against {a:.4}, p = {peak:.4} against {p0:.4}");
-    // Measured −4.6% and +6.5% at level 3 (README, "Contact cases").
+    // Measured −4.6% and +6.5% at level 3 (docs/verification.md, "Contact: Hertz").
     assert!(
         (measured / a - 1.0).abs() < 0.1,
         "a = {measured} against {a}"

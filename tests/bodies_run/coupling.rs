@@ -161,7 +161,7 @@ fn the_coupling_reports_a_row_per_converged_step() {
 
 /// A block pressed 0.1 down onto a wider one, 0.01 apart, frictionless. The
 /// upper grid is offset: with both grids aligned, slave Gauss points lie on
-/// the master triangles' edges and Newton stalls near 1e-6 (see the README).
+/// the master triangles' edges and Newton stalls near 1e-6 (see docs/verification.md).
 const PRESS: &str = r#"
 [load]
 steps = 4
