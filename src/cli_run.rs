@@ -1,7 +1,8 @@
 //! `cgfem-gpu run`: one case from file to report — set-up, optional
 //! condition numbers, the solve on the chosen backend (with progress and
 //! Ctrl-C), error norms, reactions, and the outputs (report.json,
-//! solution.vtu, residuals.svg), each written atomically.
+//! solution.vtu, surface.vtp, solution.pvd listing both, residuals.svg), each
+//! written atomically.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,11 +19,13 @@ use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with_progress;
+use cgfem_gpu::fem::surface_output::write_surface;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
 use cgfem_gpu::solver::Preconditioner;
+use cgfem_gpu::vtu::write_pvd_parts;
 
 use crate::cli_progress::Terminal;
 
@@ -329,6 +332,15 @@ pub fn run_case(
     let t = Instant::now();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     write_solution(&setup, &solution.u, &dir.join("solution.vtu"))?;
+    write_surface(
+        &setup,
+        &case.geometry,
+        &solution.u,
+        &dir.join("surface.vtp"),
+    )?;
+    // One time step, the grid cells and the boundary surface as its two parts.
+    let parts = [(0.0, 0, "solution.vtu"), (0.0, 1, "surface.vtp")];
+    write_pvd_parts(&dir.join("solution.pvd"), &parts)?;
     report
         .timings
         .insert("output".into(), t.elapsed().as_secs_f64());
@@ -369,7 +381,7 @@ pub fn run_case(
         );
     }
     println!(
-        "  wrote {} and solution.vtu{}",
+        "  wrote {}, solution.vtu, surface.vtp, solution.pvd{}",
         dir.join("report.json").display(),
         if outputs.plots { ", residuals.svg" } else { "" }
     );

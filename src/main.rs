@@ -54,7 +54,8 @@ struct CaseArgs {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Solve a case; writes DIR/report.json and DIR/solution.vtu.
+    /// Solve a case; writes DIR/report.json, DIR/solution.vtu, DIR/surface.vtp
+    /// and DIR/solution.pvd listing the two.
     Run {
         #[command(flatten)]
         case: CaseArgs,

@@ -1,0 +1,252 @@
+//! The body's boundary as a triangle mesh for output (`surface.vtp`): its
+//! vertices on the boundary, one tag per triangle, and for each vertex the
+//! active grid cell through whose shape functions fields are evaluated there.
+//!
+//! **Sources.** A level-set geometry's boundary is meshed part by part by
+//! [`crate::contact::Surface::whole_boundary`] (marching tetrahedra on each
+//! CSG leaf; triangles kept where the leaf is the body's boundary, oriented
+//! outwards, tagged by the leaf): vertices lie on the leaf's zero set to
+//! round-off, the area converges like h², and rims between parts are ragged
+//! by up to one triangle. A mesh solid's boundary is its own STL triangles,
+//! each clipped to the grid's box `B` (Sutherland–Hodgman against the six
+//! planes `x_a = lo_a`, `x_a = hi_a`: a vertex is kept when on the inner side,
+//! and an edge crossing a plane adds the point `p + t (q − p)` with
+//! `t = (c − p_a) / (q_a − p_a)`), the clipped polygon split into a fan.
+//! Vertices are welded by exact equality of their coordinates.
+//!
+//! **Host cells.** A boundary point `x` lies in the closure of one to eight
+//! grid cells, of which those not outside carry the solution (all their nodes
+//! are active) and agree on `u_h(x)` by continuity. The host is the cell
+//! not outside nearest to `x` among the 27 around the cell of `x` (distance
+//! from `x` to the cell's box, 0 for a cell containing it; ties to the lower
+//! index). A cell is outside although `x` is on the boundary where it holds a
+//! merged sliver (`crate::cells` merges cut cells of negligible volume into a
+//! face neighbour, whose shape functions continue the solution there) or at a
+//! ragged rim; the nearest active cell continues `u_h` polynomially. A
+//! triangle with a vertex that has no active cell among the 27 is dropped.
+
+use std::collections::HashMap;
+
+use crate::cells::CellKind;
+use crate::contact::Surface;
+use crate::geometry::{Aabb, Geometry};
+use crate::grid::Grid;
+use crate::mesh::MeshSolid;
+
+/// A triangulated boundary with host cells and tags.
+#[derive(Clone, Debug, Default)]
+pub struct BoundaryMesh {
+    /// Reference positions of the vertices, on the boundary.
+    pub points: Vec<[f64; 3]>,
+    /// The active cell each point is evaluated in (see the module doc).
+    pub host: Vec<usize>,
+    /// Vertex indices, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// The boundary tag of each triangle (an index into the geometry's tag
+    /// names).
+    pub tags: Vec<u16>,
+}
+
+impl BoundaryMesh {
+    /// The boundary of `geometry` on `grid`, with hosts among the cells of
+    /// class `kinds` (see the module doc).
+    pub fn new(grid: &Grid, kinds: &[CellKind], geometry: &Geometry) -> BoundaryMesh {
+        let (points, triangles, tags) = match geometry.mesh() {
+            Some(mesh) => clipped_mesh(mesh, &grid.bounding_box()),
+            None => {
+                let s = Surface::whole_boundary(grid, geometry);
+                let triangles = s.triangles.iter().map(|t| t.vertices).collect();
+                let tags = s.triangles.iter().map(|t| t.tag).collect();
+                (s.vertices, triangles, tags)
+            }
+        };
+        let hosts: Vec<Option<usize>> = points.iter().map(|&x| host_cell(grid, kinds, x)).collect();
+        // Keep the triangles whose vertices all have a host; renumber.
+        let mut out = BoundaryMesh::default();
+        let mut new_index = vec![u32::MAX; points.len()];
+        for (t, tag) in triangles.iter().zip(tags) {
+            if t.iter().any(|&v| hosts[v as usize].is_none()) {
+                continue;
+            }
+            let mut tri = [0u32; 3];
+            for (k, &v) in t.iter().enumerate() {
+                let v = v as usize;
+                if new_index[v] == u32::MAX {
+                    new_index[v] = out.points.len() as u32;
+                    out.points.push(points[v]);
+                    out.host.push(hosts[v].expect("checked above"));
+                }
+                tri[k] = new_index[v];
+            }
+            out.triangles.push(tri);
+            out.tags.push(tag);
+        }
+        out
+    }
+
+    /// The corners of triangle `t`.
+    pub fn corners(&self, t: usize) -> [[f64; 3]; 3] {
+        self.triangles[t].map(|v| self.points[v as usize])
+    }
+
+    /// The total area `Σ |(b − a) × (c − a)| / 2`.
+    pub fn area(&self) -> f64 {
+        let mut total = 0.0;
+        for t in 0..self.triangles.len() {
+            let [a, b, c] = self.corners(t);
+            let (e, f) = (sub(b, a), sub(c, a));
+            let n = [
+                e[1] * f[2] - e[2] * f[1],
+                e[2] * f[0] - e[0] * f[2],
+                e[0] * f[1] - e[1] * f[0],
+            ];
+            total += 0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        }
+        total
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// The cell not outside nearest to `x` among the 27 around the cell of `x`
+/// (see the module doc), or `None`.
+fn host_cell(grid: &Grid, kinds: &[CellKind], x: [f64; 3]) -> Option<usize> {
+    let centre = [0, 1, 2].map(|a| {
+        let i = ((x[a] - grid.origin[a]) / grid.h).floor();
+        i.clamp(0.0, (grid.n[a] - 1) as f64) as usize
+    });
+    let mut best: Option<(f64, usize)> = None;
+    for dk in 0..3 {
+        for dj in 0..3 {
+            for di in 0..3 {
+                let d = [di, dj, dk];
+                let ijk = [0, 1, 2].map(|a| (centre[a] + d[a]).checked_sub(1));
+                let Some(ijk) = ijk.iter().copied().collect::<Option<Vec<usize>>>() else {
+                    continue;
+                };
+                if (0..3).any(|a| ijk[a] >= grid.n[a]) {
+                    continue;
+                }
+                let c = grid.cell_index([ijk[0], ijk[1], ijk[2]]);
+                if kinds[c] == CellKind::Outside {
+                    continue;
+                }
+                let dist = box_distance(&grid.cell_box(c), x);
+                if best.is_none_or(|(bd, bc)| dist < bd || (dist == bd && c < bc)) {
+                    best = Some((dist, c));
+                }
+            }
+        }
+    }
+    best.map(|(_, c)| c)
+}
+
+/// The distance from `x` to the box `b` (0 inside or on it).
+fn box_distance(b: &Aabb, x: [f64; 3]) -> f64 {
+    let mut d2 = 0.0;
+    for a in 0..3 {
+        let e = (b.lo[a] - x[a]).max(x[a] - b.hi[a]).max(0.0);
+        d2 += e * e;
+    }
+    d2.sqrt()
+}
+
+/// Points, triangles and a tag per triangle.
+type Triangulation = (Vec<[f64; 3]>, Vec<[u32; 3]>, Vec<u16>);
+
+/// A mesh solid's triangles clipped to `bx`, welded, with their tags.
+fn clipped_mesh(mesh: &MeshSolid, bx: &Aabb) -> Triangulation {
+    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut points = Vec::new();
+    let (mut triangles, mut tags) = (Vec::new(), Vec::new());
+    for t in 0..mesh.num_triangles() {
+        let polygon = clip_to_box(mesh.triangle(t).to_vec(), bx);
+        if polygon.len() < 3 {
+            continue;
+        }
+        let ids: Vec<u32> = polygon
+            .iter()
+            .map(|p| {
+                *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                    points.push(*p);
+                    (points.len() - 1) as u32
+                })
+            })
+            .collect();
+        for k in 1..ids.len() - 1 {
+            let tri = [ids[0], ids[k], ids[k + 1]];
+            if tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2] {
+                triangles.push(tri);
+                tags.push(mesh.tag(t));
+            }
+        }
+    }
+    (points, triangles, tags)
+}
+
+/// The convex polygon `polygon` clipped to the box `bx` (Sutherland–Hodgman,
+/// see the module doc); the polygon itself when it lies in the box.
+fn clip_to_box(mut polygon: Vec<[f64; 3]>, bx: &Aabb) -> Vec<[f64; 3]> {
+    for a in 0..3 {
+        for (c, sign) in [(bx.lo[a], -1.0), (bx.hi[a], 1.0)] {
+            // Inside the half-space `sign (x_a − c) ≤ 0`.
+            let inside = |p: &[f64; 3]| sign * (p[a] - c) <= 0.0;
+            if polygon.iter().all(inside) {
+                continue;
+            }
+            let mut out = Vec::with_capacity(polygon.len() + 1);
+            for i in 0..polygon.len() {
+                let (p, q) = (polygon[i], polygon[(i + 1) % polygon.len()]);
+                if inside(&p) {
+                    out.push(p);
+                }
+                if inside(&p) != inside(&q) {
+                    let t = (c - p[a]) / (q[a] - p[a]);
+                    let mut x = [0, 1, 2].map(|k| p[k] + t * (q[k] - p[k]));
+                    x[a] = c;
+                    out.push(x);
+                }
+            }
+            polygon = out;
+        }
+    }
+    polygon
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_triangle_across_a_box_face_is_cut_on_the_face() {
+        let bx = Aabb::new([0.0; 3], [1.0; 3]);
+        let inside = vec![[0.1, 0.1, 0.5], [0.9, 0.1, 0.5], [0.1, 0.9, 0.5]];
+        assert_eq!(clip_to_box(inside.clone(), &bx), inside);
+        // Half of this triangle lies at x > 1: a quadrilateral remains.
+        let across = vec![[0.5, 0.2, 0.5], [1.5, 0.2, 0.5], [0.5, 0.8, 0.5]];
+        let clipped = clip_to_box(across, &bx);
+        assert_eq!(clipped.len(), 4);
+        assert!(clipped.iter().all(|p| p[0] <= 1.0));
+        assert_eq!(clipped.iter().filter(|p| p[0] == 1.0).count(), 2);
+        let outside = vec![[2.0, 0.2, 0.5], [3.0, 0.2, 0.5], [2.0, 0.8, 0.5]];
+        assert!(clip_to_box(outside, &bx).is_empty());
+    }
+
+    #[test]
+    fn hosts_are_active_cells_at_or_next_to_the_point() {
+        let grid = Grid::new(&Aabb::new([0.0; 3], [1.0; 3]), 2, [0.0; 3]).unwrap();
+        let mut kinds = vec![CellKind::Outside; grid.num_cells()];
+        let active = grid.cell_index([1, 1, 1]);
+        kinds[active] = CellKind::Cut;
+        // On the shared corner of eight cells, one of them active.
+        assert_eq!(host_cell(&grid, &kinds, [0.5, 0.5, 0.5]), Some(active));
+        assert_eq!(host_cell(&grid, &kinds, [0.3, 0.4, 0.4]), Some(active));
+        // In outside neighbours: the nearest active cell continues u_h.
+        assert_eq!(host_cell(&grid, &kinds, [0.55, 0.4, 0.4]), Some(active));
+        assert_eq!(host_cell(&grid, &kinds, [0.05, 0.05, 0.05]), Some(active));
+        // Two cells away: none.
+        assert_eq!(host_cell(&grid, &kinds, [0.9, 0.9, 0.9]), None);
+    }
+}
