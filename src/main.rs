@@ -75,8 +75,9 @@ enum Command {
         /// in f64 defect correction) or f64.
         #[arg(long, default_value = "auto")]
         precision: PrecisionChoice,
-        /// Also write DIR/residuals.svg: ε per fixed-point iteration and the
-        /// Krylov iterations per solve.
+        /// Also write DIR/residuals.svg (ε per fixed-point iteration and the
+        /// Krylov iterations per solve) and DIR/deformed.svg (the deformed
+        /// boundary surface coloured by von Mises).
         #[arg(long)]
         plots: bool,
     },

@@ -2,11 +2,12 @@
 //! against things computed here, independently of the library's surface
 //! code:
 //! - the unit sphere's area (4π) converges like h² (marching tetrahedra's
-//!   chords);
+//!   chords), and `--plots` draws each triangle in `deformed.svg`;
 //! - the displacement at each surface point equals the FE solution
 //!   interpolated there, evaluated here from the nodal values of
 //!   `solution.vtu` with the Q1 or Q2 Lagrange shape functions of an active
 //!   cell (a hexahedron of `solution.vtu`) containing the point;
+//! - an STL part's surface is its own triangles, area to round-off;
 //! - a linear exact field on a CSG part (a plate minus a tilted cylinder, six
 //!   plane leaves and a cylinder) is reproduced at every surface point to
 //!   round-off (`error`), and every part's tag is drawn.
@@ -154,9 +155,12 @@ fn sphere_area_converges_like_h_squared() {
     let mut errors = Vec::new();
     for level in [3, 4] {
         let out = dir.join(format!("level{level}"));
-        let report = run(&case, &out, &["--level", &level.to_string()]);
+        let report = run(&case, &out, &["--level", &level.to_string(), "--plots"]);
         let h = report["h"].as_f64().unwrap();
         let (points, triangles, _) = surface(&out.join("surface.vtp"));
+        // deformed.svg: one filled polygon per triangle.
+        let svg = std::fs::read_to_string(out.join("deformed.svg")).unwrap();
+        assert_eq!(svg.matches("<polygon").count(), triangles.len());
         for p in &points {
             let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
             assert!(
@@ -299,6 +303,31 @@ fn surface_displacement_is_the_fe_solution_there() {
         assert!(pvd.contains("part=\"0\" file=\"solution.vtu\""), "{pvd}");
         assert!(pvd.contains("part=\"1\" file=\"surface.vtp\""), "{pvd}");
     }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// An STL part (`cases/plate_holes.toml`, Q1, level 4): `surface.vtp` is the
+/// STL's own triangles (inside the grid's box, so unclipped: its area is the
+/// mesh's to round-off), its parts' tags drawn, and `u_h` at its vertices.
+#[test]
+fn stl_surface_is_the_mesh_with_the_fe_solution() {
+    let dir = scratch("stl");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/plate_holes.toml");
+    let out = dir.join("out");
+    let report = run(&case, &out, &["--level", "4"]);
+    let (points, triangles, s) = surface(&out.join("surface.vtp"));
+    let mesh_area = report["mesh"]["area"].as_f64().unwrap();
+    let written = area(&points, &triangles);
+    assert!(
+        (written - mesh_area).abs() <= 1e-12 * mesh_area,
+        "{written} vs {mesh_area}"
+    );
+    // "surface", "bolted" and "pulled".
+    let tags: HashSet<i64> = s["tag"].iter().map(|&t| t as i64).collect();
+    assert_eq!(tags.len(), 3, "{tags:?}");
+    let (checked, skipped) = check_displacement(&out, 1, report["h"].as_f64().unwrap());
+    println!("plate_holes: {checked} points checked, {skipped} in no active cell");
+    assert!(checked > 100 && skipped * 100 <= checked, "{checked}, {skipped}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
