@@ -10,7 +10,8 @@
 //! - an STL part's surface is its own triangles, area to round-off;
 //! - a linear exact field on a CSG part (a plate minus a tilted cylinder, six
 //!   plane leaves and a cylinder) is reproduced at every surface point to
-//!   round-off (`error`), and every part's tag is drawn.
+//!   round-off (`error`), every vertex lies on the boundary (rims clipped
+//!   to the other operands), and every part's tag is drawn.
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -327,7 +328,10 @@ fn stl_surface_is_the_mesh_with_the_fe_solution() {
     assert_eq!(tags.len(), 3, "{tags:?}");
     let (checked, skipped) = check_displacement(&out, 1, report["h"].as_f64().unwrap());
     println!("plate_holes: {checked} points checked, {skipped} in no active cell");
-    assert!(checked > 100 && skipped * 100 <= checked, "{checked}, {skipped}");
+    assert!(
+        checked > 100 && skipped * 100 <= checked,
+        "{checked}, {skipped}"
+    );
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -398,6 +402,15 @@ max_fixed_point = 500
         let u0 = 0.001 + 0.01 * x[0] - 0.004 * x[1] + 0.002 * x[2];
         assert!((ue[0] - u0).abs() < 1e-15, "{x:?}");
     }
+    // Every vertex on the body's boundary, rims included (clipped there, not
+    // ragged): φ = 0 to round-off.
+    let geometry = cgfem_gpu::case::Case::from_file(&case).unwrap().geometry;
+    let off = points
+        .iter()
+        .map(|&x| geometry.phi(x).abs())
+        .fold(0.0, f64::max);
+    println!("largest |φ| at a vertex {off:.3e}");
+    assert!(off < 1e-12, "a vertex off the boundary by {off:.3e}");
     // Tags: cuboid planes xmin … zmax, the cylinder's side; every one of
     // them (but the cylinder's caps, outside the plate) is on the surface.
     let tags: HashSet<i64> = s["tag"].iter().map(|&t| t as i64).collect();

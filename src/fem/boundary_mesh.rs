@@ -2,12 +2,25 @@
 //! vertices on the boundary, one tag per triangle, and for each vertex the
 //! active grid cell through whose shape functions fields are evaluated there.
 //!
-//! **Sources.** A level-set geometry's boundary is meshed part by part by
-//! [`crate::contact::Surface::whole_boundary`] (marching tetrahedra on each
-//! CSG leaf; triangles kept where the leaf is the body's boundary, oriented
-//! outwards, tagged by the leaf): vertices lie on the leaf's zero set to
-//! round-off, the area converges like h², and rims between parts are ragged
-//! by up to one triangle. A mesh solid's boundary is its own STL triangles,
+//! **Level sets.** Each CSG leaf ψ's zero set is meshed by the contact
+//! surface's marching tetrahedra (`contact/marching.rs`): vertices on
+//! ψ = 0 to round-off, the area converging like h². The leaf is the body's
+//! boundary at `x` when it attains φ there, `φ(x) = ±ψ(x)` bit for bit (`+`
+//! an added leaf, `−` a subtracted one): that is, where `x` lies inside (or on)
+//! the other operands. Unlike the contact surface, which keeps or drops whole
+//! triangles (a rim ragged by a triangle), each triangle is clipped to that
+//! region: a vertex is kept where the leaf attains φ, and an edge from such a
+//! vertex `a` to one `b` where it does not gets the rim point, found by
+//! bisection on `t ∈ [0, 1]` of the predicate at `P(a + t (b − a))`, `P` the
+//! projection onto ψ = 0 by Newton steps `x ← x − ψ ∇ψ / |∇ψ|²`; the rim
+//! point is `P` at the last `t` where the leaf attains φ, so it lies on ψ = 0
+//! and inside the other operands (on their boundary to the bisection's
+//! accuracy). The clipped polygon is split into a fan, oriented outwards
+//! (flipped for a subtracted leaf, as the contact surface's polarity test
+//! decides), tagged by the leaf. Rim points are shared by the two triangles
+//! of their edge; the parts of different leaves are not stitched together.
+//!
+//! **Mesh solids.** A mesh solid's boundary is its own STL triangles,
 //! each clipped to the grid's box `B` (Sutherland–Hodgman against the six
 //! planes `x_a = lo_a`, `x_a = hi_a`: a vertex is kept when on the inner side,
 //! and an edge crossing a plane adds the point `p + t (q − p)` with
@@ -28,7 +41,10 @@
 use std::collections::HashMap;
 
 use crate::cells::CellKind;
-use crate::contact::Surface;
+use crate::contact::marching;
+use crate::contact::surface::{polarity_on_boundary, Polarity};
+use crate::geometry::scalar::Dual;
+use crate::geometry::surface::Leaf;
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 use crate::mesh::MeshSolid;
@@ -54,10 +70,11 @@ impl BoundaryMesh {
         let (points, triangles, tags) = match geometry.mesh() {
             Some(mesh) => clipped_mesh(mesh, &grid.bounding_box()),
             None => {
-                let s = Surface::whole_boundary(grid, geometry);
-                let triangles = s.triangles.iter().map(|t| t.vertices).collect();
-                let tags = s.triangles.iter().map(|t| t.tag).collect();
-                (s.vertices, triangles, tags)
+                let mut out = (Vec::new(), Vec::new(), Vec::new());
+                for leaf in geometry.leaves() {
+                    add_leaf(grid, geometry, leaf, &mut out);
+                }
+                out
             }
         };
         let hosts: Vec<Option<usize>> = points.iter().map(|&x| host_cell(grid, kinds, x)).collect();
@@ -155,6 +172,97 @@ fn box_distance(b: &Aabb, x: [f64; 3]) -> f64 {
 
 /// Points, triangles and a tag per triangle.
 type Triangulation = (Vec<[f64; 3]>, Vec<[u32; 3]>, Vec<u16>);
+
+/// Whether `leaf` attains the level set φ of `geometry` at `x` (is the
+/// boundary there when `x` is on its zero set).
+fn attains(geometry: &Geometry, leaf: &Leaf, x: [f64; 3]) -> bool {
+    let (phi, psi) = (geometry.phi(x), leaf.eval(x));
+    phi == psi || phi == -psi
+}
+
+/// `x` moved onto the leaf's zero set by Newton steps along ∇ψ.
+fn project(leaf: &Leaf, mut x: [f64; 3]) -> [f64; 3] {
+    for _ in 0..4 {
+        let d = leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]);
+        let g2 = d.d[0] * d.d[0] + d.d[1] * d.d[1] + d.d[2] * d.d[2];
+        if d.v == 0.0 || g2 == 0.0 {
+            break;
+        }
+        x = [0, 1, 2].map(|a| x[a] - d.v * d.d[a] / g2);
+    }
+    x
+}
+
+/// The rim point between `a` (the leaf attains φ) and `b` (it does not):
+/// bisection of the projected edge (see the module doc).
+fn rim_point(geometry: &Geometry, leaf: &Leaf, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    let at = |t: f64| project(leaf, [0, 1, 2].map(|k| a[k] + t * (b[k] - a[k])));
+    let (mut t_in, mut t_out) = (0.0f64, 1.0f64);
+    let mut inside = a;
+    for _ in 0..60 {
+        let t = 0.5 * (t_in + t_out);
+        let x = at(t);
+        if attains(geometry, leaf, x) {
+            (t_in, inside) = (t, x);
+        } else {
+            t_out = t;
+        }
+    }
+    inside
+}
+
+/// Appends leaf `leaf`'s part of the boundary to `out` (see the module doc).
+fn add_leaf(grid: &Grid, geometry: &Geometry, leaf: &Leaf, out: &mut Triangulation) {
+    let raw = marching::extract(grid, &|x| leaf.eval(x));
+    let on: Vec<bool> = raw
+        .vertices
+        .iter()
+        .map(|&x| attains(geometry, leaf, x))
+        .collect();
+    let (points, triangles, tags) = out;
+    let mut kept = vec![u32::MAX; raw.vertices.len()];
+    let mut rim: HashMap<(u32, u32), u32> = HashMap::new();
+    for (v, _) in &raw.triangles {
+        let polarity = v
+            .iter()
+            .filter(|&&k| on[k as usize])
+            .find_map(|&k| polarity_on_boundary(geometry, leaf, raw.vertices[k as usize], grid.h));
+        let Some(polarity) = polarity else {
+            continue;
+        };
+        let mut polygon: Vec<u32> = Vec::with_capacity(4);
+        for e in 0..3 {
+            let (a, b) = (v[e] as usize, v[(e + 1) % 3] as usize);
+            if on[a] {
+                if kept[a] == u32::MAX {
+                    kept[a] = points.len() as u32;
+                    points.push(raw.vertices[a]);
+                }
+                polygon.push(kept[a]);
+            }
+            if on[a] != on[b] {
+                let (i, o) = if on[a] { (a, b) } else { (b, a) };
+                let id = *rim.entry((i as u32, o as u32)).or_insert_with(|| {
+                    let x = rim_point(geometry, leaf, raw.vertices[i], raw.vertices[o]);
+                    points.push(x);
+                    (points.len() - 1) as u32
+                });
+                polygon.push(id);
+            }
+        }
+        for k in 1..polygon.len().saturating_sub(1) {
+            let mut t = [polygon[0], polygon[k], polygon[k + 1]];
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                continue;
+            }
+            if let Polarity::Subtracted = polarity {
+                t.swap(1, 2);
+            }
+            triangles.push(t);
+            tags.push(leaf.tag);
+        }
+    }
+}
 
 /// A mesh solid's triangles clipped to `bx`, welded, with their tags.
 fn clipped_mesh(mesh: &MeshSolid, bx: &Aabb) -> Triangulation {
