@@ -17,7 +17,10 @@
 //! and inside the other operands (on their boundary to the bisection's
 //! accuracy). The clipped polygon is split into a fan, oriented outwards
 //! (flipped for a subtracted leaf, as the contact surface's polarity test
-//! decides), tagged by the leaf. Rim points are shared by the two triangles
+//! decides), tagged by the leaf. A leaf with the same shape and placement
+//! as an earlier one (coplanar faces of two cuboids in a union) is the same
+//! function, so it attains φ exactly where the earlier one does: it is
+//! meshed once, with the earlier leaf's tag. Rim points are shared by the two triangles
 //! of their edge; the parts of different leaves are not stitched together.
 //!
 //! **Mesh solids.** A mesh solid's boundary is its own STL triangles,
@@ -71,8 +74,16 @@ impl BoundaryMesh {
             Some(mesh) => clipped_mesh(mesh, &grid.bounding_box()),
             None => {
                 let mut out = (Vec::new(), Vec::new(), Vec::new());
-                for leaf in geometry.leaves() {
-                    add_leaf(grid, geometry, leaf, &mut out);
+                let leaves = geometry.leaves();
+                for (i, leaf) in leaves.iter().enumerate() {
+                    // A leaf equal to an earlier one (two cuboids on one
+                    // plane) attains φ wherever the earlier one does.
+                    let repeated = leaves[..i]
+                        .iter()
+                        .any(|l| l.shape == leaf.shape && l.frame == leaf.frame);
+                    if !repeated {
+                        add_leaf(grid, geometry, leaf, &mut out);
+                    }
                 }
                 out
             }
