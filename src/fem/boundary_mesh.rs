@@ -111,31 +111,6 @@ impl BoundaryMesh {
         }
         out
     }
-
-    /// The corners of triangle `t`.
-    pub fn corners(&self, t: usize) -> [[f64; 3]; 3] {
-        self.triangles[t].map(|v| self.points[v as usize])
-    }
-
-    /// The total area `Σ |(b − a) × (c − a)| / 2`.
-    pub fn area(&self) -> f64 {
-        let mut total = 0.0;
-        for t in 0..self.triangles.len() {
-            let [a, b, c] = self.corners(t);
-            let (e, f) = (sub(b, a), sub(c, a));
-            let n = [
-                e[1] * f[2] - e[2] * f[1],
-                e[2] * f[0] - e[0] * f[2],
-                e[0] * f[1] - e[1] * f[0],
-            ];
-            total += 0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        }
-        total
-    }
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// The cell not outside nearest to `x` among the 27 around the cell of `x`
