@@ -1,7 +1,8 @@
 //! `cgfem-gpu run`: one case from file to report — set-up, optional
 //! condition numbers, the solve on the chosen backend (with progress and
 //! Ctrl-C), error norms, reactions, and the outputs (report.json,
-//! solution.vtu, residuals.svg), each written atomically.
+//! solution.vtu, surface.vtp, solution.pvd listing both; with --plots
+//! residuals.svg and deformed.svg), each written atomically.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -12,17 +13,21 @@ use anyhow::Context;
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
+use cgfem_gpu::fem::boundary_mesh::BoundaryMesh;
 use cgfem_gpu::fem::field::{error_norms, interpolant_error};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with_progress;
+use cgfem_gpu::fem::surface_output::{write_surface, SurfaceFields};
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
+use cgfem_gpu::plot::{deformed_svg, SurfacePicture};
 use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
 use cgfem_gpu::solver::Preconditioner;
+use cgfem_gpu::vtu::write_pvd_parts;
 
 use crate::cli_progress::Terminal;
 
@@ -30,7 +35,7 @@ use crate::cli_progress::Terminal;
 pub struct Outputs {
     /// `--out` (default: out/<case name>).
     pub dir: Option<PathBuf>,
-    /// `--plots`: also DIR/residuals.svg.
+    /// `--plots`: also DIR/residuals.svg and DIR/deformed.svg.
     pub plots: bool,
 }
 
@@ -50,6 +55,51 @@ fn write_report(
         let svg = fp.residual_chart(&title).to_svg()?;
         write_atomic(&dir.join("residuals.svg"), svg.as_bytes())?;
     }
+    Ok(())
+}
+
+/// Writes DIR/deformed.svg: the boundary surface at `X + s u_h(X)`, `s`
+/// magnifying the largest displacement to 5% of the surface's box diagonal,
+/// coloured by von Mises.
+fn write_deformed(
+    dir: &Path,
+    name: &str,
+    mesh: &BoundaryMesh,
+    fields: &SurfaceFields,
+) -> anyhow::Result<()> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for x in &mesh.points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(x[a]);
+            hi[a] = hi[a].max(x[a]);
+        }
+    }
+    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+    let largest = fields
+        .displacement
+        .iter()
+        .map(|u| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
+        .fold(0.0, f64::max);
+    let s = if largest > 0.0 && diagonal.is_finite() {
+        0.05 * diagonal / largest
+    } else {
+        1.0
+    };
+    let points: Vec<[f64; 3]> = mesh
+        .points
+        .iter()
+        .zip(&fields.displacement)
+        .map(|(x, u)| [0, 1, 2].map(|a| x[a] + s * u[a]))
+        .collect();
+    let title = format!("{name}: deformed surface (displacement ×{s:.3}), von Mises");
+    let svg = deformed_svg(&SurfacePicture {
+        title: &title,
+        points: &points,
+        triangles: &mesh.triangles,
+        values: &fields.von_mises,
+        label: "von Mises",
+    })?;
+    write_atomic(&dir.join("deformed.svg"), svg.as_bytes())?;
     Ok(())
 }
 
@@ -329,10 +379,22 @@ pub fn run_case(
     let t = Instant::now();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     write_solution(&setup, &solution.u, &dir.join("solution.vtu"))?;
+    let (surface, fields) = write_surface(
+        &setup,
+        &case.geometry,
+        &solution.u,
+        &dir.join("surface.vtp"),
+    )?;
+    // One time step, the grid cells and the boundary surface as its two parts.
+    let parts = [(0.0, 0, "solution.vtu"), (0.0, 1, "surface.vtp")];
+    write_pvd_parts(&dir.join("solution.pvd"), &parts)?;
     report
         .timings
         .insert("output".into(), t.elapsed().as_secs_f64());
     write_report(&dir, &report, &fp, outputs.plots)?;
+    if outputs.plots {
+        write_deformed(&dir, &name, &surface, &fields)?;
+    }
 
     println!(
         "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
@@ -369,9 +431,13 @@ pub fn run_case(
         );
     }
     println!(
-        "  wrote {} and solution.vtu{}",
+        "  wrote {}, solution.vtu, surface.vtp, solution.pvd{}",
         dir.join("report.json").display(),
-        if outputs.plots { ", residuals.svg" } else { "" }
+        if outputs.plots {
+            ", residuals.svg, deformed.svg"
+        } else {
+            ""
+        }
     );
     Ok(())
 }

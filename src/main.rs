@@ -54,7 +54,8 @@ struct CaseArgs {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Solve a case; writes DIR/report.json and DIR/solution.vtu.
+    /// Solve a case; writes DIR/report.json, DIR/solution.vtu, DIR/surface.vtp
+    /// and DIR/solution.pvd listing the two.
     Run {
         #[command(flatten)]
         case: CaseArgs,
@@ -74,8 +75,9 @@ enum Command {
         /// in f64 defect correction) or f64.
         #[arg(long, default_value = "auto")]
         precision: PrecisionChoice,
-        /// Also write DIR/residuals.svg: ε per fixed-point iteration and the
-        /// Krylov iterations per solve.
+        /// Also write DIR/residuals.svg (ε per fixed-point iteration and the
+        /// Krylov iterations per solve) and DIR/deformed.svg (the deformed
+        /// boundary surface coloured by von Mises).
         #[arg(long)]
         plots: bool,
     },

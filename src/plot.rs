@@ -1,7 +1,12 @@
 //! SVG plots (plotters): the log–log convergence plots and the log-scale κ
-//! plots that `reproduce` writes. One routine draws any set of named series
+//! plots that `reproduce` writes (and, in `plot/deformed.rs`, the deformed
+//! surface of `run --plots`). One routine draws any set of named series
 //! on a log or linear x axis and a log y axis, so every figure of the
 //! program looks the same.
+
+mod deformed;
+
+pub use deformed::{deformed_svg, SurfacePicture};
 
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::prelude::*;

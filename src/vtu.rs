@@ -1,5 +1,6 @@
 //! VTK XML output for ParaView: `.vtu` UnstructuredGrid files with point and
-//! cell data, `.vtp` PolyData point clouds (contact points), and `.pvd`
+//! cell data, `.vtp` PolyData point clouds (contact points) and triangle
+//! surfaces (the body's boundary), and `.pvd`
 //! collections that string them into a time series.
 //!
 //! This file owns the public data model ([`VtuMesh`], [`VtuCell`],
@@ -40,6 +41,9 @@ pub use order::{hex27_vtk_order_from_lexicographic, hex8_vtk_order_from_lexicogr
 pub enum VtuCell {
     /// `VTK_VERTEX` (1): a single point, for point clouds.
     Vertex(usize),
+    /// `VTK_TRIANGLE` (5): 3 corners, counter-clockwise seen from the side
+    /// the normal points to.
+    Triangle([usize; 3]),
     /// `VTK_HEXAHEDRON` (12): 8 corners.
     Hexahedron([usize; 8]),
     /// `VTK_TRIQUADRATIC_HEXAHEDRON` (29): 8 corners, 12 edge midpoints,
@@ -63,6 +67,7 @@ impl VtuCell {
     pub fn vtk_type(&self) -> u8 {
         match self {
             VtuCell::Vertex(_) => 1,
+            VtuCell::Triangle(_) => 5,
             VtuCell::Hexahedron(_) => 12,
             VtuCell::TriQuadraticHexahedron(_) => 29,
         }
@@ -72,6 +77,7 @@ impl VtuCell {
     pub fn nodes(&self) -> &[usize] {
         match self {
             VtuCell::Vertex(n) => std::slice::from_ref(n),
+            VtuCell::Triangle(n) => n,
             VtuCell::Hexahedron(n) => n,
             VtuCell::TriQuadraticHexahedron(n) => n,
         }
@@ -233,10 +239,41 @@ pub fn write_vtp_points(
     let cloud = VtuMesh::point_cloud(points.to_vec());
     check_mesh(&cloud).map_err(fail)?;
     check_arrays("point", point_data, points.len()).map_err(fail)?;
-    write_atomic(
-        path,
-        xml::poly_vertices(points, point_data, encoding).as_bytes(),
-    )
+    let text = xml::poly_data(&cloud, xml::PolySection::Verts, point_data, &[], encoding);
+    write_atomic(path, text.as_bytes())
+}
+
+/// Writes the triangle surface `points`, `triangles` (indices into `points`)
+/// with its point and cell (per triangle) data as the PolyData file `path`
+/// (`.vtp`). Fails with [`Error::Io`] (and writes nothing) as
+/// [`write_vtu`] does, and when the file cannot be written.
+pub fn write_vtp_triangles(
+    path: &Path,
+    points: &[[f64; 3]],
+    triangles: &[[usize; 3]],
+    point_data: &[DataArray],
+    cell_data: &[DataArray],
+    encoding: VtuEncoding,
+) -> Result<()> {
+    let fail = |reason: String| Error::Io {
+        path: path.display().to_string(),
+        reason,
+    };
+    let mesh = VtuMesh {
+        points: points.to_vec(),
+        cells: triangles.iter().map(|&t| VtuCell::Triangle(t)).collect(),
+    };
+    check_mesh(&mesh).map_err(fail)?;
+    check_arrays("point", point_data, mesh.points.len()).map_err(fail)?;
+    check_arrays("cell", cell_data, mesh.cells.len()).map_err(fail)?;
+    let text = xml::poly_data(
+        &mesh,
+        xml::PolySection::Polys,
+        point_data,
+        cell_data,
+        encoding,
+    );
+    write_atomic(path, text.as_bytes())
 }
 
 /// Writes the `.pvd` collection `path` listing `(time, file)` entries, each

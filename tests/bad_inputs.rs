@@ -111,7 +111,16 @@ fn the_good_case_runs_and_keeps_other_files() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["keep.txt", "report.json", "solution.vtu"]);
+    assert_eq!(
+        names,
+        [
+            "keep.txt",
+            "report.json",
+            "solution.pvd",
+            "solution.vtu",
+            "surface.vtp"
+        ]
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

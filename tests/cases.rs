@@ -1,7 +1,7 @@
 //! Every case in `cases/` runs as is (at level 2, to keep CI short) and
-//! writes its report (status ok) and solution: `solution.vtu` for a
-//! single-body case, the `solution.pvd` series (every body at the level) for
-//! a multi-body one.
+//! writes its report (status ok) and solution: `solution.vtu`, `surface.vtp`
+//! and the `solution.pvd` listing them for a single-body case, the
+//! `solution.pvd` series (every body at the level) for a multi-body one.
 
 use std::process::Command;
 
@@ -45,7 +45,9 @@ fn every_case_runs() {
                 assert!(bodies.iter().all(|b| b["level"] == 2), "{}", path.display());
             }
             None => {
-                assert!(out.join("solution.vtu").exists(), "{}", path.display());
+                for file in ["solution.vtu", "surface.vtp", "solution.pvd"] {
+                    assert!(out.join(file).exists(), "{}: {file}", path.display());
+                }
                 assert_eq!(report["level"], 2, "{}", path.display());
             }
         }

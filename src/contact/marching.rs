@@ -29,7 +29,7 @@ use crate::grid::Grid;
 
 /// The raw zero-set mesh: vertices (with a cell containing each) and
 /// triangles (with the cell whose tetrahedron produced them).
-pub(super) struct RawMesh {
+pub(crate) struct RawMesh {
     pub vertices: Vec<[f64; 3]>,
     pub vertex_cell: Vec<usize>,
     pub triangles: Vec<([u32; 3], usize)>,
@@ -57,7 +57,7 @@ const TETS: [[usize; 4]; 6] = {
 };
 
 /// Extracts the zero set of the level set `psi` on `grid`.
-pub(super) fn extract(grid: &Grid, psi: &(impl Fn([f64; 3]) -> f64 + Sync)) -> RawMesh {
+pub(crate) fn extract(grid: &Grid, psi: &(impl Fn([f64; 3]) -> f64 + Sync)) -> RawMesh {
     let order = ElementOrder::Q1;
     let values: Vec<f64> = (0..grid.num_nodes(order))
         .into_par_iter()

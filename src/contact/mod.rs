@@ -23,7 +23,7 @@ mod enforce_gap;
 mod enforce_law;
 mod enforce_local;
 mod enforce_tangent;
-mod marching;
+pub(crate) mod marching;
 pub mod report;
 pub mod search;
 pub mod surface;

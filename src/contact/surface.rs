@@ -4,7 +4,7 @@
 //! **Extraction, part by part.** The boundary parts are the CSG leaves
 //! (DESIGN §2.3), each a smooth level set ψ with its tag. For every leaf whose
 //! tag is requested, the zero set of ψ is meshed by marching tetrahedra (see
-//! the private `marching` module): vertices lie on ψ = 0 to round-off, on
+//! the crate-private `marching` module): vertices lie on ψ = 0 to round-off, on
 //! edges of the grid's Freudenthal tetrahedra, shared between neighbouring
 //! triangles. A triangle is kept when its centroid, projected onto ψ = 0 by a
 //! Newton step `p = c − ψ(c) ∇ψ/|∇ψ|²`, lies on the body's boundary as this
@@ -168,7 +168,7 @@ impl Surface {
 }
 
 /// How a leaf enters the body's level set where it is the boundary.
-enum Polarity {
+pub(crate) enum Polarity {
     /// `φ = ψ` there: the outward normal is `∇ψ/|∇ψ|`.
     Added,
     /// `φ = −ψ` there (a difference's subtrahend): the outward normal is
@@ -178,7 +178,12 @@ enum Polarity {
 
 /// Whether the point of `leaf`'s zero set nearest `x` (one Newton step) is on
 /// the body's boundary as this leaf, and with which polarity.
-fn polarity_on_boundary(geometry: &Geometry, leaf: &Leaf, x: [f64; 3], h: f64) -> Option<Polarity> {
+pub(crate) fn polarity_on_boundary(
+    geometry: &Geometry,
+    leaf: &Leaf,
+    x: [f64; 3],
+    h: f64,
+) -> Option<Polarity> {
     let at = |x: [f64; 3]| leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]);
     let d = at(x);
     let g2 = dot(d.d, d.d);

@@ -1,6 +1,7 @@
 //! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
 //! assembled), right-hand sides, the discrete field and its error norms.
 pub mod assembled;
+pub mod boundary_mesh;
 pub mod checks;
 pub mod component_penalty;
 pub mod cut_apply;
@@ -22,3 +23,4 @@ pub mod setup;
 pub mod solve;
 pub mod stabilisation;
 pub mod stencil;
+pub mod surface_output;

@@ -211,6 +211,59 @@ fn vtp_point_cloud_round_trips_with_its_vertices() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+#[test]
+fn vtp_triangles_round_trip_with_point_and_cell_data() {
+    let dir = scratch("vtp-tri");
+    let path = dir.join("surface.vtp");
+    let points = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.5],
+    ];
+    let triangles = [[0, 1, 2], [1, 3, 2]];
+    let u = DataArray::vectors(
+        "u",
+        &[
+            [0.1, 0.0, 0.0],
+            [0.2, 0.0, 0.0],
+            [0.3, 0.0, 0.0],
+            [0.4, 0.0, 0.0],
+        ],
+    );
+    let tag = DataArray::scalars_i32("tag", vec![0, 7]);
+    for encoding in [VtuEncoding::Binary, VtuEncoding::Ascii] {
+        let (pd, cd) = (std::slice::from_ref(&u), std::slice::from_ref(&tag));
+        write_vtp_triangles(&path, &points, &triangles, pd, cd, encoding).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_well_formed(&text);
+        assert!(text.contains("NumberOfVerts=\"0\""));
+        assert!(text.contains("NumberOfPolys=\"2\""));
+        assert!(text.contains("<Polys>") && text.contains("<CellData>"));
+        let arrays = data_arrays(&text);
+        let find = |name: &str| &arrays.iter().find(|(a, _)| a["Name"] == name).unwrap().1;
+        assert_eq!(*find("connectivity"), Read::I64(vec![0, 1, 2, 1, 3, 2]));
+        assert_eq!(*find("offsets"), Read::I64(vec![3, 6]));
+        assert_eq!(*find("u"), expected(&u));
+        assert_eq!(*find("tag"), expected(&tag));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = write_vtp_triangles(&path, &points, &[[0, 1, 4]], &[], &[], VtuEncoding::Binary);
+    assert_rejected(&dir, bad, "refers to point 4");
+    let short = DataArray::scalars_i32("tag", vec![0]);
+    let bad = write_vtp_triangles(
+        &path,
+        &points,
+        &triangles,
+        &[],
+        &[short],
+        VtuEncoding::Binary,
+    );
+    assert_rejected(&dir, bad, "'tag' has 1 values");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// Asserts that writing fails with an `Error::Io` naming `path` whose reason
 /// contains `needle`, and that the folder stays empty.
 fn assert_rejected(dir: &Path, result: Result<()>, needle: &str) {

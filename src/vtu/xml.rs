@@ -1,4 +1,4 @@
-//! The XML text of `.vtu`, `.vtp` (point clouds) and `.pvd` files: element layout, DataArray
+//! The XML text of `.vtu`, `.vtp` (point clouds, triangle surfaces) and `.pvd` files: element layout, DataArray
 //! encoding (inline base64 with a `UInt64` byte-count header, or ASCII),
 //! attribute escaping and a small base64 encoder. Inputs are checked by the
 //! caller (`vtu.rs`) before they get here.
@@ -29,27 +29,44 @@ pub(super) fn unstructured_grid(
     s
 }
 
-/// The whole `.vtp` document of a point cloud: one vertex per point.
-pub(super) fn poly_vertices(
-    points: &[[f64; 3]],
+/// The PolyData section holding a `.vtp` file's cells.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum PolySection {
+    /// Vertices (point clouds).
+    Verts,
+    /// Polygons (triangle surfaces).
+    Polys,
+}
+
+/// The whole `.vtp` document of `mesh`, its cells all in `section`.
+pub(super) fn poly_data(
+    mesh: &VtuMesh,
+    section: PolySection,
     point_data: &[DataArray],
+    cell_data: &[DataArray],
     encoding: VtuEncoding,
 ) -> String {
+    let (tag, verts, polys) = match section {
+        PolySection::Verts => ("Verts", mesh.cells.len(), 0),
+        PolySection::Polys => ("Polys", 0, mesh.cells.len()),
+    };
     let mut s = document_start("PolyData");
     let _ = writeln!(
         s,
-        "    <Piece NumberOfPoints=\"{0}\" NumberOfVerts=\"{0}\" NumberOfLines=\"0\" \
-         NumberOfStrips=\"0\" NumberOfPolys=\"0\">",
-        points.len()
+        "    <Piece NumberOfPoints=\"{}\" NumberOfVerts=\"{verts}\" NumberOfLines=\"0\" \
+         NumberOfStrips=\"0\" NumberOfPolys=\"{polys}\">",
+        mesh.points.len()
     );
     push_data_section(&mut s, "PointData", point_data, encoding);
-    push_points(&mut s, points, encoding);
-    let connectivity: Vec<i64> = (0..points.len() as i64).collect();
-    let offsets: Vec<i64> = (1..=points.len() as i64).collect();
-    s.push_str("      <Verts>\n");
+    if !cell_data.is_empty() {
+        push_data_section(&mut s, "CellData", cell_data, encoding);
+    }
+    push_points(&mut s, &mesh.points, encoding);
+    let (connectivity, offsets) = connectivity_and_offsets(mesh);
+    let _ = writeln!(s, "      <{tag}>");
     push_i64_array(&mut s, "connectivity", &connectivity, encoding);
     push_i64_array(&mut s, "offsets", &offsets, encoding);
-    s.push_str("      </Verts>\n");
+    let _ = writeln!(s, "      </{tag}>");
     s.push_str("    </Piece>\n  </PolyData>\n</VTKFile>\n");
     s
 }
@@ -98,13 +115,19 @@ fn push_points(s: &mut String, points: &[[f64; 3]], encoding: VtuEncoding) {
     s.push_str("      </Points>\n");
 }
 
-fn push_cells(s: &mut String, mesh: &VtuMesh, encoding: VtuEncoding) {
+/// The cells' nodes one after the other, and the end of each cell's nodes.
+fn connectivity_and_offsets(mesh: &VtuMesh) -> (Vec<i64>, Vec<i64>) {
     let mut connectivity = Vec::new();
     let mut offsets = Vec::with_capacity(mesh.cells.len());
     for cell in &mesh.cells {
         connectivity.extend(cell.nodes().iter().map(|&n| n as i64));
         offsets.push(connectivity.len() as i64);
     }
+    (connectivity, offsets)
+}
+
+fn push_cells(s: &mut String, mesh: &VtuMesh, encoding: VtuEncoding) {
+    let (connectivity, offsets) = connectivity_and_offsets(mesh);
     let types: Vec<u8> = mesh.cells.iter().map(|c| c.vtk_type()).collect();
     s.push_str("      <Cells>\n");
     push_i64_array(s, "connectivity", &connectivity, encoding);

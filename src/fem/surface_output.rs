@@ -1,0 +1,127 @@
+//! `surface.vtp`: the body's boundary as a triangle surface
+//! ([`BoundaryMesh`]: marching tetrahedra on each CSG leaf, or a mesh solid's
+//! own STL triangles) with the solution evaluated at its vertices, so that
+//! ParaView draws the part itself rather than the staircase of grid cells of
+//! `solution.vtu`.
+//!
+//! Point data, at each vertex `x` with host cell `K` (the active cell through
+//! whose shape functions `N_a` the point is evaluated, see
+//! [`crate::fem::boundary_mesh`]):
+//! - `displacement`: `u_h(x) = Σ_a N_a(ξ) u_a` over the Q1 or Q2 nodes of `K`,
+//!   `ξ = (x − x_K) / h` ([`value_and_gradient`]);
+//! - `stress`: the SPR-recovered stress `σ̂(x) = Σ_i N_i^lin(ξ) σ*_i(x)`, the
+//!   CPE blend of the patch polynomials of `K`'s eight vertices (as
+//!   `solution.vtu`), a symmetric tensor;
+//! - `von_mises`: `√(½ Σ (σ_ii − σ_jj)² + 3 Σ σ_ij²)` of `stress`;
+//! - with an exact field (`[exact]`): `exact_displacement` `u(x)` and `error`
+//!   `|u_h(x) − u(x)|`.
+//!
+//! Cell data: `tag`, the boundary tag of each triangle as an `Int32` index
+//! into the case's tag names (in the order the geometry defines them: see
+//! [`crate::geometry::Geometry::tag_names`]).
+
+use std::path::Path;
+
+use super::boundary_mesh::BoundaryMesh;
+use super::field::value_and_gradient;
+use super::output::von_mises;
+use super::recovery::{recover_stress, vertex_nodes_of};
+use super::setup::Setup;
+use crate::error::Result;
+use crate::geometry::Geometry;
+use crate::vtu::{write_vtp_triangles, DataArray, VtuEncoding};
+
+/// The fields of `surface.vtp` at the vertices of a [`BoundaryMesh`].
+#[derive(Clone, Debug)]
+pub struct SurfaceFields {
+    /// `u_h` at each vertex.
+    pub displacement: Vec<[f64; 3]>,
+    /// `σ̂` at each vertex, Voigt order (xx, yy, zz, yz, xz, xy).
+    pub stress: Vec<[f64; 6]>,
+    /// Von Mises of `stress`.
+    pub von_mises: Vec<f64>,
+    /// The exact displacement at each vertex, when the case has one.
+    pub exact: Option<Vec<[f64; 3]>>,
+}
+
+impl SurfaceFields {
+    /// The fields of the solution `u` of `setup` at the vertices of `mesh`.
+    pub fn new(setup: &Setup, u: &[f64], mesh: &BoundaryMesh) -> Result<SurfaceFields> {
+        let (grid, dofs) = (&setup.grid, &setup.op.dofs);
+        let mut hosts = mesh.host.clone();
+        hosts.sort_unstable();
+        hosts.dedup();
+        let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts))?;
+        let n = mesh.points.len();
+        let mut displacement = Vec::with_capacity(n);
+        let mut stress = Vec::with_capacity(n);
+        for (&x, &cell) in mesh.points.iter().zip(&mesh.host) {
+            displacement.push(value_and_gradient(grid, dofs, u, cell, x).0);
+            stress.push(sigma.eval(cell, x)?);
+        }
+        let von_mises = stress.iter().map(von_mises).collect();
+        let exact = setup
+            .problem
+            .exact
+            .as_ref()
+            .map(|e| mesh.points.iter().map(|&x| e.eval(x)).collect());
+        Ok(SurfaceFields {
+            displacement,
+            stress,
+            von_mises,
+            exact,
+        })
+    }
+
+    /// `|u_h(x) − u(x)|` at each vertex, when the case has an exact field.
+    pub fn error(&self) -> Option<Vec<f64>> {
+        let exact = self.exact.as_ref()?;
+        let mut out = Vec::with_capacity(exact.len());
+        for (uh, ue) in self.displacement.iter().zip(exact) {
+            let mut e2 = 0.0;
+            for i in 0..3 {
+                e2 += (uh[i] - ue[i]) * (uh[i] - ue[i]);
+            }
+            out.push(e2.sqrt());
+        }
+        Some(out)
+    }
+}
+
+/// Writes the boundary of `geometry` with the solution `u` of `setup` to the
+/// `.vtp` file `path` (see the module doc); returns the mesh and fields
+/// written.
+pub fn write_surface(
+    setup: &Setup,
+    geometry: &Geometry,
+    u: &[f64],
+    path: &Path,
+) -> Result<(BoundaryMesh, SurfaceFields)> {
+    let mesh = BoundaryMesh::new(&setup.grid, &setup.cells.kinds, geometry);
+    let fields = SurfaceFields::new(setup, u, &mesh)?;
+    let mut point_data = vec![
+        DataArray::vectors("displacement", &fields.displacement),
+        DataArray::sym_tensors("stress", &fields.stress),
+        DataArray::scalars_f64("von_mises", fields.von_mises.clone()),
+    ];
+    if let (Some(exact), Some(error)) = (&fields.exact, fields.error()) {
+        point_data.push(DataArray::vectors("exact_displacement", exact));
+        point_data.push(DataArray::scalars_f64("error", error));
+    }
+    let tags = mesh.tags.iter().map(|&t| i32::from(t)).collect();
+    let cell_data = [DataArray::scalars_i32("tag", tags)];
+    let triangles: Vec<[usize; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| v as usize))
+        .collect();
+    write_vtp_triangles(
+        path,
+        &mesh.points,
+        &triangles,
+        &point_data,
+        &cell_data,
+        VtuEncoding::Binary,
+    )?;
+    Ok((mesh, fields))
+}
