@@ -5,46 +5,16 @@
 //! `region` restricts a condition to a box, and `pressure = p` is the
 //! traction `−p n`.
 
-use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::{error_norms, interpolate};
+use cgfem_gpu::fem::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{recovered_load, solve, Solution};
+use cgfem_gpu::fem::solve::{solve, Solution};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// Tight solves: the tests measure the discretisation.
-const SOLVER: &str = r#"
-[solver]
-method = "cg"
-preconditioner = "jacobi"
-rel_tol = 1e-12
-min_rel_tol = 1e-14
-max_iterations = 50000
-fixed_point_tol = 1e-14
-max_fixed_point = 500
-"#;
-
-/// `‖A U_I − F(U_I)‖ / ‖F(U_I)‖` for the interpolant of the exact field.
-fn interpolant_residual(setup: &Setup) -> f64 {
-    let exact = setup.problem.exact.as_ref().unwrap();
-    let ui = interpolate(&setup.grid, &setup.op.dofs, exact);
-    let nodes = traction_patch_nodes(setup);
-    let mut f = recovered_load(setup, &nodes, &ui).unwrap();
-    for (a, b) in f.iter_mut().zip(&setup.fixed_rhs) {
-        *a += b;
-    }
-    let mut au = vec![0.0; ui.len()];
-    setup.op.apply(&ui, &mut au);
-    let r: Vec<f64> = au.iter().zip(&f).map(|(a, b)| a - b).collect();
-    norm(&r) / norm(&f)
-}
-
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
+mod patch_check;
+use patch_check::{interpolant_residual, norm, SOLVER};
 
 /// Solves a case; returns the setup, the solution and the relative energy
 /// error against its exact field.

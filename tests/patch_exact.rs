@@ -17,35 +17,22 @@
 //! the aligned one (default 1);
 //! `CGFEM_PATCH_FULL=1` also solves the bracket with Q2 (level 4, slow).
 
-use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::{error_norms, interpolate};
+use cgfem_gpu::fem::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{recovered_load, solve};
+use cgfem_gpu::fem::solve::solve;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+mod patch_check;
+use patch_check::{interpolant_residual, SOLVER};
 
 /// Relative energy error the patch tests must reach.
 const PATCH_TOL: f64 = 1e-10;
 
 /// Relative residual of the exact field's interpolant in the discrete system.
 const RESIDUAL_TOL: f64 = 1e-12;
-
-/// Tight solves, so that what is left is the discretisation's: the outer
-/// FGMRES to a residual of 1e-14 (at 1e-13 the rotated bracket kept 2e-10 of
-/// solver error in the energy; at 2e-14 the rotated STL plate kept 1.1e-10).
-const SOLVER: &str = r#"
-[solver]
-method = "cg"
-preconditioner = "jacobi"
-rel_tol = 1e-12
-min_rel_tol = 1e-14
-max_iterations = 50000
-fixed_point_tol = 1e-14
-max_fixed_point = 500
-"#;
 
 /// A part: its geometry (TOML inline table), Dirichlet and exact-traction tags,
 /// a length scale for the field and the material.
@@ -222,23 +209,6 @@ fn patch_case(
         part.name
     );
     (Case::from_str("patch.toml", &text).unwrap(), what)
-}
-
-/// `‖A U_I − F(U_I)‖ / ‖F(U_I)‖` for the interpolant `U_I` of the exact
-/// field, `F = fixed_rhs + recovered_load`: the patch test without a solver.
-fn interpolant_residual(setup: &Setup) -> f64 {
-    let exact = setup.problem.exact.as_ref().unwrap();
-    let ui = interpolate(&setup.grid, &setup.op.dofs, exact);
-    let nodes = traction_patch_nodes(setup);
-    let mut f = recovered_load(setup, &nodes, &ui).unwrap();
-    for (a, b) in f.iter_mut().zip(&setup.fixed_rhs) {
-        *a += b;
-    }
-    let mut au = vec![0.0; ui.len()];
-    setup.op.apply(&ui, &mut au);
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let r: Vec<f64> = au.iter().zip(&f).map(|(a, b)| a - b).collect();
-    norm(&r) / norm(&f)
 }
 
 fn full() -> bool {
