@@ -104,8 +104,9 @@ pub fn run_bodies_case(
     match outcome.result {
         Ok(()) => {
             println!(
-                "  wrote {}, solution.pvd, {} body files and {} contact point files",
+                "  wrote {}, solution.pvd, {} body files, {} surface files and {} contact point files",
                 dir.join("report.json").display(),
+                report.bodies.len() * report.converged_steps,
                 report.bodies.len() * report.converged_steps,
                 report.contact.len()
             );

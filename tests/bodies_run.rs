@@ -96,8 +96,14 @@ fn two_bodies_apart_run_from_the_command_line() {
     let o = cli(&case, &out, &["--level", "2"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let pvd = std::fs::read_to_string(out.join("solution.pvd")).unwrap();
-    assert_eq!(pvd.matches("<DataSet ").count(), 2 * 2, "{pvd}");
-    for (file, part, t) in [("left_2.vtu", 0, "1.0"), ("right_1.vtu", 1, "0.5")] {
+    // Two bodies, two steps: a volume and a surface each (no contact pair).
+    assert_eq!(pvd.matches("<DataSet ").count(), 2 * 2 * 2, "{pvd}");
+    for (file, part, t) in [
+        ("left_2.vtu", 0, "1.0"),
+        ("right_1.vtu", 1, "0.5"),
+        ("left_surface_1.vtp", 2, "0.5"),
+        ("right_surface_2.vtp", 3, "1.0"),
+    ] {
         let entry = format!("timestep=\"{t}\" group=\"\" part=\"{part}\" file=\"{file}\"");
         assert!(pvd.contains(&entry), "{entry} in {pvd}");
         assert!(out.join(file).is_file());
@@ -302,8 +308,9 @@ fn a_failing_load_step_exits_3_and_keeps_the_last_converged_step() {
     );
     assert!(steps[1]["failure"].is_string());
     let pvd = std::fs::read_to_string(out.join("solution.pvd")).unwrap();
-    assert_eq!(pvd.matches("<DataSet ").count(), 2, "{pvd}");
+    assert_eq!(pvd.matches("<DataSet ").count(), 2 * 2, "{pvd}");
     assert!(out.join("left_1.vtu").is_file() && !out.join("left_2.vtu").exists());
+    assert!(out.join("left_surface_1.vtp").is_file());
 }
 
 /// A plane-strain neo-Hookean block stretched along x with free y faces.
@@ -398,7 +405,7 @@ fn ctrl_c_stops_at_a_newton_boundary_with_code_130() {
     let converged = r["converged_steps"].as_u64().unwrap() as usize;
     assert!((1..1000).contains(&converged), "{converged}");
     let pvd = std::fs::read_to_string(out.join("solution.pvd")).unwrap();
-    assert_eq!(pvd.matches("<DataSet ").count(), 2 * converged);
+    assert_eq!(pvd.matches("<DataSet ").count(), 2 * 2 * converged);
     let last = r["load_steps"].as_array().unwrap().last().unwrap().clone();
     assert_eq!(last["converged"], false, "{last}");
 }

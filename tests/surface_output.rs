@@ -194,11 +194,11 @@ fn lagrange(p: usize, t: f64) -> Vec<f64> {
     }
 }
 
-/// Checks that `surface.vtp` in `out` carries `u_h` (from `solution.vtu`'s
-/// nodal values, degree `p`, cell size `h`) at its points; returns how many
-/// points were checked and how many lie in no active cell (skipped).
-fn check_displacement(out: &Path, p: usize, h: f64) -> (usize, usize) {
-    let vtu = arrays(&out.join("solution.vtu"));
+/// Checks that the surface `vtp` carries `u_h` (from the nodal values of
+/// the cells `vtu`, degree `p`, cell size `h`) at its points; returns how
+/// many points were checked and how many lie in no active cell (skipped).
+fn check_displacement(vtu: &Path, vtp: &Path, p: usize, h: f64) -> (usize, usize) {
+    let vtu = arrays(vtu);
     let nodes: Vec<[f64; 3]> = vtu["Points"]
         .chunks(3)
         .map(|x| [x[0], x[1], x[2]])
@@ -229,7 +229,7 @@ fn check_displacement(out: &Path, p: usize, h: f64) -> (usize, usize) {
         }
         cells.insert(low);
     }
-    let (points, _, s) = surface(&out.join("surface.vtp"));
+    let (points, _, s) = surface(vtp);
     let written = &s["displacement"];
     let scale = written.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let (mut checked, mut skipped) = (0, 0);
@@ -297,7 +297,8 @@ fn surface_displacement_is_the_fe_solution_there() {
         let out = dir.join(file);
         let report = run(&case, &out, &["--level", &level.to_string()]);
         let h = report["h"].as_f64().unwrap();
-        let (checked, skipped) = check_displacement(&out, p, h);
+        let (checked, skipped) =
+            check_displacement(&out.join("solution.vtu"), &out.join("surface.vtp"), p, h);
         println!("{file}: {checked} points checked, {skipped} in no active cell");
         assert!(checked > 500, "{file}: {checked}");
         assert!(skipped * 100 <= checked, "{file}: {skipped} of {checked}");
@@ -328,7 +329,9 @@ fn stl_surface_is_the_mesh_with_the_fe_solution() {
     // "surface", "bolted" and "pulled".
     let tags: HashSet<i64> = s["tag"].iter().map(|&t| t as i64).collect();
     assert_eq!(tags.len(), 3, "{tags:?}");
-    let (checked, skipped) = check_displacement(&out, 1, report["h"].as_f64().unwrap());
+    let h = report["h"].as_f64().unwrap();
+    let (checked, skipped) =
+        check_displacement(&out.join("solution.vtu"), &out.join("surface.vtp"), 1, h);
     println!("plate_holes: {checked} points checked, {skipped} in no active cell");
     assert!(
         checked > 100 && skipped * 100 <= checked,
@@ -460,5 +463,44 @@ max_fixed_point = 500
     let tags: HashSet<i64> = s["tag"].iter().map(|&t| t as i64).collect();
     assert_eq!(s["tag"].len(), triangles.len());
     assert_eq!(tags.len(), 7, "{tags:?}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// A multi-body run (`cases/annuli_contact.toml`, level 2, five load steps):
+/// every body has a surface per converged step in the series, after the
+/// contact pair, carrying `u_h` of that step at its points.
+#[test]
+fn multi_body_runs_write_each_body_surface_per_step() {
+    let dir = scratch("bodies");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/annuli_contact.toml");
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .arg("run")
+        .arg(&case)
+        .arg("--out")
+        .arg(&out)
+        .args(["--backend", "cpu", "--level", "2"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let steps = report["converged_steps"].as_u64().unwrap() as usize;
+    let pvd = std::fs::read_to_string(out.join("solution.pvd")).unwrap();
+    for (b, body) in report["bodies"].as_array().unwrap().iter().enumerate() {
+        let name = body["name"].as_str().unwrap();
+        let h = body["h"].as_f64().unwrap();
+        // Parts: the two bodies, the contact pair, then the two surfaces.
+        let entry = format!("part=\"{}\" file=\"{name}_surface_{steps}.vtp\"", 3 + b);
+        assert!(pvd.contains(&entry), "{entry} in {pvd}");
+        let vtu = out.join(format!("{name}_{steps}.vtu"));
+        let vtp = out.join(format!("{name}_surface_{steps}.vtp"));
+        let (checked, skipped) = check_displacement(&vtu, &vtp, 1, h);
+        println!("{name}: {checked} points checked, {skipped} in no active cell");
+        assert!(
+            checked > 100 && skipped * 100 <= checked,
+            "{checked}, {skipped}"
+        );
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -9,7 +9,12 @@
 //! contact pair `i` adds `DIR/contact<i>_<k>.vtp`, its slave points in the
 //! current configuration with the point data `gap` (`NaN` where no master
 //! was found), `pressure` (`−λ_N`), `recovered_pressure` (`−T̂_N`) and
-//! `normal`, as the part after the bodies'.
+//! `normal`, as the part after the bodies'. Each body `b` also adds
+//! `DIR/<b>_surface_<k>.vtp`, its boundary as triangles on the reference
+//! positions ([`crate::fem::boundary_mesh`]) with the point data
+//! `displacement` and `von_mises` (of its host cell's mean Cauchy stress, as
+//! in the `.vtu`) and the cell data `tag`, as the parts after the contact
+//! pairs'.
 
 use std::path::{Path, PathBuf};
 
@@ -19,7 +24,10 @@ use super::setup::BodySetup;
 use crate::contact::ContactPoints;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
+use crate::fem::boundary_mesh::BoundaryMesh;
+use crate::fem::field::value_and_gradient;
 use crate::fem::output::von_mises;
+use crate::fem::surface_output::write_tagged_triangles;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::residual::point_fields;
 use crate::vtu::{
@@ -29,6 +37,11 @@ use crate::vtu::{
 /// The file name of body `name` at load step `step`.
 pub fn body_file(name: &str, step: usize) -> String {
     format!("{name}_{step}.vtu")
+}
+
+/// The boundary surface of body `name` at load step `step`.
+pub fn surface_file(name: &str, step: usize) -> String {
+    format!("{name}_surface_{step}.vtp")
 }
 
 /// The file of contact pair `i` (from 0, in case order) at load step `step`.
@@ -97,10 +110,41 @@ pub fn write_body(path: &Path, body: &BodySetup, p: &HyperProblem, u: &[f64]) ->
     write_vtu(path, &mesh, &point_data, &cell_data, VtuEncoding::Binary)
 }
 
-/// The series written so far: `(load factor, body, file)` per entry.
+/// Writes body `p`'s boundary `mesh` at displacement `u` to `path`:
+/// `displacement` at the vertices, `von_mises` of the host cell's mean
+/// Cauchy stress.
+fn write_body_surface(
+    path: &Path,
+    body: &BodySetup,
+    p: &HyperProblem,
+    mesh: &BoundaryMesh,
+    u: &[f64],
+) -> Result<()> {
+    let cell_vm = cell_von_mises(p, u, path)?;
+    let mut vm_of_cell = vec![0.0; body.grid.num_cells()];
+    for (k, &c) in p.cells.iter().enumerate() {
+        vm_of_cell[c] = cell_vm[k];
+    }
+    let displacement: Vec<[f64; 3]> = mesh
+        .points
+        .iter()
+        .zip(&mesh.host)
+        .map(|(&x, &c)| value_and_gradient(&body.grid, &p.dofs, u, c, x).0)
+        .collect();
+    let vm: Vec<f64> = mesh.host.iter().map(|&c| vm_of_cell[c]).collect();
+    let point_data = [
+        DataArray::vectors("displacement", &displacement),
+        DataArray::scalars_f64("von_mises", vm),
+    ];
+    write_tagged_triangles(path, mesh, &point_data)
+}
+
+/// The series written so far: `(load factor, part, file)` per entry, and
+/// the bodies' boundary meshes (built on the first surfaces written).
 #[derive(Clone, Debug, Default)]
 pub struct Series {
     entries: Vec<(f64, usize, PathBuf)>,
+    surfaces: Vec<BoundaryMesh>,
 }
 
 impl Series {
@@ -144,6 +188,34 @@ impl Series {
             ];
             write_vtp_points(&dir.join(&file), &c.x, &data, VtuEncoding::Binary)?;
             self.entries.push((t, first_part + i, file));
+        }
+        write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
+    }
+
+    /// Writes every body's boundary surface of converged step `step` at load
+    /// factor `t` into `dir` (`<b>_surface_<step>.vtp`, parts `first_part`
+    /// on) and rewrites `dir/solution.pvd`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn write_surfaces(
+        &mut self,
+        dir: &Path,
+        bodies: &[BodySetup],
+        problems: &[HyperProblem],
+        parts: &[&[f64]],
+        first_part: usize,
+        step: usize,
+        t: f64,
+    ) -> Result<()> {
+        if self.surfaces.is_empty() {
+            self.surfaces = bodies
+                .iter()
+                .map(|b| BoundaryMesh::new(&b.grid, &b.cells.kinds, &b.solid))
+                .collect();
+        }
+        for (b, (body, p)) in bodies.iter().zip(problems).enumerate() {
+            let file = PathBuf::from(surface_file(&body.name, step));
+            write_body_surface(&dir.join(&file), body, p, &self.surfaces[b], parts[b])?;
+            self.entries.push((t, first_part + b, file));
         }
         write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
     }

@@ -93,7 +93,9 @@ pub fn run_setup(
                 let (bodies, problems) = (&setup.bodies, &problem.bodies);
                 let (step, t) = (s.converged_steps, s.load_factor);
                 series.write_step(dir, bodies, problems, &parts, step, t)?;
-                series.write_contact(dir, &points, nb, step, t)
+                series.write_contact(dir, &points, nb, step, t)?;
+                let first = nb + points.len();
+                series.write_surfaces(dir, bodies, problems, &parts, first, step, t)
             }
             None => Ok(()),
         }

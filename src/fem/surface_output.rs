@@ -108,6 +108,17 @@ pub fn write_surface(
         point_data.push(DataArray::vectors("exact_displacement", exact));
         point_data.push(DataArray::scalars_f64("error", error));
     }
+    write_tagged_triangles(path, &mesh, &point_data)?;
+    Ok((mesh, fields))
+}
+
+/// Writes `mesh` with `point_data` and its triangles' `tag` as the `.vtp`
+/// file `path`.
+pub fn write_tagged_triangles(
+    path: &Path,
+    mesh: &BoundaryMesh,
+    point_data: &[DataArray],
+) -> Result<()> {
     let tags = mesh.tags.iter().map(|&t| i32::from(t)).collect();
     let cell_data = [DataArray::scalars_i32("tag", tags)];
     let triangles: Vec<[usize; 3]> = mesh
@@ -119,9 +130,8 @@ pub fn write_surface(
         path,
         &mesh.points,
         &triangles,
-        &point_data,
+        point_data,
         &cell_data,
         VtuEncoding::Binary,
-    )?;
-    Ok((mesh, fields))
+    )
 }
