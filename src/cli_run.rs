@@ -378,7 +378,12 @@ pub fn run_case(
 
     let t = Instant::now();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_solution(&setup, &solution.u, &dir.join("solution.vtu"))?;
+    write_solution(
+        &setup,
+        &case.geometry,
+        &solution.u,
+        &dir.join("solution.vtu"),
+    )?;
     let (surface, fields) = write_surface(
         &setup,
         &case.geometry,

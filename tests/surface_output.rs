@@ -504,3 +504,34 @@ fn multi_body_runs_write_each_body_surface_per_step() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `solution.vtu` carries the level set of the solid at its nodes, for
+/// ParaView's *Clip*: on the unit sphere of `cases/sphere.toml` it is the
+/// sphere's level set `(|x|² − 1) / 2` at every node, negative at the nodes
+/// inside.
+#[test]
+fn solution_vtu_carries_the_level_set_for_clipping() {
+    let dir = scratch("level_set");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sphere.toml");
+    let out = dir.join("out");
+    run(&case, &out, &["--level", "3"]);
+    let vtu = arrays(&out.join("solution.vtu"));
+    let (points, phi) = (&vtu["Points"], &vtu["level_set"]);
+    assert_eq!(points.len(), 3 * phi.len());
+    let (mut inside, mut outside) = (0, 0);
+    for (x, &f) in points.chunks(3).zip(phi) {
+        let want = 0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] - 1.0);
+        assert!((f - want).abs() < 1e-12, "φ({x:?}) = {f}, want {want}");
+        if f < 0.0 {
+            inside += 1;
+        } else {
+            outside += 1;
+        }
+    }
+    // The cut cells reach outside the sphere: both signs occur.
+    assert!(
+        inside > 0 && outside > 0,
+        "{inside} inside, {outside} outside"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

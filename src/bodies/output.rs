@@ -1,7 +1,9 @@
 //! The ParaView time series of a multi-body run: per converged load step `k`
 //! and body `b`, `DIR/<b>_<k>.vtu` — the body's non-outside cells as
 //! hexahedra on the reference positions of their nodes, with the point data
-//! `displacement` (warp by it for the deformed shape) and the cell data
+//! `displacement` (warp by it for the deformed shape) and `level_set` (φ of
+//! the solid, negative inside: *Clip* by it cuts the cells to the body), and
+//! the cell data
 //! `von_mises` (of the Cauchy stress `σ = P Fᵀ / J` averaged over the cell's
 //! quadrature points, weights `w_q`) and `cell_class` (0 inside, 1 cut, as
 //! [`crate::cells::CellKind`]) — and `DIR/solution.pvd`, listing every file
@@ -26,7 +28,7 @@ use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::fem::boundary_mesh::BoundaryMesh;
 use crate::fem::field::value_and_gradient;
-use crate::fem::output::von_mises;
+use crate::fem::output::{level_set, von_mises};
 use crate::fem::surface_output::write_tagged_triangles;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::residual::point_fields;
@@ -101,7 +103,10 @@ pub fn write_body(path: &Path, body: &BodySetup, p: &HyperProblem, u: &[f64]) ->
         .collect();
     let displacement: Vec<[f64; 3]> = u.chunks_exact(3).map(|d| [d[0], d[1], d[2]]).collect();
     let class: Vec<u8> = p.cells.iter().map(|&c| body.cells.kinds[c] as u8).collect();
-    let point_data = [DataArray::vectors("displacement", &displacement)];
+    let point_data = [
+        DataArray::vectors("displacement", &displacement),
+        level_set(&body.solid, &points),
+    ];
     let cell_data = [
         DataArray::scalars_f64("von_mises", cell_von_mises(p, u, path)?),
         DataArray::scalars_u8("cell_class", class),

@@ -3,8 +3,10 @@
 //! `VTK_TRIQUADRATIC_HEXAHEDRON` on the 27 nodes, so ParaView interpolates
 //! the quadratic field), with the displacement, the SPR-recovered stress (the
 //! CPE blend `σ̂` at the node) and its von Mises value at the nodes (plus the
-//! exact displacement when the case has one), and the cell class and volume
-//! fraction per cell.
+//! exact displacement when the case has one), the level set φ of the solid
+//! at the nodes (`level_set`, negative inside: ParaView's *Clip* by this
+//! scalar at 0, inverted, cuts the cut cells down to the body), and the cell
+//! class and volume fraction per cell.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -14,6 +16,7 @@ use super::setup::Setup;
 use crate::cells::CellKind;
 use crate::element::ElementOrder;
 use crate::error::Result;
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::vtu::{write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
 
@@ -21,6 +24,14 @@ use crate::vtu::{write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
 pub fn von_mises(s: &[f64; 6]) -> f64 {
     let d = (s[0] - s[1]).powi(2) + (s[1] - s[2]).powi(2) + (s[2] - s[0]).powi(2);
     (0.5 * d + 3.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5])).sqrt()
+}
+
+/// The point data `level_set`: φ of `geometry` at `points` (negative inside).
+pub(crate) fn level_set(geometry: &Geometry, points: &[[f64; 3]]) -> DataArray {
+    DataArray::scalars_f64(
+        "level_set",
+        points.iter().map(|&x| geometry.phi(x)).collect(),
+    )
 }
 
 /// The element nodes of the body cells, as VTU points: each node once (in
@@ -62,8 +73,8 @@ pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> Bod
     }
 }
 
-/// Writes the solution `u` of `setup` to `path`.
-pub fn write_solution(setup: &Setup, u: &[f64], path: &Path) -> Result<()> {
+/// Writes the solution `u` of `setup` (whose solid is `geometry`) to `path`.
+pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path) -> Result<()> {
     let grid = &setup.grid;
     let dofs = &setup.op.dofs;
     let body: Vec<usize> = (0..grid.num_cells())
@@ -96,6 +107,7 @@ pub fn write_solution(setup: &Setup, u: &[f64], path: &Path) -> Result<()> {
         DataArray::vectors("displacement", &displacement),
         DataArray::sym_tensors("stress", &stress),
         DataArray::scalars_f64("von_mises", mises),
+        level_set(geometry, &points),
     ];
     if let Some(exact) = &setup.problem.exact {
         let ue: Vec<[f64; 3]> = points.iter().map(|&x| exact.eval(x)).collect();
