@@ -2,14 +2,18 @@
 //! and by equalities between two ways of writing the same problem:
 //! rollers (Dirichlet conditions with `"free"` components) reproduce linear
 //! (Q1) and quadratic (Q2) fields to round-off on a cut sphere octant, a
-//! `region` restricts a condition to a box, and `pressure = p` is the
-//! traction `−p n`.
+//! `region` restricts a condition to a box, `pressure = p` is the
+//! traction `−p n`, and a linear and a neo-Hookean `[[body]]` with the same
+//! rollers and pressure agree at small strain.
 
+use cgfem_gpu::bodies::run::run;
+use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::{solve, Solution};
+use cgfem_gpu::progress::Silent;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -193,4 +197,47 @@ fn a_pressure_is_the_normal_traction() {
     println!("pressure against the exact traction: {rel:.2e}; energy error {e:.2e}");
     assert!(rel < 1e-10, "pressure and traction differ by {rel:e}");
     assert!(e < 1e-10, "hydrostatic compression: energy error {e:e}");
+}
+
+/// The shell octant of `cases/shell_pressure.toml` as one `[[body]]` of
+/// `model`, rollers on its planes and an inner pressure `p = 0.001` (strains
+/// of order p/E = 1e-6).
+fn shell_body(model: &str) -> String {
+    format!(
+        r#"[[body]]
+name = "shell"
+geometry = {{ type = "intersection", of = [
+  {{ type = "shell", center = [0, 0, 0], inner_radius = 0.5, outer_radius = 1.0 }},
+  {{ type = "cuboid", min = [0, 0, 0], max = [2, 2, 2] }} ] }}
+grid = {{ level = 3, offset = [0.3, 0.6, 0.45] }}
+material = {{ model = "{model}", young = 1000.0, poisson = 0.3 }}
+neumann.inner = {{ pressure = "0.001" }}
+dirichlet.xmin = {{ value = ["0", "free", "free"] }}
+dirichlet.ymin = {{ value = ["free", "0", "free"] }}
+dirichlet.zmin = {{ value = ["free", "free", "0"] }}
+"#
+    )
+}
+
+#[test]
+fn a_linear_and_a_neo_hookean_body_agree_at_small_strain() {
+    let solve = |model: &str| {
+        let case = BodiesCase::from_str_with("shell.toml", &shell_body(model), &[]).unwrap();
+        let outcome = run(&case, None, None, &Silent).unwrap();
+        outcome.result.unwrap();
+        outcome.solution
+    };
+    let (linear, neo) = (solve("linear"), solve("neo_hookean"));
+    let diff: Vec<f64> = linear.u.iter().zip(&neo.u).map(|(a, b)| a - b).collect();
+    let rel = norm(&diff) / norm(&linear.u);
+    let strain = norm(&linear.u) / (linear.u.len() as f64).sqrt();
+    println!(
+        "linear against neo-Hookean: {rel:.2e} (rms displacement {strain:.1e}); \
+         Newton iterations {} and {}",
+        linear.newton_iterations(),
+        neo.newton_iterations()
+    );
+    assert!(rel < 1e-5, "the models differ by {rel:e}");
+    // The linear body's tangent is constant: one Newton iteration per pass.
+    assert!(linear.newton_iterations() <= neo.newton_iterations());
 }

@@ -75,10 +75,11 @@ fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
     norm(&d) / norm(b)
 }
 
-fn materials() -> [Material; 2] {
+fn materials() -> [Material; 3] {
     [
         Material::neo_hookean(E, NU),
         Material::st_venant_kirchhoff(E, NU),
+        Material::linear(E, NU),
     ]
 }
 

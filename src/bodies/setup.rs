@@ -135,6 +135,7 @@ pub fn material(case: &BodiesCase, i: usize) -> Material {
     let model = match m.model {
         HyperModel::NeoHookean => MaterialModel::NeoHookean,
         HyperModel::StVenantKirchhoff => MaterialModel::StVenantKirchhoff,
+        HyperModel::Linear => MaterialModel::Linear,
     };
     Material::from_young_poisson(model, m.young, m.poisson)
 }

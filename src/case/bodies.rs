@@ -36,7 +36,7 @@
 //! name = "lower"
 //! geometry = { type = "cuboid", min = [-1, -1, -1], max = [1, 1, 0] }
 //! grid = { level = 3 }
-//! material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }
+//! material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }   # or st_venant_kirchhoff, linear
 //! dirichlet.bottom = { value = ["0", "0", "0"] }
 //! # the boundary vocabulary of every case (super::boundary): components may be
 //! # "free", and a condition may be restricted to a box:
@@ -228,6 +228,9 @@ pub enum HyperModel {
     NeoHookean,
     /// `W = λ/2 (tr E)² + μ E:E`.
     StVenantKirchhoff,
+    /// Small-strain linear elasticity, `W = λ/2 (tr ε)² + μ ε:ε`,
+    /// `ε = sym(∇u)`: with the same Newton, contact and boundary conditions.
+    Linear,
 }
 
 /// One `[[contact]]` pair.

@@ -18,7 +18,17 @@
 //! dP = dF S + F (λ tr(dE) I + 2 μ dE),   dE = sym(Fᵀ dF)
 //! ```
 //!
-//! At `F = I` both reduce to linear elasticity,
+//! # Linear (small strain)
+//! `W = λ/2 (tr ε)² + μ ε : ε`, `ε = sym(F) − I` (the small strain of
+//! `u`, not frame invariant: for small displacements and rotations):
+//! ```text
+//! P  = λ tr(ε) I + 2 μ ε
+//! dP = λ tr(dF) I + μ (dF + dFᵀ)
+//! ```
+//! a constant tangent: Newton converges in one iteration where nothing else
+//! is nonlinear (contact is).
+//!
+//! At `F = I` all three are linear elasticity,
 //! `dP = λ tr(dF) I + μ (dF + dFᵀ)` — the `D` of
 //! [`crate::element::reference::elasticity_matrix`].
 
@@ -34,6 +44,8 @@ pub type Tangent4 = [[[[f64; 3]; 3]; 3]; 3];
 pub enum MaterialModel {
     NeoHookean,
     StVenantKirchhoff,
+    /// Small-strain linear elasticity.
+    Linear,
 }
 
 /// A hyperelastic material: a model with its Lamé parameters.
@@ -82,6 +94,11 @@ impl Material {
         Material::from_young_poisson(MaterialModel::NeoHookean, young, poisson)
     }
 
+    /// The small-strain linear material of `E`, `ν`.
+    pub fn linear(young: f64, poisson: f64) -> Material {
+        Material::from_young_poisson(MaterialModel::Linear, young, poisson)
+    }
+
     /// The St Venant–Kirchhoff material of `E`, `ν`.
     pub fn st_venant_kirchhoff(young: f64, poisson: f64) -> Material {
         Material::from_young_poisson(MaterialModel::StVenantKirchhoff, young, poisson)
@@ -99,6 +116,10 @@ impl Material {
                 let e = green_lagrange(&s.f);
                 l / 2.0 * e.trace().powi(2) + m * e.norm_squared()
             }
+            MaterialModel::Linear => {
+                let e = small_strain(&s.f);
+                l / 2.0 * e.trace().powi(2) + m * e.norm_squared()
+            }
         }
     }
 
@@ -108,6 +129,7 @@ impl Material {
         match self.model {
             MaterialModel::NeoHookean => s.f * m + s.f_inv_t * (l * s.ln_j - m),
             MaterialModel::StVenantKirchhoff => s.f * self.svk_second_pk(&green_lagrange(&s.f)),
+            MaterialModel::Linear => self.svk_second_pk(&small_strain(&s.f)),
         }
     }
 
@@ -129,10 +151,13 @@ impl Material {
                 let ds = Matrix3::identity() * (l * de.trace()) + de * (2.0 * m);
                 df * stress + s.f * ds
             }
+            MaterialModel::Linear => {
+                Matrix3::identity() * (l * df.trace()) + (df + df.transpose()) * m
+            }
         }
     }
 
-    /// The tangent in the form both models share, which the GPU kernel
+    /// The tangent in the form the models share, which the GPU kernel
     /// evaluates from 28 numbers per point (see [`TangentCoefficients`]).
     pub fn tangent_coefficients(&self, s: &PointState) -> TangentCoefficients {
         let (l, m) = (self.lambda, self.mu);
@@ -147,6 +172,12 @@ impl Material {
                 sigma: self.svk_second_pk(&green_lagrange(&s.f)),
                 m: s.f * s.f.transpose() * m,
                 g: s.f,
+                c: m,
+            },
+            MaterialModel::Linear => TangentCoefficients {
+                sigma: Matrix3::identity() * m,
+                m: Matrix3::zeros(),
+                g: Matrix3::identity(),
                 c: m,
             },
         }
@@ -183,7 +214,8 @@ impl Material {
 /// ```
 /// neo-Hookean: `Σ = μ I`, `M = 0`, `G = F⁻ᵀ`, `c = μ − λ ln J`;
 /// St Venant–Kirchhoff: `Σ = S`, `M = μ F Fᵀ`, `G = F`, `c = μ`
-/// (from `F dS = λ (F : dF) F + μ F Fᵀ dF + μ F dFᵀ F`).
+/// (from `F dS = λ (F : dF) F + μ F Fᵀ dF + μ F dFᵀ F`);
+/// linear: `Σ = μ I`, `M = 0`, `G = I`, `c = μ`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TangentCoefficients {
     pub sigma: Matrix3<f64>,
@@ -201,6 +233,11 @@ impl TangentCoefficients {
             + self.g * (lambda * g_df)
             + self.g * df.transpose() * self.g * self.c
     }
+}
+
+/// `ε = (F + Fᵀ) / 2 − I`.
+fn small_strain(f: &Matrix3<f64>) -> Matrix3<f64> {
+    (f + f.transpose()) * 0.5 - Matrix3::identity()
 }
 
 /// `E = (FᵀF − I) / 2`.

@@ -11,10 +11,11 @@ use crate::element::reference::elasticity_matrix;
 const E: f64 = 1000.0;
 const NU: f64 = 0.3;
 
-fn materials() -> [Material; 2] {
+fn materials() -> [Material; 3] {
     [
         Material::neo_hookean(E, NU),
         Material::st_venant_kirchhoff(E, NU),
+        Material::linear(E, NU),
     ]
 }
 

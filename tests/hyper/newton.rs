@@ -102,6 +102,11 @@ fn uniaxial(m: &Material, l1: f64) -> (f64, f64) {
             let e22 = -NU * e11;
             ((1.0 + 2.0 * e22).sqrt(), l1 * E * e11)
         }
+        MaterialModel::Linear => {
+            // ε11 = l1 − 1, ε22 = −ν ε11, P11 = σ11 = E ε11.
+            let e11 = l1 - 1.0;
+            (1.0 - NU * e11, E * e11)
+        }
     }
 }
 
@@ -110,6 +115,7 @@ fn uniaxial_stretch_matches_the_closed_form() {
     for material in [
         Material::neo_hookean(E, NU),
         Material::st_venant_kirchhoff(E, NU),
+        Material::linear(E, NU),
     ] {
         let p = stretched_box(material, 2, 0.5 * LENGTH, BETA);
         let (sol, r) = run(&p, &options(4));
