@@ -49,6 +49,7 @@ fn tangent_kernel_equals_its_mirror_in_f64() {
     for material in [
         Material::neo_hookean(1000.0, 0.3),
         Material::st_venant_kirchhoff(1000.0, 0.3),
+        Material::linear(1000.0, 0.3),
     ] {
         for level in [3, 4] {
             let (p, u) = sphere(level, material);
