@@ -13,7 +13,6 @@ use std::sync::Arc;
 use super::contact::{ContactCoupling, ContactSide};
 use super::problem::BodiesProblem;
 use crate::case::bodies::{BodiesCase, HyperModel};
-use crate::case::boundary::Component;
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
@@ -153,17 +152,12 @@ fn body_problem(
     let mut dirichlet = Vec::new();
     let mut regions: Vec<Option<Region>> = Vec::new();
     for (name, d) in &spec.dirichlet {
-        let exprs = d.components();
+        let spec = d.clone();
         dirichlet.push(DirichletCondition {
             tag: tag(name),
             components: d.mask(),
             // "exact" is refused in [[body]] cases (no exact field).
-            value: Arc::new(move |x: [f64; 3]| {
-                [0, 1, 2].map(|a| match &exprs[a] {
-                    Component::Given(e) => e.eval(x),
-                    Component::Free | Component::Exact => 0.0,
-                })
-            }),
+            value: Arc::new(move |x: [f64; 3]| spec.value_at(x, || [0.0; 3])),
         });
         regions.push(
             d.region

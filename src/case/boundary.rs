@@ -105,9 +105,17 @@ impl DirichletSpec {
         }
     }
 
+    /// Component `a` (without cloning the expressions).
+    fn component(&self, a: usize) -> &Component {
+        match &self.value {
+            DirichletValue::Exact => &Component::Exact,
+            DirichletValue::Components(c) => &c[a],
+        }
+    }
+
     /// Which components are held.
     pub fn mask(&self) -> [bool; 3] {
-        self.components().map(|c| c != Component::Free)
+        [0, 1, 2].map(|a| *self.component(a) != Component::Free)
     }
 
     /// Does the condition apply at `x` (inside its region, if any)?
@@ -115,8 +123,23 @@ impl DirichletSpec {
         self.region.as_ref().is_none_or(|r| r.contains(x))
     }
 
-    fn uses_exact(&self) -> bool {
-        self.components().contains(&Component::Exact)
+    /// Does some component come from the exact field?
+    pub fn uses_exact(&self) -> bool {
+        (0..3).any(|a| *self.component(a) == Component::Exact)
+    }
+
+    /// The prescribed value at `x`: 0 in a free component, `exact()` (called
+    /// at most once) in an exact one.
+    pub fn value_at(&self, x: [f64; 3], exact: impl FnOnce() -> [f64; 3]) -> [f64; 3] {
+        let u = match self.uses_exact() {
+            true => exact(),
+            false => [0.0; 3],
+        };
+        [0, 1, 2].map(|a| match self.component(a) {
+            Component::Free => 0.0,
+            Component::Exact => u[a],
+            Component::Given(e) => e.eval(x),
+        })
     }
 }
 

@@ -163,8 +163,8 @@ pub fn error_norms(
 /// magnitude sampled on the body marks a singularity of the field near an
 /// active node outside the body ([`interpolant_error`]). A smooth field
 /// extended by at most one cell stays within a small factor of its values on
-/// the body (a factor 4 for the Lamé shell of `cases/shell_pressure.toml` at
-/// level 3, whose nodes nearest the centre lie at half the inner radius); a
+/// the body (a factor 4 for the Lamé shell, whole, centred, inner radius 0.5,
+/// at h = 0.25, whose nodes nearest the centre lie at half the inner radius); a
 /// node at `1e-3` of the inner radius from the centre gives `1e6`.
 pub const SINGULAR_RATIO: f64 = 1e6;
 

@@ -4,7 +4,7 @@
 //! expressions or derived from the exact displacement field (`g = u`,
 //! `t = σ(u) n`, `b = −∇·σ(u)`, by automatic differentiation).
 
-use crate::case::boundary::{Component, DirichletSpec, NeumannSpec};
+use crate::case::boundary::{DirichletSpec, NeumannSpec};
 use crate::case::physics::FieldValue;
 use crate::case::Case;
 use crate::element::reference::lame;
@@ -117,20 +117,10 @@ impl Problem {
     /// The prescribed displacement at `x` on a Dirichlet part (0 in its
     /// free components).
     pub fn dirichlet_value(&self, tag: u16, x: [f64; 3]) -> [f64; 3] {
-        let Boundary::Dirichlet(d) = &self.boundary[tag as usize] else {
-            return [0.0; 3];
-        };
-        let exact = d.components().contains(&Component::Exact);
-        let u = match exact {
-            true => self.exact().eval(x),
-            false => [0.0; 3],
-        };
-        let c = d.components();
-        [0, 1, 2].map(|a| match &c[a] {
-            Component::Free => 0.0,
-            Component::Exact => u[a],
-            Component::Given(e) => e.eval(x),
-        })
+        match &self.boundary[tag as usize] {
+            Boundary::Dirichlet(d) => d.value_at(x, || self.exact().eval(x)),
+            _ => [0.0; 3],
+        }
     }
 
     /// The pressure at `x` on a pressure part (0 elsewhere).

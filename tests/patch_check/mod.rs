@@ -1,9 +1,9 @@
 //! What the patch tests share (`tests/patch_exact.rs`,
-//! `tests/boundary_conditions.rs`): tight solver settings, and the residual
-//! of the exact field's interpolant in the discrete system.
+//! `tests/boundary_conditions.rs`): tight solver settings, the residual of
+//! the exact field's interpolant in the discrete system, the energy error.
 
 use cgfem_gpu::backend::LinearOperator;
-use cgfem_gpu::fem::field::interpolate;
+use cgfem_gpu::fem::field::{error_norms, interpolate};
 use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::recovered_load;
@@ -36,6 +36,20 @@ pub fn interpolant_residual(setup: &Setup) -> f64 {
     setup.op.apply(&ui, &mut au);
     let r: Vec<f64> = au.iter().zip(&f).map(|(a, b)| a - b).collect();
     norm(&r) / norm(&f)
+}
+
+/// The relative energy error of `u` against the exact field of `setup`.
+pub fn energy_error(setup: &Setup, u: &[f64]) -> f64 {
+    error_norms(
+        &setup.grid,
+        &setup.cells,
+        &setup.op.dofs,
+        u,
+        setup.problem.exact.as_ref().unwrap(),
+        setup.problem.lambda,
+        setup.problem.mu,
+    )
+    .energy_relative
 }
 
 /// The Euclidean norm.
