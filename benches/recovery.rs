@@ -60,7 +60,7 @@ fn main() {
         });
         let s = best_of(3, || {
             let rec = recover_displacement(&setup, &u, &setup.omega_star).unwrap();
-            s_rhs(&setup, &setup.omega_star, &rec, setup.s_factor).unwrap()
+            s_rhs(&setup, &setup.omega_star, &u, &rec, setup.s_factor, true).unwrap()
         });
         let (cut, path_cells) = (setup.cells.cut.len(), setup.omega_star.len());
         println!(

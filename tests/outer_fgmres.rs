@@ -70,11 +70,15 @@ fn energy_error(case: &Case, level: u32, outer: OuterMethod) -> (f64, FixedPoint
 
 /// Both loops converge to the same discrete solution: energy errors equal to
 /// 1e-8 relative (the paper's loop stops on `‖ΔU‖ < 1e-8 ‖U‖`, the FGMRES on
-/// the residual), Q1 with and without the S-term and Q2.
+/// the residual), Q1 with and without the S-term and Q2. The paper's loop
+/// gets 100 iterations: with the balanced S-term (the default) it contracts
+/// by about 0.7 per iteration on the Q2 sphere at level 2 and needs 68
+/// (with the paper's `F_S`, 0.2).
 #[test]
 fn fgmres_and_the_papers_loop_give_the_same_answer() {
     for (name, level) in [("sphere", 3), ("torus", 3), ("sphere_q2", 2)] {
-        let case = case(name);
+        let mut case = case(name);
+        case.spec.solver.max_fixed_point = 100;
         let (picard, rp) = energy_error(&case, level, OuterMethod::Picard);
         let (fgmres, rf) = energy_error(&case, level, OuterMethod::Fgmres);
         println!(

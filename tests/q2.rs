@@ -7,11 +7,9 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::field::{error_norms, interpolate, ErrorNorms};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::output::write_solution;
-use cgfem_gpu::fem::recovery::{recover_stress, recovered_tractions, traction_patch_nodes};
-use cgfem_gpu::fem::rhs::traction_rhs;
+use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
-use cgfem_gpu::fem::stabilisation::{recover_displacement, s_rhs};
+use cgfem_gpu::fem::solve::{recovered_load, solve};
 
 /// Solves `case` at `level`: the errors of `u_h` and of the nodal
 /// interpolant, the fixed-point report and the number of pathological cells.
@@ -69,24 +67,13 @@ fixed_point_tol = 1e-11
 /// `F(U) = F_b + F_p + F_T(t̂(U)) + F_S(S(U))`, the right-hand side of the
 /// fixed-point loop at `U` (DESIGN §3.3).
 fn fixed_point_rhs(setup: &Setup, u: &[f64]) -> Vec<f64> {
-    let nodes = traction_patch_nodes(setup);
-    let sigma = recover_stress(setup, u, &nodes).unwrap();
-    let t = recovered_tractions(&setup.dirichlet, &sigma).unwrap();
-    let ft = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
-    let mut f: Vec<f64> = setup
+    let load = recovered_load(setup, &traction_patch_nodes(setup), u).unwrap();
+    setup
         .fixed_rhs
         .iter()
-        .zip(&ft)
+        .zip(&load)
         .map(|(a, b)| a + b)
-        .collect();
-    if setup.s_factor > 0.0 {
-        let s = recover_displacement(setup, u, &setup.omega_star).unwrap();
-        let fs = s_rhs(setup, &setup.omega_star, &s, setup.s_factor).unwrap();
-        for (a, b) in f.iter_mut().zip(&fs) {
-            *a += b;
-        }
-    }
-    f
+        .collect()
 }
 
 /// The quadratic field is reproduced to round-off by Q2, without and with

@@ -416,6 +416,12 @@ impl BodiesCase {
         if let Some(a) = st.a.filter(|a| !(0.0..1.0).contains(a)) {
             return Err(self.bad("stabilisation.A", format!("must lie in [0, 1), got {a}")));
         }
+        if st.balanced.is_some() {
+            return Err(self.bad(
+                "stabilisation.balanced",
+                "applies to single-body cases; [[body]] cases run the paper's S-term".into(),
+            ));
+        }
         for (i, b) in self.bodies.iter().enumerate() {
             self.check_body(i, b)?;
         }

@@ -22,6 +22,7 @@
 //! k1 = 30.0               # Dirichlet penalty β = k1 E
 //! k2 = 0.01               # S-term weight (0: off, the paper's runs without it)
 //! A = 0.05                # pathological volume fraction threshold (default 0.05 for Q1, 0.2 for Q2)
+//! balanced = true         # S-term without net force or moment (false: the paper's F_S)
 //!
 //! [solver]
 //! method = "cg"             # cg | cgs | bicgstab
@@ -117,6 +118,11 @@ pub struct StabilisationSpec {
     /// element order's [`default_threshold`] ([`StabilisationSpec::threshold`]).
     #[serde(rename = "A")]
     pub a: Option<f64>,
+    /// Whether the S-term's right-hand side drops the rigid-body part of
+    /// `u_h − S` on Ω*, so that it puts no net force or moment on the body
+    /// (`crate::fem::rigid_resultant`). `false`: the paper's `F_S`; `None`:
+    /// `true` ([`StabilisationSpec::balanced`]). Single-body cases only.
+    pub balanced: Option<bool>,
 }
 
 /// The default S-term weight `k2`: the paper's 0.01.
@@ -144,6 +150,11 @@ pub fn default_threshold(order: ElementOrder) -> f64 {
 }
 
 impl StabilisationSpec {
+    /// Whether the S-term is balanced (default `true`).
+    pub fn balanced(&self) -> bool {
+        self.balanced.unwrap_or(true)
+    }
+
     /// `A` as given, else the default of the element `order`.
     pub fn threshold(&self, order: ElementOrder) -> f64 {
         self.a.unwrap_or_else(|| default_threshold(order))
@@ -156,6 +167,7 @@ impl Default for StabilisationSpec {
             k1: 30.0,
             k2: DEFAULT_K2,
             a: None,
+            balanced: None,
         }
     }
 }

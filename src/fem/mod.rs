@@ -19,6 +19,7 @@ pub mod problem;
 pub mod q1_forms;
 pub mod recovery;
 pub mod rhs;
+pub mod rigid_resultant;
 pub mod setup;
 pub mod solve;
 pub mod stabilisation;

@@ -83,6 +83,9 @@ pub struct Setup {
     pub omega_star: Vec<usize>,
     /// `k2 E / h²`: the weight of the S-term (0 when it is off).
     pub s_factor: f64,
+    /// Whether `F_S` drops its net force and moment (`[stabilisation]
+    /// balanced`).
+    pub s_balanced: bool,
     /// The multigrid hierarchy under `op`, built when the case's solver asks
     /// for the multigrid preconditioner.
     pub multigrid: Option<Hierarchy>,
@@ -183,6 +186,7 @@ impl Setup {
             flux,
             omega_star,
             s_factor,
+            s_balanced: case.spec.stabilisation.balanced(),
             multigrid,
             timings,
         })

@@ -142,7 +142,14 @@ pub fn recovered_load(setup: &Setup, nodes: &[usize], u: &[f64]) -> Result<Vec<f
         .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
     if setup.s_factor > 0.0 && !setup.omega_star.is_empty() {
         let s = recover_displacement(setup, u, &setup.omega_star)?;
-        let fs = s_rhs(setup, &setup.omega_star, &s, setup.s_factor)?;
+        let fs = s_rhs(
+            setup,
+            &setup.omega_star,
+            u,
+            &s,
+            setup.s_factor,
+            setup.s_balanced,
+        )?;
         for (a, b) in f.iter_mut().zip(&fs) {
             *a += b;
         }

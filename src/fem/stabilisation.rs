@@ -14,7 +14,11 @@
 //! the patch node as Lagrange-multiplier constraints, and the patch
 //! polynomials are blended by CPE, `S(x) = Σ_i N_i^lin(x) û_i(x)`. `S` is a
 //! polynomial in each cell, so it is defined on the part of the cell outside
-//! Ω too. Where the patch's cut cells carry Neumann points, boundary
+//! Ω too. `F_S` is evaluated with `S + R a`, `R a` the rigid-body part of
+//! `u_h − S` on Ω* (`super::rigid_resultant`): the paper's `F_S` puts a net
+//! force on the body that no reaction balances; this one does not, and it
+//! equals the paper's whenever `S(u_h) = u_h`. `[stabilisation] balanced =
+//! false` keeps the paper's (what `reproduce` runs). Where the patch's cut cells carry Neumann points, boundary
 //! equilibrium `σ(û) n = t` is collocated at the one nearest the patch node,
 //! as three more constraint rows.
 
@@ -24,6 +28,7 @@ use super::field::value_and_gradient;
 use super::problem::Boundary;
 use super::recovery::{sample_positions, vertex_nodes_of};
 use super::rhs::add_point_load;
+use super::rigid_resultant::RigidFit;
 use super::setup::Setup;
 use crate::cells::Cells;
 use crate::element::reference::vector_mass;
@@ -229,32 +234,52 @@ where
     )
 }
 
-/// `F_S = (k2 E / h²) Σ_{c ∈ Ω*} ∫_c Nᵀ S dV`, Gauss rule of one point more
-/// per direction than the element's over the whole cell.
+/// `F_S = (k2 E / h²) Σ_{c ∈ Ω*} ∫_c Nᵀ (S + R a) dV`, Gauss rule of one
+/// point more per direction than the element's over the whole cell, where
+/// `R a` is the rigid-body part of `u_h − S` on Ω* (see [`RigidFit`]) when
+/// `balanced` (the S-term then puts no net force or moment on the body), and
+/// zero otherwise (the paper's `F_S`).
 pub fn s_rhs(
     setup: &Setup,
     omega_star: &[usize],
+    u: &[f64],
     s: &Recovered<3>,
     factor: f64,
+    balanced: bool,
 ) -> Result<Vec<f64>> {
-    let grid = &setup.grid;
-    let mut rhs = vec![0.0; setup.op.dofs.ndofs()];
-    let rule = tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis() + 1);
+    let (grid, dofs) = (&setup.grid, &setup.op.dofs);
+    let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
     let vol = grid.h.powi(3);
+    let mut fit = RigidFit::about(centroid(grid, omega_star), grid.h);
+    let mut values = Vec::with_capacity(omega_star.len() * rule.len());
     for &c in omega_star {
         let lo = grid.cell_box(c).lo;
         for (xi, w) in &rule {
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-            let v = s.eval(c, x)?;
-            add_point_load(
-                grid,
-                &setup.op.dofs,
-                c,
-                x,
-                v.map(|s| s * factor * w * vol),
-                &mut rhs,
-            );
+            let sx = s.eval(c, x)?;
+            let ux = value_and_gradient(grid, dofs, u, c, x).0;
+            fit.add(x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a]));
+            values.push((c, x, w * vol, sx));
         }
     }
+    let a = if balanced { fit.solve() } else { [0.0; 6] };
+    let mut rhs = vec![0.0; dofs.ndofs()];
+    for &(c, x, w, sx) in &values {
+        let r = fit.value(x, &a);
+        let v = [0, 1, 2].map(|k| (sx[k] + r[k]) * factor * w);
+        add_point_load(grid, dofs, c, x, v, &mut rhs);
+    }
     Ok(rhs)
+}
+
+/// The mean of the centres of `cells`.
+fn centroid(grid: &crate::grid::Grid, cells: &[usize]) -> [f64; 3] {
+    let mut x0 = [0.0; 3];
+    for &c in cells {
+        let lo = grid.cell_box(c).lo;
+        for a in 0..3 {
+            x0[a] += (lo[a] + 0.5 * grid.h) / cells.len() as f64;
+        }
+    }
+    x0
 }

@@ -104,6 +104,8 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     let mut case = case.clone();
     // The paper's loop: its accumulated iterations are what is reproduced.
     case.spec.solver.outer = OuterMethod::Picard;
+    // The paper's S-term, whose right-hand side is not balanced.
+    case.spec.stabilisation.balanced = Some(false);
     case.spec.stabilisation.k2 = cfg.k2;
     case.spec.stabilisation.a = Some(cfg.a);
     case.spec.grid.offset = cfg.offset;

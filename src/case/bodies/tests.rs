@@ -158,6 +158,10 @@ fn other_bad_inputs_name_their_key() {
             BLOCKS.replace("\"-0.1*z\"", "\"exact\""),
             "body[1].dirichlet.zmax.value",
         ),
+        (
+            BLOCKS.replace("[load]", "[stabilisation]\nbalanced = true\n[load]"),
+            "stabilisation.balanced",
+        ),
     ];
     for (text, key) in cases {
         assert_eq!(key_of(parse(&text)), key, "{text}");
