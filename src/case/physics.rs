@@ -34,7 +34,7 @@
 //! max_iterations = 20000    # per Krylov solve
 //! fixed_point_tol = 1e-10   # fgmres: ‖F + R(U) − A U‖ ≤ this ‖F + R(0)‖ (default 1e-10);
 //!                           # picard: ‖U_k+1 − U_k‖ < this ‖U_k+1‖ (default 1e-8)
-//! max_fixed_point = 50      # outer iterations
+//! max_fixed_point = 200     # outer iterations
 //! ```
 //! Boundary parts named in neither table are traction free.
 
@@ -210,6 +210,8 @@ pub struct SolverSpec {
     /// When the outer iteration stops; `None`: [`SolverSpec::fixed_point_tol`]'s
     /// default for the method.
     pub fixed_point_tol: Option<f64>,
+    /// Outer iterations at most (default 200: a rotated level-6 bracket at
+    /// half scale needs 95, `crate::fem::rigid_resultant`).
     pub max_fixed_point: usize,
 }
 
@@ -237,7 +239,7 @@ impl Default for SolverSpec {
             min_rel_tol: 1e-12,
             max_iterations: 20_000,
             fixed_point_tol: None,
-            max_fixed_point: 50,
+            max_fixed_point: 200,
         }
     }
 }
