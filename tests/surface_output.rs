@@ -19,6 +19,9 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod patch_check;
+use patch_check::SOLVER;
+
 /// A fresh, empty scratch folder for one test.
 fn scratch(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("cgfem-surface-{}-{test}", std::process::id()));
@@ -420,15 +423,9 @@ traction = "exact"
 traction = "exact"
 [neumann.zmax]
 traction = "exact"
-[solver]
-method = "cg"
-preconditioner = "jacobi"
-rel_tol = 1e-12
-min_rel_tol = 1e-14
-max_iterations = 50000
-fixed_point_tol = 1e-14
-max_fixed_point = 500
-"#;
+"#
+    .to_string()
+        + SOLVER;
     let case = dir.join("patch.toml");
     std::fs::write(&case, text).unwrap();
     let out = dir.join("out");

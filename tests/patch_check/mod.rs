@@ -1,6 +1,8 @@
 //! What the patch tests share (`tests/patch_exact.rs`,
-//! `tests/boundary_conditions.rs`): tight solver settings, the residual of
-//! the exact field's interpolant in the discrete system, the energy error.
+//! `tests/boundary_conditions.rs`, `tests/surface_output.rs`): tight solver
+//! settings, the residual of the exact field's interpolant in the discrete
+//! system, the energy error.
+#![allow(dead_code)] // each test crate uses a part
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::fem::field::{error_norms, interpolate};
