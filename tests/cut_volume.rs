@@ -23,7 +23,8 @@
 //! distance (`≈ Q² R / 2`) outside the boxes while the cells are not small
 //! against the cylinder's radius (`docs/volume-floor-findings.md`). Issue 15
 //! asks for the rates from the coarsest level; that is not met (a prototype
-//! on the branch `volume-floor-prototype` meets it at up to 3× the points).
+//! on the branch `volume-rates` meets it at +31% wall time on the level-6
+//! sphere, `docs/volume-floor-findings.md`).
 //! The test holds every level below `1e-5` (Q1 rules) and `1e-8` (Q2 rules),
 //! which Saye's rules without edge splitting miss by one to three orders of
 //! magnitude, and with `CGFEM_VOLUME_LEVELS ≥ 7` the rate between the two
