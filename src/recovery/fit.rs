@@ -163,16 +163,22 @@ pub fn fit_polynomial<const NC: usize>(
     });
     let kkt = Kkt::new(&m, &s, NC, constraints.as_ref())?;
     let mut x = DVector::zeros(kkt.size());
-    let rhs = kkt.residual(&phi, samples, &x).amax();
-    for _ in 0..=REFINEMENT_STEPS {
+    let mut rhs = 0.0;
+    for step in 0..=REFINEMENT_STEPS {
         let res = kkt.residual(&phi, samples, &x);
+        if step == 0 {
+            rhs = res.amax();
+        }
         x += kkt.solve(&res).ok_or(FitFailure::Singular)?;
     }
     // A near-singular KKT matrix (dependent or inconsistent rows) shows up as a
-    // residual far above round-off.
-    let res = kkt.residual(&phi, samples, &x).amax();
-    if kkt.c.nrows() > 0 && (res.is_nan() || res > 1e-9 * (1.0 + rhs)) {
-        return Err(FitFailure::Singular);
+    // residual far above round-off (the normal matrix alone is checked by
+    // `stability` above).
+    if kkt.c.nrows() > 0 {
+        let res = kkt.residual(&phi, samples, &x).amax();
+        if res.is_nan() || res > 1e-9 * (1.0 + rhs) {
+            return Err(FitFailure::Singular);
+        }
     }
     let centred = DMatrix::from_fn(nb, NC, |j, c| s[j] * x[c * nb + j]);
     let a = (shift * centred).as_slice().to_vec();
