@@ -39,7 +39,7 @@ impl VectorExpr {
 
     /// The gradient `G[i][j] = ∂u_i/∂x_j` at `x`.
     pub fn displacement_gradient(&self, x: [f64; 3]) -> [[f64; 3]; 3] {
-        self.0.each_ref().map(|e| e.eval_hessian(x).1)
+        self.0.each_ref().map(|e| e.eval_gradient(x).1)
     }
 
     /// The Hessians of the components at `x`.

@@ -238,11 +238,22 @@ impl FluxCorrection {
         sigma: &Recovered<6>,
         rhs: &mut [f64],
     ) -> Result<()> {
-        for i in self.recovered_cells() {
-            let c = cells.cut[i];
-            let mut tau = |x: [f64; 3]| sigma.eval(c, x).map(|s| voigt_matrix(&s));
-            let mut sink = |x, f| add_point_load(grid, dofs, c, x, f, rhs);
-            self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
+        let recovered: Vec<usize> = self.recovered_cells().collect();
+        let loads: Vec<Vec<PointLoad>> = recovered
+            .par_iter()
+            .map(|&i| {
+                let blend = sigma.cell_blend(cells.cut[i])?;
+                let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
+                let mut out = Vec::new();
+                let mut sink = |x, f| out.push((x, f));
+                self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
+                Ok(out)
+            })
+            .collect::<Result<_>>()?;
+        for (&i, cell_loads) in recovered.iter().zip(loads) {
+            for (x, f) in cell_loads {
+                add_point_load(grid, dofs, cells.cut[i], x, f, rhs);
+            }
         }
         Ok(())
     }
@@ -275,7 +286,8 @@ impl FluxCorrection {
                 continue;
             };
             let mut force = [0.0; 3];
-            let mut tau = |x: [f64; 3]| sigma.eval(c, x).map(|s| voigt_matrix(&s));
+            let blend = sigma.cell_blend(c)?;
+            let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
             let mut sink = |_, f: [f64; 3]| (0..3).for_each(|k| force[k] += f[k]);
             self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
             let d = [0, 1, 2].map(|k| if a[k] > 0.0 { force[k] / a[k] } else { 0.0 });
@@ -290,6 +302,9 @@ impl FluxCorrection {
             .collect())
     }
 }
+
+/// A point load `(x, f)` of a correction.
+type PointLoad = ([f64; 3], [f64; 3]);
 
 /// The symmetric matrix of a Voigt stress (xx, yy, zz, yz, xz, xy).
 fn voigt_matrix(s: &[f64; 6]) -> [[f64; 3]; 3] {

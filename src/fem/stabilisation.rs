@@ -254,9 +254,10 @@ pub fn s_rhs(
     let mut values = Vec::with_capacity(omega_star.len() * rule.len());
     for &c in omega_star {
         let lo = grid.cell_box(c).lo;
+        let blend = s.cell_blend(c)?;
         for (xi, w) in &rule {
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-            let sx = s.eval(c, x)?;
+            let sx = blend.eval(x);
             let ux = value_and_gradient(grid, dofs, u, c, x).0;
             fit.add(x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a]));
             values.push((c, x, w * vol, sx));

@@ -265,9 +265,10 @@ impl STerm {
                 let lo = p.grid.cell_box(c).lo;
                 let mut f = [[0.0; 3]; NODES];
                 let mut n = [0.0; NODES];
+                let blend = s.cell_blend(c)?;
                 for (xi, w) in &rule {
                     let x = [0, 1, 2].map(|a| lo[a] + h * xi[a]);
-                    let sx = s.eval(c, x)?;
+                    let sx = blend.eval(x);
                     shape_values(ElementOrder::Q1, *xi, &mut n);
                     for a in 0..NODES {
                         for i in 0..3 {

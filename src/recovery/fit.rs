@@ -145,8 +145,8 @@ pub fn fit_polynomial<const NC: usize>(
     let (centroid, samples) = centered(samples);
     let samples = &samples[..];
     let shift = basis.translation(centroid);
-    let phi = design_matrix(basis, samples);
-    let mut m = normal_matrix(nb, &phi);
+    let design = Design::new(basis, samples);
+    let mut m = design.normal_matrix();
     let lambda = stability(
         &m,
         samples.len(),
@@ -162,20 +162,18 @@ pub fn fit_polynomial<const NC: usize>(
         d: k.d.clone(),
     });
     let kkt = Kkt::new(&m, &s, NC, constraints.as_ref())?;
-    let mut x = DVector::zeros(kkt.size());
-    let mut rhs = 0.0;
-    for step in 0..=REFINEMENT_STEPS {
-        let res = kkt.residual(&phi, samples, &x);
-        if step == 0 {
-            rhs = res.amax();
-        }
+    let first = kkt.residual_at_zero(&design);
+    let rhs = first.amax();
+    let mut x = kkt.solve(&first).ok_or(FitFailure::Singular)?;
+    for _ in 0..REFINEMENT_STEPS {
+        let res = kkt.residual(&design, &x);
         x += kkt.solve(&res).ok_or(FitFailure::Singular)?;
     }
     // A near-singular KKT matrix (dependent or inconsistent rows) shows up as a
     // residual far above round-off (the normal matrix alone is checked by
     // `stability` above).
     if kkt.c.nrows() > 0 {
-        let res = kkt.residual(&phi, samples, &x).amax();
+        let res = kkt.residual(&design, &x).amax();
         if res.is_nan() || res > 1e-9 * (1.0 + rhs) {
             return Err(FitFailure::Singular);
         }
@@ -215,33 +213,35 @@ fn shifted_constraints(c: &DMatrix<f64>, t: &DMatrix<f64>) -> DMatrix<f64> {
     out
 }
 
-/// The design matrix `A_{sj} = φ_j(ζ_s)`, row `s` at `s · n_b ..`: evaluated
-/// once per fit, read by the normal matrix and every refinement residual.
-fn design_matrix<const NC: usize>(basis: &Monomials, samples: &[Sample<NC>]) -> Vec<f64> {
-    let nb = basis.len();
-    let mut phi = vec![0.0; nb * samples.len()];
-    for ((x, _), row) in samples.iter().zip(phi.chunks_exact_mut(nb)) {
-        basis.values(*x, row);
-    }
-    phi
+/// The samples of one fit as dense matrices: the design matrix
+/// `A_{sj} = φ_j(ζ_s)` (`n_s × n_b`) and the values `B_{sc}` (`n_s × NC`),
+/// evaluated once per fit and read by the normal matrix and every refinement
+/// residual. Column-major, so that `AᵀA`, `Aᵀ R` and `A X` are products of
+/// contiguous columns.
+struct Design {
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
 }
 
-/// `AᵀA` (`n_b × n_b`) of the design matrix `phi` (rows of `nb`).
-fn normal_matrix(nb: usize, phi: &[f64]) -> DMatrix<f64> {
-    let mut m = DMatrix::zeros(nb, nb);
-    for row in phi.chunks_exact(nb) {
-        for a in 0..nb {
-            for b in 0..=a {
-                m[(a, b)] += row[a] * row[b];
+impl Design {
+    fn new<const NC: usize>(basis: &Monomials, samples: &[Sample<NC>]) -> Design {
+        let nb = basis.len();
+        let mut a = DMatrix::zeros(samples.len(), nb);
+        let mut row = vec![0.0; nb];
+        for (s, (x, _)) in samples.iter().enumerate() {
+            basis.values(*x, &mut row);
+            for (j, &v) in row.iter().enumerate() {
+                a[(s, j)] = v;
             }
         }
+        let b = DMatrix::from_fn(samples.len(), NC, |s, c| samples[s].1[c]);
+        Design { a, b }
     }
-    for a in 0..nb {
-        for b in 0..a {
-            m[(b, a)] = m[(a, b)];
-        }
+
+    /// `AᵀA` (`n_b × n_b`).
+    fn normal_matrix(&self) -> DMatrix<f64> {
+        self.a.tr_mul(&self.a)
     }
-    m
 }
 
 /// Scales `m ← S m S` with `S = diag(1/√m_jj)` (0 for a zero column); returns
@@ -359,37 +359,43 @@ impl Kkt {
         self.c.ncols() + self.c.nrows()
     }
 
-    /// `[S Aᵀ(B − A S ã) − C̃ᵀλ; d̃ − C̃ ã]` at `x = [ã; λ]`, with the
-    /// design matrix `A` of [`design_matrix`].
-    fn residual<const NC: usize>(
-        &self,
-        design: &[f64],
-        samples: &[Sample<NC>],
-        x: &DVector<f64>,
-    ) -> DVector<f64> {
+    /// `[S Aᵀ(B − A S ã) − C̃ᵀλ; d̃ − C̃ ã]` at `x = [ã; λ]`: the
+    /// residual from the samples, not from `AᵀA`.
+    fn residual(&self, design: &Design, x: &DVector<f64>) -> DVector<f64> {
         let nb = self.s.len();
-        let n = nb * NC;
-        let a: Vec<f64> = (0..n).map(|i| self.s[i % nb] * x[i]).collect();
-        let mut res = DVector::zeros(self.size());
-        for ((_, b), phi) in samples.iter().zip(design.chunks_exact(nb)) {
-            for c in 0..NC {
-                let fit: f64 = (0..nb).map(|j| a[c * nb + j] * phi[j]).sum();
-                let r = b[c] - fit;
-                for j in 0..nb {
-                    res[c * nb + j] += phi[j] * r;
-                }
-            }
-        }
-        for i in 0..n {
-            res[i] *= self.s[i % nb];
-        }
-        let (at, lambda) = (x.rows(0, n), x.rows(n, self.c.nrows()));
+        let nc = design.b.ncols();
+        let n = nb * nc;
+        let coeffs = DMatrix::from_fn(nb, nc, |j, c| self.s[j] * x[c * nb + j]);
+        let mut r = design.b.clone();
+        r.gemm(-1.0, &design.a, &coeffs, 1.0);
+        let lambda = x.rows(n, self.c.nrows());
+        let mut res = self.scaled_top(design, &r);
         let top = self.c.tr_mul(&lambda);
         for i in 0..n {
             res[i] -= top[i];
         }
-        let bottom = &self.d - &self.c * at;
+        let bottom = &self.d - &self.c * x.rows(0, n);
         res.rows_mut(n, self.c.nrows()).copy_from(&bottom);
+        res
+    }
+
+    /// [`Kkt::residual`] at `x = 0`: `[S Aᵀ B; d̃]`.
+    fn residual_at_zero(&self, design: &Design) -> DVector<f64> {
+        let n = self.c.ncols();
+        let mut res = self.scaled_top(design, &design.b);
+        res.rows_mut(n, self.c.nrows()).copy_from(&self.d);
+        res
+    }
+
+    /// `S Aᵀ R` stacked by component (`R`: `n_s × NC`), in a vector of
+    /// [`Kkt::size`] whose multiplier rows are zero.
+    fn scaled_top(&self, design: &Design, r: &DMatrix<f64>) -> DVector<f64> {
+        let nb = self.s.len();
+        let atr = design.a.tr_mul(r);
+        let mut res = DVector::zeros(self.size());
+        for (i, v) in atr.iter().enumerate() {
+            res[i] = self.s[i % nb] * v;
+        }
         res
     }
 

@@ -39,7 +39,9 @@ mod tests;
 use nalgebra::DMatrix;
 
 pub use fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
-pub use spr::{recover, Patch, PatchInfo, PatchSamples, Recovered, RecoveryStats, SprOptions};
+pub use spr::{
+    recover, CellBlend, Patch, PatchInfo, PatchSamples, Recovered, RecoveryStats, SprOptions,
+};
 
 /// A sample: a point (physical, or scaled for [`fit_polynomial`]) and the `NC`
 /// field components there.

@@ -341,20 +341,71 @@ impl<const NC: usize> Recovered<NC> {
     /// # Panics
     /// When `cell` is not a cell of the grid.
     pub fn eval(&self, cell: usize, x: [f64; 3]) -> Result<[f64; NC]> {
+        Ok(self.cell_blend(cell)?.eval(x))
+    }
+
+    /// [`Recovered::eval`] on `cell` with the cell's vertices looked up once,
+    /// for callers that evaluate many points of one cell.
+    ///
+    /// # Panics
+    /// When `cell` is not a cell of the grid.
+    pub fn cell_blend(&self, cell: usize) -> Result<CellBlend<'_, NC>> {
         assert!(cell < self.grid.num_cells(), "cell {cell} out of range");
         let mut vertices = [0; 8];
         self.grid.cell_nodes(ElementOrder::Q1, cell, &mut vertices);
-        let lo = self.grid.cell_box(cell).lo;
-        let mut hat = [0.0; 8];
-        shape_values(ElementOrder::Q1, scaled(lo, self.grid.h, x), &mut hat);
-        let mut phi = vec![0.0; self.basis.len()];
-        let mut out = [0.0; NC];
-        for (&node, &w) in vertices.iter().zip(&hat) {
-            let s = self.node_polynomial(node, x, &mut phi)?;
-            for c in 0..NC {
-                out[c] += w * s[c];
-            }
+        let mut coeffs: [&[f64]; 8] = [&[]; 8];
+        for (slot, &node) in coeffs.iter_mut().zip(&vertices) {
+            *slot = self.coefficients(node)?;
         }
-        Ok(out)
+        Ok(CellBlend {
+            basis: &self.basis,
+            h: self.grid.h,
+            lo: self.grid.cell_box(cell).lo,
+            centers: vertices.map(|node| self.grid.node_position(ElementOrder::Q1, node)),
+            coeffs,
+        })
     }
 }
+
+/// The CPE blend on one cell: its 8 vertices' positions and polynomials
+/// ([`Recovered::cell_blend`]).
+pub struct CellBlend<'a, const NC: usize> {
+    basis: &'a Monomials,
+    h: f64,
+    lo: [f64; 3],
+    centers: [[f64; 3]; 8],
+    coeffs: [&'a [f64]; 8],
+}
+
+impl<const NC: usize> CellBlend<'_, NC> {
+    /// `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` for `x` in the cell's box.
+    pub fn eval(&self, x: [f64; 3]) -> [f64; NC] {
+        let mut hat = [0.0; 8];
+        shape_values(ElementOrder::Q1, scaled(self.lo, self.h, x), &mut hat);
+        let nb = self.basis.len();
+        let mut small = [0.0; SMALL_BASIS];
+        let mut large = Vec::new();
+        let phi = if nb <= SMALL_BASIS {
+            &mut small[..nb]
+        } else {
+            large.resize(nb, 0.0);
+            &mut large[..]
+        };
+        let mut out = [0.0; NC];
+        for ((center, a), &w) in self.centers.iter().zip(&self.coeffs).zip(&hat) {
+            self.basis.values(scaled(*center, self.h, x), phi);
+            for c in 0..NC {
+                let s: f64 = a[c * nb..(c + 1) * nb]
+                    .iter()
+                    .zip(&*phi)
+                    .map(|(a, p)| a * p)
+                    .sum();
+                out[c] += w * s;
+            }
+        }
+        out
+    }
+}
+
+/// Basis sizes up to this (degree 3) are evaluated in a stack buffer.
+const SMALL_BASIS: usize = 20;
