@@ -30,6 +30,7 @@
 //! it is defined on the whole cell box, also outside Ω (polynomial extension).
 
 mod fit;
+mod sample_cache;
 mod spr;
 #[cfg(test)]
 mod spr_tests;

@@ -10,6 +10,7 @@
 use rayon::prelude::*;
 
 use super::fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
+use super::sample_cache::SampleCache;
 use super::{Monomials, Sample};
 use crate::cells::CellKind;
 use crate::element::{shape_values, ElementOrder};
@@ -158,7 +159,10 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     };
     let fits: Vec<Result<(Vec<f64>, PatchInfo)>> = nodes
         .par_iter()
-        .map_init(Vec::new, |buf, &node| ctx.fit_node(node, buf))
+        .map_init(
+            || (Vec::new(), SampleCache::new()),
+            |(buf, cache), &node| ctx.fit_node(node, buf, cache),
+        )
         .collect();
     let mut coeffs = Vec::with_capacity(nodes.len() * NC * basis.len());
     let mut info = Vec::with_capacity(nodes.len());
@@ -186,11 +190,13 @@ struct Context<'a, S> {
 }
 
 impl<S> Context<'_, S> {
-    /// Fits `node`'s patch, enlarging it up to the ring limit; `buf` is scratch.
+    /// Fits `node`'s patch, enlarging it up to the ring limit; `buf` is scratch,
+    /// `cache` the worker's memo of cell samples.
     fn fit_node<const NC: usize>(
         &self,
         node: usize,
         buf: &mut Vec<Sample<NC>>,
+        cache: &mut SampleCache<NC>,
     ) -> Result<(Vec<f64>, PatchInfo)>
     where
         S: PatchSamples<NC>,
@@ -204,11 +210,8 @@ impl<S> Context<'_, S> {
             let first = cells.len();
             ring_cells(self.grid, self.kinds, vertex, ring, &mut cells);
             for &c in &cells[first..] {
-                let start = buf.len();
-                self.samples.samples(c, buf);
-                for s in &mut buf[start..] {
-                    s.0 = scaled(center, self.grid.h, s.0);
-                }
+                let samples = cache.get(self.samples, c);
+                buf.extend(samples.iter().map(|&(x, v)| (scaled(center, self.grid.h, x), v)));
             }
             let patch = Patch {
                 node,
