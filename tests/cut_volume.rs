@@ -22,9 +22,9 @@
 //! not at the edges: the height functions' branch points stay a fixed
 //! distance (`≈ Q² R / 2`) outside the boxes while the cells are not small
 //! against the cylinder's radius (`docs/volume-floor-findings.md`). Issue 15
-//! asks for the rates from the coarsest level; that is not met (a prototype
-//! on the branch `volume-rates` meets it at +31% wall time on the level-6
-//! sphere, `docs/volume-floor-findings.md`).
+//! asks for the rates from the coarsest level; that is not met (a prototype,
+//! described in `docs/volume-floor-findings.md`, met it at +31% wall time on
+//! the level-6 sphere).
 //! The test holds every level below `1e-5` (Q1 rules) and `1e-8` (Q2 rules),
 //! which Saye's rules without edge splitting miss by one to three orders of
 //! magnitude, and with `CGFEM_VOLUME_LEVELS ≥ 7` the rate between the two

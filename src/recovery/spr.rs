@@ -211,7 +211,11 @@ impl<S> Context<'_, S> {
             ring_cells(self.grid, self.kinds, vertex, ring, &mut cells);
             for &c in &cells[first..] {
                 let samples = cache.get(self.samples, c);
-                buf.extend(samples.iter().map(|&(x, v)| (scaled(center, self.grid.h, x), v)));
+                buf.extend(
+                    samples
+                        .iter()
+                        .map(|&(x, v)| (scaled(center, self.grid.h, x), v)),
+                );
             }
             let patch = Patch {
                 node,
