@@ -14,7 +14,7 @@ use anyhow::Context;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
 use cgfem_gpu::fem::boundary_mesh::BoundaryMesh;
-use cgfem_gpu::fem::field::{error_norms, interpolant_error};
+use cgfem_gpu::fem::field::solution_and_interpolant_errors;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;
@@ -348,16 +348,11 @@ pub fn run_case(
     if let Some(exact) = &setup.problem.exact {
         let (l, m) = (setup.problem.lambda, setup.problem.mu);
         let dofs = &setup.op.dofs;
-        report.error = Some(error_norms(
-            &setup.grid,
-            &setup.cells,
-            dofs,
-            &solution.u,
-            exact,
-            l,
-            m,
-        ));
-        match interpolant_error(&setup.grid, &setup.cells, dofs, exact, l, m) {
+        let (grid, cells, u) = (&setup.grid, &setup.cells, &solution.u);
+        let (error, interpolant) =
+            solution_and_interpolant_errors(grid, cells, dofs, u, exact, l, m);
+        report.error = Some(error);
+        match interpolant {
             Ok(e) => report.interpolant_error = Some(Some(e)),
             Err(why) => {
                 report.interpolant_error = Some(None);

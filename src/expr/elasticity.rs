@@ -37,6 +37,13 @@ impl VectorExpr {
         self.0.each_ref().map(|e| e.eval(x))
     }
 
+    /// The vector and its gradient `G[i][j] = ∂u_i/∂x_j` at `x`, in one
+    /// first-order AD pass per component.
+    pub fn value_and_gradient(&self, x: [f64; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+        let parts = self.0.each_ref().map(|e| e.eval_gradient(x));
+        (parts.map(|p| p.0), parts.map(|p| p.1))
+    }
+
     /// The gradient `G[i][j] = ∂u_i/∂x_j` at `x`.
     pub fn displacement_gradient(&self, x: [f64; 3]) -> [[f64; 3]; 3] {
         self.0.each_ref().map(|e| e.eval_gradient(x).1)

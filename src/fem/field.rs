@@ -3,7 +3,7 @@
 //! norms against an exact field (DESIGN §4):
 //! `‖e‖_E² = ∫_Ω ε(e) : σ(e)`, `‖e‖_L2² = ∫_Ω |e|²`, with `e = u − u_h`.
 //!
-//! The interpolant's error ([`interpolant_error`]) is a reference only where
+//! The interpolant's error ([`solution_and_interpolant_errors`]) is a reference only where
 //! the exact field is finite and of its own size at every active node: active
 //! nodes can lie outside the body, where the formula of the exact field need
 //! not mean anything (the Lamé field of a shell is singular at its centre).
@@ -106,82 +106,127 @@ pub fn error_norms(
     lambda: f64,
     mu: f64,
 ) -> ErrorNorms {
+    let [e] = error_norms_of(grid, cells, dofs, [u_h], exact, lambda, mu);
+    e
+}
+
+/// [`error_norms`] of `N` fields in one pass: the exact field and its
+/// gradient are evaluated once per quadrature point for all of them.
+fn error_norms_of<const N: usize>(
+    grid: &Grid,
+    cells: &Cells,
+    dofs: &DofMap,
+    fields: [&[f64]; N],
+    exact: &VectorExpr,
+    lambda: f64,
+    mu: f64,
+) -> [ErrorNorms; N] {
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
     let vol = grid.h.powi(3);
-    let point = |cell: usize, x: [f64; 3], w: f64| -> [f64; 4] {
-        let (v, g) = value_and_gradient(grid, dofs, u_h, cell, x);
-        let ue = exact.eval(x);
-        let ge = exact.displacement_gradient(x);
-        let mut e = [[0.0; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
-                e[i][j] = ge[i][j] - g[i][j];
-            }
-        }
-        let el2: f64 = (0..3).map(|i| (ue[i] - v[i]).powi(2)).sum();
+    // Per field: [energy of e, energy of u, L2 of e, L2 of u], weighted.
+    type Sums<const N: usize> = [[f64; 4]; N];
+    let point = |cell: usize, x: [f64; 3], w: f64| -> Sums<N> {
+        let (ue, ge) = exact.value_and_gradient(x);
+        let energy_u = w * energy_density(&ge, lambda, mu);
         let ul2: f64 = (0..3).map(|i| ue[i].powi(2)).sum();
-        [
-            w * energy_density(&e, lambda, mu),
-            w * energy_density(&ge, lambda, mu),
-            w * el2,
-            w * ul2,
-        ]
+        fields.map(|u_h| {
+            let (v, g) = value_and_gradient(grid, dofs, u_h, cell, x);
+            let e: [[f64; 3]; 3] =
+                std::array::from_fn(|i| std::array::from_fn(|j| ge[i][j] - g[i][j]));
+            let el2: f64 = (0..3).map(|i| (ue[i] - v[i]).powi(2)).sum();
+            [
+                w * energy_density(&e, lambda, mu),
+                energy_u,
+                w * el2,
+                w * ul2,
+            ]
+        })
     };
-    let add = |a: [f64; 4], b: [f64; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
-    let inside: [f64; 4] = (0..grid.num_cells())
+    let add = |a: Sums<N>, b: Sums<N>| -> Sums<N> {
+        std::array::from_fn(|f| std::array::from_fn(|k| a[f][k] + b[f][k]))
+    };
+    let zero = [[0.0; 4]; N];
+    let inside = (0..grid.num_cells())
         .into_par_iter()
         .filter(|&c| cells.kinds[c] == CellKind::Inside)
         .map(|c| {
             let lo = grid.cell_box(c).lo;
-            rule.iter().fold([0.0; 4], |acc, (xi, w)| {
+            rule.iter().fold(zero, |acc, (xi, w)| {
                 let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
                 add(acc, point(c, x, w * vol))
             })
         })
-        .reduce(|| [0.0; 4], add);
-    let cut: [f64; 4] = (0..cells.cut.len())
+        .reduce(|| zero, add);
+    let cut = (0..cells.cut.len())
         .into_par_iter()
         .map(|i| {
             cells
                 .volume_points(i)
                 .iter()
-                .fold([0.0; 4], |acc, q| add(acc, point(cells.cut[i], q.x, q.w)))
+                .fold(zero, |acc, q| add(acc, point(cells.cut[i], q.x, q.w)))
         })
-        .reduce(|| [0.0; 4], add);
-    let s = add(inside, cut);
+        .reduce(|| zero, add);
     // `NaN.max(0.0)` is 0 in Rust: keep a NaN a NaN (null in the report).
     let root = |v: f64| if v.is_nan() { v } else { v.max(0.0).sqrt() };
-    ErrorNorms {
+    add(inside, cut).map(|s| ErrorNorms {
         energy: root(s[0]),
         energy_relative: root(s[0] / s[1]),
         l2: s[2].sqrt(),
         l2_relative: (s[2] / s[3]).sqrt(),
-    }
+    })
 }
 
 /// A nodal value of the exact field more than this many times its largest
 /// magnitude sampled on the body marks a singularity of the field near an
-/// active node outside the body ([`interpolant_error`]). A smooth field
+/// active node outside the body ([`solution_and_interpolant_errors`]). A smooth field
 /// extended by at most one cell stays within a small factor of its values on
 /// the body (a factor 4 for the Lamé shell, whole, centred, inner radius 0.5,
 /// at h = 0.25, whose nodes nearest the centre lie at half the inner radius); a
 /// node at `1e-3` of the inner radius from the centre gives `1e6`.
 pub const SINGULAR_RATIO: f64 = 1e6;
 
-/// The error norms of the nodal interpolant of `exact`, or why they would
-/// mean nothing: a nodal value of `exact` that is not finite or exceeds
+/// The error norms of `u_h` ([`error_norms`]) and of the nodal interpolant
+/// of `exact`, in one pass; for the interpolant, why its norms would mean
+/// nothing instead: a nodal value of `exact` that is not finite or exceeds
 /// [`SINGULAR_RATIO`] times the largest `|u|` sampled on the body (the centres
 /// of inside cells and the volume points of cut cells), or norms that are
 /// not finite.
-pub fn interpolant_error(
+pub fn solution_and_interpolant_errors(
+    grid: &Grid,
+    cells: &Cells,
+    dofs: &DofMap,
+    u_h: &[f64],
+    exact: &VectorExpr,
+    lambda: f64,
+    mu: f64,
+) -> (ErrorNorms, Result<ErrorNorms, String>) {
+    let ui = interpolate(grid, dofs, exact);
+    if let Err(why) = singular_node(grid, cells, dofs, exact, &ui) {
+        let solution = error_norms(grid, cells, dofs, u_h, exact, lambda, mu);
+        return (solution, Err(why));
+    }
+    let [solution, e] = error_norms_of(grid, cells, dofs, [u_h, &ui], exact, lambda, mu);
+    let all = [e.energy, e.energy_relative, e.l2, e.l2_relative];
+    if all.iter().any(|v| !v.is_finite()) {
+        let why = format!(
+            "the interpolant's error norms are not finite (energy {}, L2 {})",
+            e.energy, e.l2
+        );
+        return (solution, Err(why));
+    }
+    (solution, Ok(e))
+}
+
+/// Why the interpolant `ui` of `exact` is no reference: the first active node
+/// where it is not finite or exceeds [`SINGULAR_RATIO`] times the largest
+/// `|u|` sampled on the body.
+fn singular_node(
     grid: &Grid,
     cells: &Cells,
     dofs: &DofMap,
     exact: &VectorExpr,
-    lambda: f64,
-    mu: f64,
-) -> Result<ErrorNorms, String> {
-    let ui = interpolate(grid, dofs, exact);
+    ui: &[f64],
+) -> Result<(), String> {
     let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let inside = (0..grid.num_cells())
         .into_par_iter()
@@ -208,13 +253,5 @@ pub fn interpolant_error(
             ));
         }
     }
-    let e = error_norms(grid, cells, dofs, &ui, exact, lambda, mu);
-    let all = [e.energy, e.energy_relative, e.l2, e.l2_relative];
-    if all.iter().any(|v| !v.is_finite()) {
-        return Err(format!(
-            "the interpolant's error norms are not finite (energy {}, L2 {})",
-            e.energy, e.l2
-        ));
-    }
-    Ok(e)
+    Ok(())
 }

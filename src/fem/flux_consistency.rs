@@ -238,21 +238,26 @@ impl FluxCorrection {
         sigma: &Recovered<6>,
         rhs: &mut [f64],
     ) -> Result<()> {
+        // In parallel over the cells, a batch at a time so that the loads
+        // held before they are added stay a few MiB.
         let recovered: Vec<usize> = self.recovered_cells().collect();
-        let loads: Vec<Vec<PointLoad>> = recovered
-            .par_iter()
-            .map(|&i| {
-                let blend = sigma.cell_blend(cells.cut[i])?;
-                let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
-                let mut out = Vec::new();
-                let mut sink = |x, f| out.push((x, f));
-                self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
-                Ok(out)
-            })
-            .collect::<Result<_>>()?;
-        for (&i, cell_loads) in recovered.iter().zip(loads) {
-            for (x, f) in cell_loads {
-                add_point_load(grid, dofs, cells.cut[i], x, f, rhs);
+        for batch in recovered.chunks(LOAD_BATCH) {
+            let loads: Vec<Vec<PointLoad>> = batch
+                .par_iter()
+                .map(|&i| {
+                    let blend = sigma.cell_blend(cells.cut[i])?;
+                    let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
+                    let mut out = Vec::new();
+                    let mut sink = |x, f| out.push((x, f));
+                    let share = self.recovered_share[i];
+                    self.for_each_load(grid, cells, i, share, &mut tau, &mut sink)?;
+                    Ok(out)
+                })
+                .collect::<Result<_>>()?;
+            for (&i, cell_loads) in batch.iter().zip(loads) {
+                for (x, f) in cell_loads {
+                    add_point_load(grid, dofs, cells.cut[i], x, f, rhs);
+                }
             }
         }
         Ok(())
@@ -305,6 +310,10 @@ impl FluxCorrection {
 
 /// A point load `(x, f)` of a correction.
 type PointLoad = ([f64; 3], [f64; 3]);
+
+/// Cut cells whose recovered loads are computed together (at most 125 loads
+/// of 48 bytes each per cell).
+const LOAD_BATCH: usize = 1024;
 
 /// The symmetric matrix of a Voigt stress (xx, yy, zz, yz, xz, xy).
 fn voigt_matrix(s: &[f64; 6]) -> [[f64; 3]; 3] {
