@@ -30,9 +30,7 @@ impl Jet {
         Jet {
             value: f(self.value, other.value),
             grad: std::array::from_fn(|i| f(self.grad[i], other.grad[i])),
-            hess: std::array::from_fn(|i| {
-                std::array::from_fn(|j| f(self.hess[i][j], other.hess[i][j]))
-            }),
+            hess: symmetric(|i, j| f(self.hess[i][j], other.hess[i][j])),
         }
     }
 
@@ -50,9 +48,7 @@ impl Jet {
         Jet {
             value: g,
             grad: u.map(|ui| d1 * ui),
-            hess: std::array::from_fn(|i| {
-                std::array::from_fn(|j| d2 * (u[i] * u[j]) + d1 * h[i][j])
-            }),
+            hess: symmetric(|i, j| d2 * (u[i] * u[j]) + d1 * h[i][j]),
         }
     }
 
@@ -70,9 +66,24 @@ impl Jet {
         Jet {
             value: p.value,
             grad: std::array::from_fn(|i| fu * u[i] + fv * v[i]),
-            hess: std::array::from_fn(|i| std::array::from_fn(|j| hess(i, j))),
+            hess: symmetric(hess),
         }
     }
+}
+
+/// The symmetric matrix with `m[i][j] = m[j][i] = f(i, j)` for `i ≤ j`: six
+/// evaluations instead of nine. Every Hessian formula above is symmetric in
+/// `i`, `j` to the bit (products and sums commute in floating point, and the
+/// operands' Hessians are symmetric), so mirroring changes no value.
+fn symmetric(f: impl Fn(usize, usize) -> f64) -> Mat3 {
+    let mut m = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in i..3 {
+            m[i][j] = f(i, j);
+            m[j][i] = m[i][j];
+        }
+    }
+    m
 }
 
 impl Scalar for Jet {
