@@ -3,10 +3,11 @@
 //! norms against an exact field (DESIGN §4):
 //! `‖e‖_E² = ∫_Ω ε(e) : σ(e)`, `‖e‖_L2² = ∫_Ω |e|²`, with `e = u − u_h`.
 //!
-//! The interpolant's error ([`solution_and_interpolant_errors`]) is a reference only where
-//! the exact field is finite and of its own size at every active node: active
-//! nodes can lie outside the body, where the formula of the exact field need
-//! not mean anything (the Lamé field of a shell is singular at its centre).
+//! The interpolant's error ([`solution_and_interpolant_errors`]) is a
+//! reference only where the exact field is finite and of its own size at
+//! every active node: active nodes can lie outside the body, where the formula
+//! of the exact field need not mean anything (the Lamé field of a shell is
+//! singular at its centre).
 
 use rayon::prelude::*;
 
@@ -178,11 +179,12 @@ fn error_norms_of<const N: usize>(
 
 /// A nodal value of the exact field more than this many times its largest
 /// magnitude sampled on the body marks a singularity of the field near an
-/// active node outside the body ([`solution_and_interpolant_errors`]). A smooth field
-/// extended by at most one cell stays within a small factor of its values on
-/// the body (a factor 4 for the Lamé shell, whole, centred, inner radius 0.5,
-/// at h = 0.25, whose nodes nearest the centre lie at half the inner radius); a
-/// node at `1e-3` of the inner radius from the centre gives `1e6`.
+/// active node outside the body ([`solution_and_interpolant_errors`]). A
+/// smooth field extended by at most one cell stays within a small factor of
+/// its values on the body (a factor 4 for the Lamé shell, whole, centred,
+/// inner radius 0.5, at h = 0.25, whose nodes nearest the centre lie at half
+/// the inner radius); a node at `1e-3` of the inner radius from the centre
+/// gives `1e6`.
 pub const SINGULAR_RATIO: f64 = 1e6;
 
 /// The error norms of `u_h` ([`error_norms`]) and of the nodal interpolant

@@ -142,14 +142,9 @@ impl Basis {
 /// with `m × m` points, exact for total degree `2m − 2`: barycentric-free
 /// coordinates `(u, uv)` of the square's points, weights summing to ½.
 fn collapsed_rule(m: usize) -> Vec<([f64; 2], f64)> {
-    let (x, w) = gauss_legendre_unit(m);
-    let mut out = Vec::with_capacity(m * m);
-    for (u, wu) in x.iter().zip(&w) {
-        for (v, wv) in x.iter().zip(&w) {
-            out.push(([u * (1.0 - v), u * v], u * wu * wv));
-        }
-    }
-    out
+    let (u, w) = gauss_legendre_unit(m);
+    let with_jacobian: Vec<f64> = u.iter().zip(&w).map(|(u, w)| u * w).collect();
+    collapsed(&u, &with_jacobian)
 }
 
 /// The collapsed rule with the Jacobian `u` in the weights of the collapsed
@@ -159,11 +154,18 @@ fn collapsed_rule(m: usize) -> Vec<([f64; 2], f64)> {
 /// degree `n` times two `ℓ` of degree `n − 1`), take `m = ⌈(3n − 1)/2⌉`: 16
 /// points per fan triangle for Q1 (25 with the Legendre rule), 49 for Q2 (64).
 fn collapsed_jacobi_rule(m: usize) -> Vec<([f64; 2], f64)> {
-    let (x, w) = gauss_jacobi_u_unit(m);
-    let (y, wy) = gauss_legendre_unit(m);
-    let mut out = Vec::with_capacity(m * m);
-    for (u, wu) in x.iter().zip(&w) {
-        for (v, wv) in y.iter().zip(&wy) {
+    let (u, w) = gauss_jacobi_u_unit(m);
+    collapsed(&u, &w)
+}
+
+/// The points `(u(1 − v), uv)` of the collapsed square for the points `u`
+/// (weights `wu`, the Jacobian `u` included) and as many Gauss–Legendre
+/// points `v`.
+fn collapsed(u: &[f64], wu: &[f64]) -> Vec<([f64; 2], f64)> {
+    let (v, wv) = gauss_legendre_unit(u.len());
+    let mut out = Vec::with_capacity(u.len() * v.len());
+    for (u, wu) in u.iter().zip(wu) {
+        for (v, wv) in v.iter().zip(&wv) {
             out.push(([u * (1.0 - v), u * v], wu * wv));
         }
     }

@@ -327,18 +327,17 @@ impl<const NC: usize> Recovered<NC> {
     /// `σ*_node(x)`, the patch polynomial of `node` at the physical point `x`
     /// (any point: the polynomial extends beyond its patch).
     pub fn eval_node_polynomial(&self, node: usize, x: [f64; 3]) -> Result<[f64; NC]> {
-        let mut phi = vec![0.0; self.basis.len()];
-        self.node_polynomial(node, x, &mut phi)
-    }
-
-    fn node_polynomial(&self, node: usize, x: [f64; 3], phi: &mut [f64]) -> Result<[f64; NC]> {
         let a = self.coefficients(node)?;
         let center = self.grid.node_position(ElementOrder::Q1, node);
-        self.basis.values(scaled(center, self.grid.h, x), phi);
-        let nb = phi.len();
-        Ok(std::array::from_fn(|c| {
-            (0..nb).map(|j| a[c * nb + j] * phi[j]).sum()
-        }))
+        let mut phi = vec![0.0; self.basis.len()];
+        Ok(polynomial_at(
+            self.basis(),
+            a,
+            center,
+            self.grid.h,
+            x,
+            &mut phi,
+        ))
     }
 
     /// The CPE blend `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` over the 8 vertices `i` of
@@ -400,18 +399,29 @@ impl<const NC: usize> CellBlend<'_, NC> {
         };
         let mut out = [0.0; NC];
         for ((center, a), &w) in self.centers.iter().zip(&self.coeffs).zip(&hat) {
-            self.basis.values(scaled(*center, self.h, x), phi);
+            let s: [f64; NC] = polynomial_at(self.basis, a, *center, self.h, x, phi);
             for c in 0..NC {
-                let s: f64 = a[c * nb..(c + 1) * nb]
-                    .iter()
-                    .zip(&*phi)
-                    .map(|(a, p)| a * p)
-                    .sum();
-                out[c] += w * s;
+                out[c] += w * s[c];
             }
         }
         out
     }
+}
+
+/// The patch polynomial with stacked coefficients `a` (component `c`, term
+/// `j` at `c · n_b + j`) of the vertex at `center` at the physical point `x`;
+/// `phi` is scratch of the basis's length.
+fn polynomial_at<const NC: usize>(
+    basis: &Monomials,
+    a: &[f64],
+    center: [f64; 3],
+    h: f64,
+    x: [f64; 3],
+    phi: &mut [f64],
+) -> [f64; NC] {
+    basis.values(scaled(center, h, x), phi);
+    let nb = phi.len();
+    std::array::from_fn(|c| (0..nb).map(|j| a[c * nb + j] * phi[j]).sum())
 }
 
 /// Basis sizes up to this (degree 3) are evaluated in a stack buffer.
