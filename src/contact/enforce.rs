@@ -13,9 +13,11 @@
 //! **Kinematics** (module `enforce_gap`). `x1 = X + u_s(X)`, current
 //! normal `n1` by Nanson, area ratio `J_s = |cof(F) N|`; the ray search on
 //! the current master surface (built from `u_m` at every call) gives the
-//! master triangle, whose current corners `p_k = X_k + u_m(X_k)` are
-//! evaluated with the shape functions of the triangle's master cell; then
-//! `g_N = |c| (p0 − x1)·ν / (c·ν)`, exactly the search's `(x2 − x1)·n1`.
+//! master patch (a curved PN triangle, see `patch`), whose current corners
+//! `p_k = X_k + u_m(X_k)` are evaluated with the shape functions of the
+//! triangle's master cell; its corner normals follow from the corners; then
+//! `g_N` is the ray parameter of the hit on the patch, exactly the search's
+//! `(x2 − x1)·n1`, differentiated through the ray–patch equations.
 //! A hit whose master normal `m` does not oppose `n1` (`n1·m ≥ 0`, e.g. a
 //! backward ray from a slave point beside the contact zone reaching the
 //! master's surface under it, or the master's far side) is no contact.

@@ -66,6 +66,54 @@ impl<const N: usize> HyperDual<N> {
         self.chain(s, 0.5 / s, -0.25 / (s * self.v))
     }
 
+    /// `q(z(y))` by the chain rule to second order, for an outer number `q`
+    /// in `K` inner variables `z` and each `z_r` given by its offset in
+    /// `y` and its derivatives in the `B` variables of `y` from there:
+    /// `∇q = Σ_r q_r ∇z_r`,
+    /// `∇²q = Σ_rs q_rs ∇z_r ⊗ ∇z_s + Σ_r q_r ∇²z_r`.
+    pub fn compose<const K: usize, const B: usize>(
+        q: &HyperDual<K>,
+        z: &[(usize, HyperDual<B>); K],
+    ) -> Self {
+        // A block may run past the end of `y`: its entries there are zero.
+        let len = |offset: usize| B.min(N.saturating_sub(offset));
+        let mut out = Self::cst(q.v);
+        for (&(offset, ref zr), &qr) in z.iter().zip(&q.g) {
+            for a in 0..len(offset) {
+                out.g[offset + a] += qr * zr.g[a];
+                for b in 0..len(offset) {
+                    out.h[offset + a][offset + b] += qr * zr.h[a][b];
+                }
+            }
+        }
+        for (&(oa, ref za), row) in z.iter().zip(&q.h) {
+            for (&(ob, ref zb), &w) in z.iter().zip(row) {
+                if w == 0.0 {
+                    continue;
+                }
+                for a in 0..len(oa) {
+                    let wa = w * za.g[a];
+                    for b in 0..len(ob) {
+                        out.h[oa + a][ob + b] += wa * zb.g[b];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// A number in `B` variables placed at `offset` among `N`.
+    pub fn embed<const B: usize>(offset: usize, x: &HyperDual<B>) -> Self {
+        let mut out = Self::cst(x.v);
+        for a in 0..B {
+            out.g[offset + a] = x.g[a];
+            for b in 0..B {
+                out.h[offset + a][offset + b] = x.h[a][b];
+            }
+        }
+        out
+    }
+
     fn zip(self, o: Self, f: impl Fn(f64, f64) -> f64) -> Self {
         let mut r = self;
         r.v = f(self.v, o.v);

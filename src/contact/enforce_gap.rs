@@ -4,29 +4,32 @@
 //!
 //! **Variables** `y = [x1, F, p0, p1, p2, a]` (indices 0–2, 3–11 row-major
 //! `F_ij` at `3 + 3i + j`, 12–14, 15–17, 18–20, 21–23): the current slave
-//! point `x1 = X + u_s(X)`, the slave deformation gradient `F = I + ∇_X u_s`
-//! there, the current corners `p_k = X_k + u_m(X_k)` of the master triangle
-//! the ray hit, and the current position `a = Â + u_m(Â)` of the friction
-//! anchor `Â` (the master point touched at the last converged step; unused
-//! without friction). Every one of them is *linear* in the nodal
-//! displacements, so the
-//! chain rule to the dofs needs no second derivative of `y`:
-//! `∇_u g = Aᵀ ∇_y g`, `∇²_u g = Aᵀ ∇²_y g A` with `A = ∂y/∂u` constant.
+//! point `x1 = X + u_s(X)`, the slave deformation gradient
+//! `F = I + ∇_X u_s` there, the current corners `p_k = X_k + u_m(X_k)` of
+//! the master patch the ray hit (its corner normals follow from them,
+//! [`super::patch::corner_normals`]), and the current position
+//! `a = Â + u_m(Â)` of the friction anchor `Â` (the master point touched at
+//! the last converged step; unused without friction). Every one of them is
+//! *linear* in the nodal displacements, so the chain rule to the dofs needs
+//! no second derivative of `y`: `∇_u g = Aᵀ ∇_y g`,
+//! `∇²_u g = Aᵀ ∇²_y g A` with `A = ∂y/∂u` constant.
 //!
 //! **Gap.** The ray from `x1` along the current slave normal
-//! `n1 = c/|c|`, `c = cof(F) N` (Nanson, for `det F > 0`), meets the plane
-//! of the current master triangle, of normal `ν = (p1 − p0) × (p2 − p0)`, at
-//! `x2 = x1 + g n1` with
-//! `g_N = (p0 − x1)·ν / (n1·ν) = |c| (p0 − x1)·ν / (c·ν)`
-//! — the search's `g_N = (x2 − x1)·n1` as a closed-form function of `y`
-//! (the barycentric coordinates of `x2`, and their variation, are
-//! eliminated by projecting on `ν`). The area ratio is
+//! `n1 = c/|c|`, `c = cof(F) N` (Nanson, for `det F > 0`), meets the
+//! master's curved patch ([`super::patch`], built from the corners `p_k`)
+//! at `x2 = x(s, t) = x1 + g_N n1`: `g_N` is the search's `(x2 − x1)·n1`,
+//! an implicit function of 15 inner quantities `z = [x1, c, p_k]`. Two
+//! Newton steps of the ray–patch equations in forward-mode numbers in `z`,
+//! from the converged `(s, t, g_N)`, give its exact gradient and Hessian in
+//! `z`; the chain rule to `y` ([`HyperDual::compose`]) adds the second
+//! derivatives of `c`, quadratic in `F`. The area ratio is
 //! `J_s = da/dA = |c|`.
 //!
 //! **Slip.** The tangential relative displacement from the anchor,
 //! `g_T = (I − n1 ⊗ n1)(x1 − a)`.
 
 use super::enforce_dual::HyperDual;
+use super::patch::{cofactor_times, corner_normals, dot, Patch};
 
 /// Number of kinematic variables.
 pub const NVAR: usize = 24;
@@ -44,6 +47,13 @@ pub const A: usize = 21;
 pub type D = HyperDual<NVAR>;
 type V = [D; 3];
 
+/// Number of inner variables of the gap, `z = [x1, c, p0, p1, p2]`.
+const NZ: usize = 15;
+/// A scalar with derivatives in `z`.
+type Z = HyperDual<NZ>;
+/// A scalar with derivatives in a block of 9 consecutive entries of `y`.
+type Block = HyperDual<9>;
+
 /// The point's kinematics, each with derivatives in `y`.
 #[derive(Clone, Debug)]
 pub struct LocalGap {
@@ -57,49 +67,74 @@ pub struct LocalGap {
     pub slip: [D; 3],
 }
 
+/// The master patch's reference data: the reference corners `X_k` and
+/// unit normals `N_k` there, and the hit's patch coordinates and gap
+/// `(s, t, g_N)` from the search (the start of the Newton iteration).
+#[derive(Clone, Copy, Debug)]
+pub struct PatchHit {
+    pub corners: [[f64; 3]; 3],
+    pub normals: [[f64; 3]; 3],
+    pub start: [f64; 3],
+}
+
 fn vector(y: &[f64; NVAR], at: usize) -> V {
     [0, 1, 2].map(|i| D::var(y[at + i], at + i))
 }
 
-fn sub(a: &V, b: &V) -> V {
-    [0, 1, 2].map(|i| a[i] - b[i])
+/// The entries `y[at..at + 3]` as variables of their block.
+fn block_vector(y: &[f64; NVAR], at: usize) -> [(usize, Block); 3] {
+    [0, 1, 2].map(|i| (at, Block::var(y[at + i], i)))
 }
 
-fn dot(a: &V, b: &V) -> D {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+/// `cof(M) N` for the row-major 3 × 3 matrix `M = y[at..at + 9]`, in its
+/// block.
+fn cofactor_block(y: &[f64; NVAR], at: usize, n: [f64; 3]) -> [(usize, Block); 3] {
+    let rows = [0, 1, 2].map(|i| [0, 1, 2].map(|j| Block::var(y[at + 3 * i + j], 3 * i + j)));
+    cofactor_times(&rows, n).map(|c| (at, c))
 }
 
-fn cross(a: &V, b: &V) -> V {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+/// `g_N` in the inner variables `z` (values `zv`), from the converged
+/// `(s, t, g_N)`: the ray–patch solve refined in `f64`, then two Newton steps
+/// in forward-mode numbers.
+fn gap_in_z(zv: &[f64; NZ], hit: &PatchHit) -> Z {
+    let var = |r: usize| Z::var(zv[r], r);
+    let x1 = [0, 1, 2].map(var);
+    let c = [3, 4, 5].map(var);
+    let p = [0, 1, 2].map(|k| [0, 1, 2].map(|i| var(6 + 3 * k + i)));
+    let value = |x: &[Z; 3]| x.map(|c| c.v);
+    let pv = p.each_ref().map(value);
+    let plain = Patch::new(&pv, &corner_normals(&hit.corners, &hit.normals, &pv));
+    let d = super::patch::unit(&value(&c));
+    let z = plain
+        .intersect(value(&x1), d, hit.start)
+        .unwrap_or(hit.start);
+    let patch = Patch::new(&p, &corner_normals(&hit.corners, &hit.normals, &p));
+    let d = super::patch::unit(&c);
+    let mut z = z.map(Z::cst);
+    for _ in 0..2 {
+        z = patch.newton_step(&x1, &d, z);
+    }
+    z[2]
 }
 
-/// `c = cof(F) N`: rows of `cof(F)` are `F₂×F₃, F₃×F₁, F₁×F₂` (rows `Fᵢ`).
-fn cofactor_times(rows: &[V; 3], n_ref: [f64; 3]) -> V {
-    let cof = [
-        cross(&rows[1], &rows[2]),
-        cross(&rows[2], &rows[0]),
-        cross(&rows[0], &rows[1]),
-    ];
-    cof.map(|r| r[0].scale(n_ref[0]) + r[1].scale(n_ref[1]) + r[2].scale(n_ref[2]))
-}
+/// `g_N`, `J_s`, `n1` and `g_T` at the kinematic state `y` for the slave
+/// point's reference unit normal `n_ref` and the master patch `hit`.
+pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], hit: &PatchHit) -> LocalGap {
+    let c = cofactor_block(y, F, n_ref);
+    let mut z: Vec<(usize, Block)> = block_vector(y, X1).to_vec();
+    z.extend(c);
+    (0..3).for_each(|k| z.extend(block_vector(y, P + 3 * k)));
+    let z: [(usize, Block); NZ] = z.try_into().expect("15 inner variables");
+    let zv = z.each_ref().map(|(_, b)| b.v);
+    let gap = D::compose(&gap_in_z(&zv, hit), &z);
 
-/// `g_N` and `J_s` at the kinematic state `y` for the reference unit normal
-/// `n_ref` of the slave point.
-pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3]) -> LocalGap {
-    let x1 = vector(y, X1);
-    let rows = [0, 1, 2].map(|i| vector(y, F + 3 * i));
-    let p = [0, 1, 2].map(|k| vector(y, P + 3 * k));
-    let c = cofactor_times(&rows, n_ref);
-    let nu = cross(&sub(&p[1], &p[0]), &sub(&p[2], &p[0]));
+    let c = c.map(|(at, b)| D::embed(at, &b));
     let area_ratio = dot(&c, &c).sqrt();
-    let gap = area_ratio * dot(&sub(&p[0], &x1), &nu) * dot(&c, &nu).recip();
     let inverse_norm = area_ratio.recip();
     let n1 = c.map(|ci| ci * inverse_norm);
-    let d = sub(&x1, &vector(y, A));
+    let x1 = vector(y, X1);
+    let anchor = vector(y, A);
+    let d: V = [0, 1, 2].map(|i| x1[i] - anchor[i]);
     let normal_part = dot(&n1, &d);
     let slip = [0, 1, 2].map(|i| d[i] - n1[i] * normal_part);
     LocalGap {
@@ -113,9 +148,10 @@ pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3]) -> LocalGap {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::patch::unit;
 
-    /// A state: a sheared slave point over a tilted master triangle.
-    fn state() -> [f64; NVAR] {
+    /// A state: a sheared slave point over a tilted, curved master patch.
+    fn state() -> ([f64; NVAR], PatchHit) {
         let mut y = [0.0; NVAR];
         y[..3].copy_from_slice(&[0.1, -0.05, 0.02]);
         let f = [[1.1, 0.05, -0.02], [0.03, 0.95, 0.04], [0.01, -0.06, 1.02]];
@@ -127,35 +163,43 @@ mod tests {
             y[P + 3 * k..P + 3 * k + 3].copy_from_slice(&p[k]);
         }
         y[A..A + 3].copy_from_slice(&[0.13, -0.01, -0.04]);
-        y
+        let corners = [[-0.45, -0.4, -0.12], [0.55, -0.35, -0.1], [0.05, 0.6, -0.15]];
+        let normals = [[0.2, -0.1, 1.0], [-0.25, 0.05, 1.0], [0.0, 0.3, 1.0]].map(|n| unit(&n));
+        (
+            y,
+            PatchHit {
+                corners,
+                normals,
+                start: [1.0 / 3.0, 1.0 / 3.0, 0.0],
+            },
+        )
     }
 
     #[test]
-    fn the_gap_is_the_ray_distance_and_its_hessian_matches_differences() {
+    fn the_gap_is_the_ray_distance_to_the_patch_and_its_hessian_matches_differences() {
         let n_ref = [0.0, 0.0, -1.0];
-        let y = state();
-        let lg = local_gap(&y, n_ref);
-        // Independent value: x1 + g n1 lies in the master plane.
+        let (y, hit) = state();
+        let lg = local_gap(&y, n_ref, &hit);
+        // Independent value: x1 + g n1 lies on the current patch.
         let fm = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y[F + 3 * i + j]));
         let n1 = crate::contact::current_normal(&fm, n_ref);
-        let x2 = [0, 1, 2].map(|i| y[i] + lg.gap.v * n1[i]);
         let p = [0, 1, 2].map(|k| [0, 1, 2].map(|i| y[P + 3 * k + i]));
-        let e1 = [0, 1, 2].map(|i| p[1][i] - p[0][i]);
-        let e2 = [0, 1, 2].map(|i| p[2][i] - p[0][i]);
-        let nu = crate::geometry::surface::cross(e1, e2);
-        let off: f64 = (0..3).map(|i| (x2[i] - p[0][i]) * nu[i]).sum();
-        assert!(off.abs() < 1e-14, "{off}");
+        let patch = Patch::new(&p, &corner_normals(&hit.corners, &hit.normals, &p));
+        let x1 = [y[0], y[1], y[2]];
+        let z = patch.intersect(x1, n1, hit.start).unwrap();
+        assert!((z[2] - lg.gap.v).abs() < 1e-14, "{} vs {}", z[2], lg.gap.v);
+        assert!((0.0..1.0).contains(&z[0]) && (0.0..1.0 - z[0]).contains(&z[1]));
         assert!((lg.area_ratio.v - crate::contact::area_ratio(&fm, n_ref)).abs() < 1e-14);
         // The slip is tangential.
         let along: f64 = (0..3).map(|i| lg.slip[i].v * n1[i]).sum();
         assert!(along.abs() < 1e-15, "{along}");
-        // Hessian columns against central differences of the gradient.
+        // Gradient and Hessian columns against central differences.
         let eps = 1e-6;
         for b in 0..NVAR {
             let (mut yp, mut ym) = (y, y);
             yp[b] += eps;
             ym[b] -= eps;
-            let (gp, gm) = (local_gap(&yp, n_ref).gap, local_gap(&ym, n_ref).gap);
+            let (gp, gm) = (local_gap(&yp, n_ref, &hit).gap, local_gap(&ym, n_ref, &hit).gap);
             for a in 0..NVAR {
                 let fd = (gp.g[a] - gm.g[a]) / (2.0 * eps);
                 assert!(
@@ -166,7 +210,10 @@ mod tests {
             }
             let fd = (gp.v - gm.v) / (2.0 * eps);
             assert!((fd - lg.gap.g[b]).abs() < 1e-8, "{b}");
-            let (sp, sm) = (local_gap(&yp, n_ref).slip, local_gap(&ym, n_ref).slip);
+            let (sp, sm) = (
+                local_gap(&yp, n_ref, &hit).slip,
+                local_gap(&ym, n_ref, &hit).slip,
+            );
             for i in 0..3 {
                 for a in 0..NVAR {
                     let fd = (sp[i].g[a] - sm[i].g[a]) / (2.0 * eps);

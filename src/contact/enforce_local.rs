@@ -10,7 +10,7 @@
 
 use super::enforce::SlaveQuadraturePoint;
 use super::enforce::{ContactBody, ContactPairData, MasterPoint, PointHistory, PointState};
-use super::enforce_gap::{local_gap, A, F, NVAR, P, X1};
+use super::enforce_gap::{local_gap, PatchHit, A, F, NVAR, P, X1};
 use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
 use super::enforce_tangent::PointTangent;
 use super::search::{area_ratio, current_normal, MasterSurface};
@@ -175,9 +175,16 @@ pub fn point_contact(
     }
     add_master_columns(&mut jac, &pair.master, hit.cell, &in_hit_cell);
     let anchor_x = anchor.map_or([0.0; 3], |a| a.x);
+    let master = pair.master_surface;
+    let patch = PatchHit {
+        corners,
+        normals: master.corners(&master.normals, hit.triangle),
+        start: [hit.barycentric[1], hit.barycentric[2], hit.gap],
+    };
     let lg = local_gap(
         &jac.state(reference_state(p.x, &corners, anchor_x), u),
         p.normal,
+        &patch,
     );
     state.hit = Some((hit.triangle, lg.gap.v));
     let input = LawInput {

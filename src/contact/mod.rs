@@ -7,6 +7,8 @@
 //!   `x = X + u(X)`.
 //! - [`bvh`]: a bounding-volume hierarchy over the current triangles, with
 //!   nearest-hit line queries (Möller–Trumbore).
+//! - [`patch`]: the curved (PN) master patches on those triangles, from the
+//!   current vertex normals, and the ray–patch intersection.
 //! - [`search`]: the ray-tracing search of the paper's eq. 2 — from a slave
 //!   point `x1` along the current slave normal `n1` to the current master
 //!   surface, the normal gap `g_N = (x2 − x1)·n1` — and the current normal by
@@ -24,6 +26,7 @@ mod enforce_law;
 mod enforce_local;
 mod enforce_tangent;
 pub(crate) mod marching;
+pub mod patch;
 pub mod report;
 pub mod search;
 pub mod surface;

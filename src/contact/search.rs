@@ -5,7 +5,8 @@
 //! current unit outward normal `n1`, the line `x1 + t n1` is intersected with
 //! the current master surface (both directions, so a penetrated point finds
 //! the surface behind it); `x2` is the hit of smallest `|t|` within the search
-//! radius, and the normal gap is
+//! radius on the curved master patches ([`super::patch`]: PN triangles on the
+//! marching-tetrahedra facets), and the normal gap is
 //! `g_N = (x2 − x1)·n1`
 //! (= t: positive when the master lies ahead of the slave's outward normal,
 //! i.e. the bodies are apart; negative on penetration). With the hit come
@@ -26,8 +27,9 @@
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
+use super::patch::{corner_normals, Patch};
 use super::surface::Surface;
-use super::vec3::{barycentric_point, cross, dot, norm, normalize, scale, sub};
+use super::vec3::{cross, dot, norm, normalize, scale, sub};
 use crate::fem::dofs::DofMap;
 use crate::fem::field::value_and_gradient;
 use crate::grid::Grid;
@@ -43,25 +45,33 @@ pub struct MasterSurface<'a> {
 /// The result of a successful search from one slave point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactPoint {
-    /// Index of the master triangle in its [`Surface`].
+    /// Index of the master triangle (of its curved patch) in its [`Surface`].
     pub triangle: usize,
     /// The master cell the triangle lies in.
     pub cell: usize,
-    /// Barycentric coordinates of `x2` in the master triangle.
+    /// Barycentric coordinates `(1 − s − t, s, t)` of `x2` in the patch.
     pub barycentric: [f64; 3],
     /// The hit in the current configuration.
     pub x2: [f64; 3],
-    /// The hit in the master's reference configuration.
+    /// The same patch coordinates on the reference patch.
     pub reference_x2: [f64; 3],
     /// `g_N = (x2 − x1)·n1`; negative on penetration.
     pub gap: f64,
-    /// Current unit outward normal of the master triangle.
+    /// Current unit outward normal of the master patch at `x2`.
     pub master_normal: [f64; 3],
 }
 
+/// Barycentric tolerance for a patch hit to count as inside its triangle.
+const INSIDE: f64 = 1e-10;
+
+/// How far outside its triangle (in barycentric coordinates) a hit through
+/// a crack between patches may be.
+const CRACK: f64 = 1e-3;
+
 impl<'a> MasterSurface<'a> {
-    /// The master `surface` with current vertex positions `current` (one per
-    /// surface vertex, e.g. from [`Surface::deformed`]); builds the BVH.
+    /// The master `surface` with current vertex positions `current` (one
+    /// per surface vertex, e.g. from [`Surface::deformed`]); builds the BVH
+    /// over the flat facets.
     pub fn new(surface: &'a Surface, current: Vec<[f64; 3]>) -> MasterSurface<'a> {
         assert_eq!(
             current.len(),
@@ -83,22 +93,70 @@ impl<'a> MasterSurface<'a> {
         &self.current
     }
 
+    /// The current curved patch of triangle `t`, with the corner normals
+    /// of [`corner_normals`].
+    pub fn patch(&self, t: usize) -> Patch<f64> {
+        let s = self.surface;
+        let p = s.corners(&self.current, t);
+        let n = corner_normals(&s.reference_corners(t), &s.corners(&s.normals, t), &p);
+        Patch::new(&p, &n)
+    }
+
     /// The ray search from `x1` along `n1` (normalised here) for hits with
-    /// `|t| ≤ radius`.
+    /// `|t| ≤ radius` on the curved master surface: the flat facets' nearest
+    /// hit (the BVH) gives a triangle; the ray is intersected (Newton's
+    /// method) with the patches of the triangles sharing a corner with it,
+    /// and the hit inside its triangle (barycentric coordinates ≥ −10⁻¹⁰)
+    /// of smallest `|t|` is taken (ties: the lowest triangle index). A ray
+    /// through the O(strain · h²) crack between two patches
+    /// ([`corner_normals`]) is inside neither: it takes the hit least outside
+    /// its triangle, when that is within [`CRACK`].
     pub fn search(&self, x1: [f64; 3], n1: [f64; 3], radius: f64) -> Option<ContactPoint> {
         let n1 = normalize(n1);
         let hit = self.bvh.nearest_hit(x1, n1, radius)?;
-        let t = hit.triangle;
-        let x2 = barycentric_point(&self.surface.corners(&self.current, t), hit.barycentric);
-        Some(ContactPoint {
+        let start = [hit.barycentric[1], hit.barycentric[2], hit.t];
+        let mut inside: Option<(f64, usize, [f64; 3])> = None;
+        let mut least_outside: Option<(f64, usize, [f64; 3])> = None;
+        for t in self.surface.triangles_around(hit.triangle) {
+            let Some(z) = self.patch(t).intersect(x1, n1, start) else {
+                continue;
+            };
+            if z[2].abs() > radius {
+                continue;
+            }
+            let l = (1.0 - z[0] - z[1]).min(z[0]).min(z[1]);
+            if l >= -INSIDE {
+                if inside.is_none_or(|(tau, _, _)| z[2].abs() < tau) {
+                    inside = Some((z[2].abs(), t, z));
+                }
+            } else if least_outside.is_none_or(|(m, _, _)| l > m) {
+                least_outside = Some((l, t, z));
+            }
+        }
+        let (_, t, z) = inside.or(least_outside.filter(|&(l, _, _)| l >= -CRACK))?;
+        Some(self.contact_point(&self.patch(t), t, x1, n1, z))
+    }
+
+    fn contact_point(
+        &self,
+        patch: &Patch<f64>,
+        t: usize,
+        x1: [f64; 3],
+        n1: [f64; 3],
+        z: [f64; 3],
+    ) -> ContactPoint {
+        let s = self.surface;
+        let reference = Patch::new(&s.reference_corners(t), &s.corners(&s.normals, t));
+        let x2 = patch.eval(z[0], z[1]).0;
+        ContactPoint {
             triangle: t,
-            cell: self.surface.triangles[t].cell,
-            barycentric: hit.barycentric,
+            cell: s.triangles[t].cell,
+            barycentric: [1.0 - z[0] - z[1], z[0], z[1]],
             x2,
-            reference_x2: barycentric_point(&self.surface.reference_corners(t), hit.barycentric),
+            reference_x2: reference.eval(z[0], z[1]).0,
             gap: dot(sub(x2, x1), n1),
-            master_normal: self.surface.normal(&self.current, t),
-        })
+            master_normal: patch.normal(z[0], z[1]),
+        }
     }
 
     /// [`MasterSurface::search`] for many slave points `(x1, n1)`, in parallel.

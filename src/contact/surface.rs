@@ -36,7 +36,7 @@
 use rayon::prelude::*;
 
 use super::marching;
-use super::vec3::{add, dot, norm, normalize, triangle_normal_scaled};
+use super::vec3::{add, dot, norm, normalize, scale, triangle_normal_scaled};
 use crate::fem::dofs::DofMap;
 use crate::fem::field::value_and_gradient;
 use crate::geometry::scalar::Dual;
@@ -64,7 +64,15 @@ pub struct Surface {
     /// A grid cell whose closure contains each vertex, that of the first
     /// triangle using it (for evaluating `u`).
     pub vertex_cell: Vec<usize>,
+    /// The exact unit outward normal `N` of the boundary part at each
+    /// vertex, `±∇ψ/|∇ψ|` of its leaf (the corner normals of the curved
+    /// master patches, [`super::patch`]).
+    pub normals: Vec<[f64; 3]>,
     pub triangles: Vec<SurfaceTriangle>,
+    /// The triangles around each vertex: those of vertex `v` are
+    /// `vertex_triangles[vertex_start[v]..vertex_start[v + 1]]`.
+    pub vertex_start: Vec<usize>,
+    pub vertex_triangles: Vec<u32>,
 }
 
 impl Surface {
@@ -73,13 +81,17 @@ impl Surface {
         let mut surface = Surface {
             vertices: Vec::new(),
             vertex_cell: Vec::new(),
+            normals: Vec::new(),
             triangles: Vec::new(),
+            vertex_start: Vec::new(),
+            vertex_triangles: Vec::new(),
         };
         for (i, leaf) in geometry.leaves().iter().enumerate() {
             if tags.contains(&leaf.tag) {
                 surface.add_leaf(grid, geometry, i);
             }
         }
+        surface.index_vertex_triangles();
         surface
     }
 
@@ -91,17 +103,23 @@ impl Surface {
         for (mut v, cell) in raw.triangles {
             let p = v.map(|k| raw.vertices[k as usize]);
             let centroid = [0, 1, 2].map(|a| (p[0][a] + p[1][a] + p[2][a]) / 3.0);
-            match polarity_on_boundary(geometry, leaf, centroid, grid.h) {
+            let sign = match polarity_on_boundary(geometry, leaf, centroid, grid.h) {
                 None => continue,
-                Some(Polarity::Subtracted) => v.swap(1, 2),
-                Some(Polarity::Added) => {}
-            }
+                Some(Polarity::Subtracted) => {
+                    v.swap(1, 2);
+                    -1.0
+                }
+                Some(Polarity::Added) => 1.0,
+            };
             let vertices = v.map(|k| {
                 let k = k as usize;
                 if kept[k] == u32::MAX {
                     kept[k] = self.vertices.len() as u32;
-                    self.vertices.push(raw.vertices[k]);
+                    let x = raw.vertices[k];
+                    self.vertices.push(x);
                     self.vertex_cell.push(cell);
+                    let gradient = leaf_gradient(leaf, x);
+                    self.normals.push(scale(normalize(gradient), sign));
                 }
                 kept[k]
             });
@@ -112,6 +130,45 @@ impl Surface {
                 tag,
             });
         }
+    }
+
+    /// Fills [`Surface::vertex_start`] and [`Surface::vertex_triangles`].
+    fn index_vertex_triangles(&mut self) {
+        let mut start = vec![0usize; self.vertices.len() + 1];
+        for t in &self.triangles {
+            t.vertices.iter().for_each(|&v| start[v as usize + 1] += 1);
+        }
+        for v in 0..self.vertices.len() {
+            start[v + 1] += start[v];
+        }
+        let mut next = start.clone();
+        let mut list = vec![0u32; start[self.vertices.len()]];
+        for (i, t) in self.triangles.iter().enumerate() {
+            for &v in &t.vertices {
+                list[next[v as usize]] = i as u32;
+                next[v as usize] += 1;
+            }
+        }
+        self.vertex_start = start;
+        self.vertex_triangles = list;
+    }
+
+    /// The triangles sharing a corner with triangle `t` (`t` included, in
+    /// increasing order, each once).
+    pub fn triangles_around(&self, t: usize) -> Vec<usize> {
+        let mut out: Vec<usize> = self.triangles[t]
+            .vertices
+            .iter()
+            .flat_map(|&v| {
+                let v = v as usize;
+                self.vertex_triangles[self.vertex_start[v]..self.vertex_start[v + 1]]
+                    .iter()
+                    .map(|&o| o as usize)
+            })
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// Every boundary part of `geometry` on `grid`.
@@ -165,6 +222,12 @@ impl Surface {
     pub fn deformed_by_field(&self, grid: &Grid, dofs: &DofMap, u: &[f64]) -> Vec<[f64; 3]> {
         self.deformed(|cell, x| value_and_gradient(grid, dofs, u, cell, x).0)
     }
+}
+
+/// The gradient of `leaf`'s level set at `x`.
+fn leaf_gradient(leaf: &Leaf, x: [f64; 3]) -> [f64; 3] {
+    leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)])
+        .d
 }
 
 /// How a leaf enters the body's level set where it is the boundary.

@@ -23,11 +23,6 @@ pub fn lerp(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
     [0, 1, 2].map(|i| a[i] + t * (b[i] - a[i]))
 }
 
-/// The point with barycentric coordinates `w` in the triangle `p`.
-pub fn barycentric_point(p: &[[f64; 3]; 3], w: [f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|i| w[0] * p[0][i] + w[1] * p[1][i] + w[2] * p[2][i])
-}
-
 /// `(p1 − p0) × (p2 − p0)`: twice the area times the unit normal.
 pub fn triangle_normal_scaled(p: &[[f64; 3]; 3]) -> [f64; 3] {
     cross(sub(p[1], p[0]), sub(p[2], p[0]))
