@@ -211,7 +211,18 @@ impl Coupling for ContactCoupling {
         let tangents = self
             .pairs
             .iter()
-            .map(|p| contact_residual_and_tangent(&self.data(p), u, &history(p)).tangent)
+            .map(|p| {
+                let e = contact_residual_and_tangent(&self.data(p), u, &history(p));
+                // The patch each point hit at this iterate is the one it keeps
+                // to until the next tangent (`MasterSurface::search_near`):
+                // the residual at `u` is unchanged, and within a Newton
+                // iteration every point stays on one smooth patch.
+                let mut h = p.history.lock().expect("contact history");
+                for (x, point) in h.iter_mut().zip(&e.points) {
+                    x.patch = point.hit.map(|(t, _)| t);
+                }
+                e.tangent
+            })
             .collect();
         Some(Box::new(Tangents(tangents)))
     }

@@ -140,6 +140,9 @@ pub struct PointHistory {
     pub anchor: Option<MasterPoint>,
     /// The tangential traction `t_T` at the last converged step.
     pub tangential: [f64; 3],
+    /// The master patch hit at the last converged step, preferred by the
+    /// search while the ray stays near it ([`MasterSurface::search_near`]).
+    pub patch: Option<usize>,
 }
 
 impl PointHistory {
@@ -222,22 +225,28 @@ impl Enforcement {
 
     /// The histories for the next step once this state has converged:
     /// active points are anchored at their master point with their
-    /// tangential traction; `recovered` gives the next `T̂_N` per point.
+    /// tangential traction, every point with a hit keeps its patch;
+    /// `recovered` gives the next `T̂_N` per point.
     pub fn converged_history(&self, recovered: &[f64]) -> Vec<PointHistory> {
         assert_eq!(recovered.len(), self.points.len(), "one T̂_N per point");
         self.points
             .iter()
             .zip(recovered)
-            .map(
-                |(p, &r)| match p.master_point.filter(|_| p.pressure > 0.0) {
+            .map(|(p, &r)| {
+                let patch = p.hit.map(|(t, _)| t);
+                match p.master_point.filter(|_| p.pressure > 0.0) {
                     Some(anchor) => PointHistory {
                         recovered: r,
                         anchor: Some(anchor),
                         tangential: p.tangential,
+                        patch,
                     },
-                    None => PointHistory::fresh(r),
-                },
-            )
+                    None => PointHistory {
+                        patch,
+                        ..PointHistory::fresh(r)
+                    },
+                }
+            })
             .collect()
     }
 }

@@ -1,24 +1,25 @@
 //! The normal gap of one slave point, its area ratio, current normal and
-//! tangential slip as functions of 24 kinematic quantities, with exact
+//! tangential slip as functions of 33 kinematic quantities, with exact
 //! gradients and Hessians.
 //!
-//! **Variables** `y = [x1, F, p0, p1, p2, a]` (indices 0–2, 3–11 row-major
-//! `F_ij` at `3 + 3i + j`, 12–14, 15–17, 18–20, 21–23): the current slave
-//! point `x1 = X + u_s(X)`, the slave deformation gradient
-//! `F = I + ∇_X u_s` there, the current corners `p_k = X_k + u_m(X_k)` of
-//! the master patch the ray hit (its corner normals follow from them,
-//! [`super::patch::corner_normals`]), and the current position
-//! `a = Â + u_m(Â)` of the friction anchor `Â` (the master point touched at
-//! the last converged step; unused without friction). Every one of them is
-//! *linear* in the nodal displacements, so the chain rule to the dofs needs
-//! no second derivative of `y`: `∇_u g = Aᵀ ∇_y g`,
-//! `∇²_u g = Aᵀ ∇²_y g A` with `A = ∂y/∂u` constant.
+//! **Variables** `y = [x1, F, p0, p1, p2, a, m0, m1, m2]` (indices 0–2,
+//! 3–11 row-major `F_ij` at `3 + 3i + j`, 12–14, 15–17, 18–20, 21–23,
+//! 24–26, 27–29, 30–32): the current slave point `x1 = X + u_s(X)`, the
+//! slave deformation gradient `F = I + ∇_X u_s` there, the current corners
+//! `p_k = X_k + u_m(X_k)` of the master patch the ray hit, the current
+//! position `a = Â + u_m(Â)` of the friction anchor `Â` (the master point
+//! touched at the last converged step; unused without friction), and the
+//! patch's corner normals `m_k` (the current vertex normals,
+//! [`super::surface::Surface::vertex_normals`]). All but the `m_k` are
+//! linear in the nodal displacements; each `m_k` is quadratic in the
+//! current positions of the vertices around corner `k`, and the chain rule
+//! to the dofs adds their second derivatives (`enforce_local`).
 //!
 //! **Gap.** The ray from `x1` along the current slave normal
 //! `n1 = c/|c|`, `c = cof(F) N` (Nanson, for `det F > 0`), meets the
-//! master's curved patch ([`super::patch`], built from the corners `p_k`)
-//! at `x2 = x(s, t) = x1 + g_N n1`: `g_N` is the search's `(x2 − x1)·n1`,
-//! an implicit function of 15 inner quantities `z = [x1, c, p_k]`. Two
+//! master's curved patch ([`super::patch`], from `p_k` and `m_k`) at
+//! `x2 = x(s, t) = x1 + g_N n1`: `g_N` is the search's `(x2 − x1)·n1`, an
+//! implicit function of 24 inner quantities `z = [x1, c, p_k, m_k]`. Two
 //! Newton steps of the ray–patch equations in forward-mode numbers in `z`,
 //! from the converged `(s, t, g_N)`, give its exact gradient and Hessian in
 //! `z`; the chain rule to `y` ([`HyperDual::compose`]) adds the second
@@ -29,10 +30,10 @@
 //! `g_T = (I − n1 ⊗ n1)(x1 − a)`.
 
 use super::enforce_dual::HyperDual;
-use super::patch::{cofactor_times, corner_normals, dot, Patch};
+use super::patch::{cofactor_times, dot, Patch};
 
 /// Number of kinematic variables.
-pub const NVAR: usize = 24;
+pub const NVAR: usize = 33;
 
 /// Offset of `x1` in `y`.
 pub const X1: usize = 0;
@@ -42,13 +43,15 @@ pub const F: usize = 3;
 pub const P: usize = 12;
 /// Offset of the anchor `a` in `y`.
 pub const A: usize = 21;
+/// Offset of the normal at master corner `k` in `y` is `M + 3k`.
+pub const M: usize = 24;
 
 /// A scalar with derivatives in `y`.
 pub type D = HyperDual<NVAR>;
 type V = [D; 3];
 
-/// Number of inner variables of the gap, `z = [x1, c, p0, p1, p2]`.
-const NZ: usize = 15;
+/// Number of inner variables of the gap, `z = [x1, c, p0, p1, p2, m0, m1, m2]`.
+const NZ: usize = 24;
 /// A scalar with derivatives in `z`.
 type Z = HyperDual<NZ>;
 /// A scalar with derivatives in a block of 9 consecutive entries of `y`.
@@ -67,16 +70,6 @@ pub struct LocalGap {
     pub slip: [D; 3],
 }
 
-/// The master patch's reference data: the reference corners `X_k` and
-/// unit normals `N_k` there, and the hit's patch coordinates and gap
-/// `(s, t, g_N)` from the search (the start of the Newton iteration).
-#[derive(Clone, Copy, Debug)]
-pub struct PatchHit {
-    pub corners: [[f64; 3]; 3],
-    pub normals: [[f64; 3]; 3],
-    pub start: [f64; 3],
-}
-
 fn vector(y: &[f64; NVAR], at: usize) -> V {
     [0, 1, 2].map(|i| D::var(y[at + i], at + i))
 }
@@ -93,22 +86,20 @@ fn cofactor_block(y: &[f64; NVAR], at: usize, n: [f64; 3]) -> [(usize, Block); 3
     cofactor_times(&rows, n).map(|c| (at, c))
 }
 
-/// `g_N` in the inner variables `z` (values `zv`), from the converged
-/// `(s, t, g_N)`: the ray–patch solve refined in `f64`, then two Newton steps
-/// in forward-mode numbers.
-fn gap_in_z(zv: &[f64; NZ], hit: &PatchHit) -> Z {
+/// `g_N` in the inner variables `z` (values `zv`), from `start`, the
+/// search's `(s, t, g_N)`: the ray–patch solve refined in `f64`, then two
+/// Newton steps in forward-mode numbers.
+fn gap_in_z(zv: &[f64; NZ], start: [f64; 3]) -> Z {
     let var = |r: usize| Z::var(zv[r], r);
     let x1 = [0, 1, 2].map(var);
     let c = [3, 4, 5].map(var);
     let p = [0, 1, 2].map(|k| [0, 1, 2].map(|i| var(6 + 3 * k + i)));
+    let m = [0, 1, 2].map(|k| [0, 1, 2].map(|i| var(15 + 3 * k + i)));
     let value = |x: &[Z; 3]| x.map(|c| c.v);
-    let pv = p.each_ref().map(value);
-    let plain = Patch::new(&pv, &corner_normals(&hit.corners, &hit.normals, &pv));
+    let plain = Patch::new(&p.each_ref().map(value), &m.each_ref().map(value));
     let d = super::patch::unit(&value(&c));
-    let z = plain
-        .intersect(value(&x1), d, hit.start)
-        .unwrap_or(hit.start);
-    let patch = Patch::new(&p, &corner_normals(&hit.corners, &hit.normals, &p));
+    let z = plain.intersect(value(&x1), d, start).unwrap_or(start);
+    let patch = Patch::new(&p, &m);
     let d = super::patch::unit(&c);
     let mut z = z.map(Z::cst);
     for _ in 0..2 {
@@ -118,15 +109,17 @@ fn gap_in_z(zv: &[f64; NZ], hit: &PatchHit) -> Z {
 }
 
 /// `g_N`, `J_s`, `n1` and `g_T` at the kinematic state `y` for the slave
-/// point's reference unit normal `n_ref` and the master patch `hit`.
-pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], hit: &PatchHit) -> LocalGap {
+/// point's reference unit normal `n_ref`, the search's patch coordinates and
+/// gap `start = (s, t, g_N)` (where the Newton iteration starts).
+pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], start: [f64; 3]) -> LocalGap {
     let c = cofactor_block(y, F, n_ref);
     let mut z: Vec<(usize, Block)> = block_vector(y, X1).to_vec();
     z.extend(c);
     (0..3).for_each(|k| z.extend(block_vector(y, P + 3 * k)));
-    let z: [(usize, Block); NZ] = z.try_into().expect("15 inner variables");
+    (0..3).for_each(|k| z.extend(block_vector(y, M + 3 * k)));
+    let z: [(usize, Block); NZ] = z.try_into().expect("24 inner variables");
     let zv = z.each_ref().map(|(_, b)| b.v);
-    let gap = D::compose(&gap_in_z(&zv, hit), &z);
+    let gap = D::compose(&gap_in_z(&zv, start), &z);
 
     let c = c.map(|(at, b)| D::embed(at, &b));
     let area_ratio = dot(&c, &c).sqrt();
@@ -151,7 +144,7 @@ mod tests {
     use crate::contact::patch::unit;
 
     /// A state: a sheared slave point over a tilted, curved master patch.
-    fn state() -> ([f64; NVAR], PatchHit) {
+    fn state() -> [f64; NVAR] {
         let mut y = [0.0; NVAR];
         y[..3].copy_from_slice(&[0.1, -0.05, 0.02]);
         let f = [[1.1, 0.05, -0.02], [0.03, 0.95, 0.04], [0.01, -0.06, 1.02]];
@@ -159,47 +152,47 @@ mod tests {
             y[F + 3 * i..F + 3 * i + 3].copy_from_slice(&f[i]);
         }
         let p = [[-0.5, -0.4, -0.1], [0.6, -0.3, -0.05], [0.0, 0.7, -0.2]];
+        let m = [[0.2, -0.1, 1.0], [-0.25, 0.05, 1.1], [0.0, 0.3, 0.9]];
         for k in 0..3 {
             y[P + 3 * k..P + 3 * k + 3].copy_from_slice(&p[k]);
+            y[M + 3 * k..M + 3 * k + 3].copy_from_slice(&m[k]);
         }
         y[A..A + 3].copy_from_slice(&[0.13, -0.01, -0.04]);
-        let corners = [[-0.45, -0.4, -0.12], [0.55, -0.35, -0.1], [0.05, 0.6, -0.15]];
-        let normals = [[0.2, -0.1, 1.0], [-0.25, 0.05, 1.0], [0.0, 0.3, 1.0]].map(|n| unit(&n));
-        (
-            y,
-            PatchHit {
-                corners,
-                normals,
-                start: [1.0 / 3.0, 1.0 / 3.0, 0.0],
-            },
-        )
+        y
     }
 
     #[test]
     fn the_gap_is_the_ray_distance_to_the_patch_and_its_hessian_matches_differences() {
         let n_ref = [0.0, 0.0, -1.0];
-        let (y, hit) = state();
-        let lg = local_gap(&y, n_ref, &hit);
+        let y = state();
+        let start = [1.0 / 3.0, 1.0 / 3.0, 0.0];
+        let lg = local_gap(&y, n_ref, start);
         // Independent value: x1 + g n1 lies on the current patch.
         let fm = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y[F + 3 * i + j]));
         let n1 = crate::contact::current_normal(&fm, n_ref);
         let p = [0, 1, 2].map(|k| [0, 1, 2].map(|i| y[P + 3 * k + i]));
-        let patch = Patch::new(&p, &corner_normals(&hit.corners, &hit.normals, &p));
+        let m = [0, 1, 2].map(|k| [0, 1, 2].map(|i| y[M + 3 * k + i]));
+        let patch = Patch::new(&p, &m);
         let x1 = [y[0], y[1], y[2]];
-        let z = patch.intersect(x1, n1, hit.start).unwrap();
+        let z = patch.intersect(x1, n1, start).unwrap();
         assert!((z[2] - lg.gap.v).abs() < 1e-14, "{} vs {}", z[2], lg.gap.v);
         assert!((0.0..1.0).contains(&z[0]) && (0.0..1.0 - z[0]).contains(&z[1]));
         assert!((lg.area_ratio.v - crate::contact::area_ratio(&fm, n_ref)).abs() < 1e-14);
         // The slip is tangential.
         let along: f64 = (0..3).map(|i| lg.slip[i].v * n1[i]).sum();
         assert!(along.abs() < 1e-15, "{along}");
+        // The corner normals matter: the patch is curved.
+        assert!((M..NVAR).any(|a| lg.gap.g[a].abs() > 1e-3));
         // Gradient and Hessian columns against central differences.
         let eps = 1e-6;
         for b in 0..NVAR {
             let (mut yp, mut ym) = (y, y);
             yp[b] += eps;
             ym[b] -= eps;
-            let (gp, gm) = (local_gap(&yp, n_ref, &hit).gap, local_gap(&ym, n_ref, &hit).gap);
+            let (gp, gm) = (
+                local_gap(&yp, n_ref, start).gap,
+                local_gap(&ym, n_ref, start).gap,
+            );
             for a in 0..NVAR {
                 let fd = (gp.g[a] - gm.g[a]) / (2.0 * eps);
                 assert!(
@@ -211,8 +204,8 @@ mod tests {
             let fd = (gp.v - gm.v) / (2.0 * eps);
             assert!((fd - lg.gap.g[b]).abs() < 1e-8, "{b}");
             let (sp, sm) = (
-                local_gap(&yp, n_ref, &hit).slip,
-                local_gap(&ym, n_ref, &hit).slip,
+                local_gap(&yp, n_ref, start).slip,
+                local_gap(&ym, n_ref, start).slip,
             );
             for i in 0..3 {
                 for a in 0..NVAR {

@@ -5,12 +5,17 @@
 //! `y` is linear in the local dofs, `y = y0 + A u_local`, with `A`'s columns
 //! from the shape functions: the slave cell's `N_a(X)` and `∂N_a/∂X` for
 //! `x1` and `F`, the hit triangle's master cell's `N_b(X_k)` for the corners
-//! `p_k`, and the anchor cell's `N_b(Â)` for `a`. So `R_local = Aᵀ R_y` and
-//! `K_local = Aᵀ K_y A` exactly (kept factored, see `enforce_tangent`).
+//! `p_k`, and the anchor cell's `N_b(Â)` for `a`. The corner normals `m_k`
+//! are quadratic in the master's vertex positions (`enforce_normals`): their
+//! columns are evaluated at the current state, and their second
+//! derivatives add a term to the tangent. So `R_local = Aᵀ R_y` and
+//! `K_local = Aᵀ K_y A + Σ_k R_y[m_k]·∇²m_k` exactly (kept factored, see
+//! `enforce_tangent`).
 
 use super::enforce::SlaveQuadraturePoint;
 use super::enforce::{ContactBody, ContactPairData, MasterPoint, PointHistory, PointState};
-use super::enforce_gap::{local_gap, PatchHit, A, F, NVAR, P, X1};
+use super::enforce_gap::{local_gap, A, F, M, NVAR, P, X1};
+use super::enforce_normals::CornerNormals;
 use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
 use super::enforce_tangent::PointTangent;
 use super::search::{area_ratio, current_normal, MasterSurface};
@@ -26,12 +31,25 @@ pub struct Local {
 }
 
 /// `∂y/∂u` for one point: the global dofs and, per dof, its column of `A`.
-struct Jacobian {
+pub(super) struct Jacobian {
     dofs: Vec<usize>,
     columns: Vec<[f64; NVAR]>,
 }
 
 impl Jacobian {
+    /// The column of global dof `dof` (a new zero column when it has none).
+    pub(super) fn column(&mut self, dof: usize) -> &mut [f64; NVAR] {
+        let c = match self.dofs.iter().position(|&d| d == dof) {
+            Some(c) => c,
+            None => {
+                self.dofs.push(dof);
+                self.columns.push([0.0; NVAR]);
+                self.dofs.len() - 1
+            }
+        };
+        &mut self.columns[c]
+    }
+
     /// `y = y0 + A u_local`.
     fn state(&self, y0: [f64; NVAR], u: &[f64]) -> [f64; NVAR] {
         let mut y = y0;
@@ -44,7 +62,7 @@ impl Jacobian {
 
 /// The active global dofs of `cell` (node-major, three components each) and
 /// the shape values and physical gradients at the reference point `x`.
-fn cell_shape(
+pub(super) fn cell_shape(
     body: &ContactBody,
     cell: usize,
     x: [f64; 3],
@@ -150,7 +168,7 @@ pub fn point_contact(
         slipping: false,
     };
     let hit = surface
-        .search(state.x, normal, pair.search_radius)
+        .search_near(state.x, normal, pair.search_radius, history.patch)
         .filter(|h| dot(h.master_normal, normal) < 0.0);
     let Some(hit) = hit else {
         return (state, None);
@@ -175,17 +193,17 @@ pub fn point_contact(
     }
     add_master_columns(&mut jac, &pair.master, hit.cell, &in_hit_cell);
     let anchor_x = anchor.map_or([0.0; 3], |a| a.x);
+    let mut y = jac.state(reference_state(p.x, &corners, anchor_x), u);
+    // The corner normals: their values, then their (state-dependent) columns.
     let master = pair.master_surface;
-    let patch = PatchHit {
-        corners,
-        normals: master.corners(&master.normals, hit.triangle),
-        start: [hit.barycentric[1], hit.barycentric[2], hit.gap],
-    };
-    let lg = local_gap(
-        &jac.state(reference_state(p.x, &corners, anchor_x), u),
-        p.normal,
-        &patch,
-    );
+    let vertices = master.triangles[hit.triangle].vertices.map(|v| v as usize);
+    for (k, &v) in vertices.iter().enumerate() {
+        y[M + 3 * k..M + 3 * k + 3].copy_from_slice(&surface.normals()[v]);
+    }
+    let normals =
+        CornerNormals::add_columns(&mut jac, &pair.master, master, surface.current(), vertices);
+    let start = [hit.barycentric[1], hit.barycentric[2], hit.gap];
+    let lg = local_gap(&y, p.normal, start);
     state.hit = Some((hit.triangle, lg.gap.v));
     let input = LawInput {
         recovered: history.recovered,
@@ -207,6 +225,7 @@ pub fn point_contact(
         dofs: jac.dofs.clone(),
         columns: jac.columns,
         k_y: tangent_in_y(&lg, &tr, p.weight),
+        normals: normals.second_derivatives(master, &r_y),
     });
     let local = Local {
         dofs: jac.dofs,

@@ -1,16 +1,19 @@
 //! The contact tangent `K_c` in factored form: per active slave point, its
-//! local dofs, `A = ∂y/∂u` (one column of 24 per local dof) and the 24 × 24
-//! `K_y`, so that the point's block is `Aᵀ K_y A` (rank ≤ 24).
+//! local dofs, `A = ∂y/∂u` (one column of 33 per local dof), the 33 × 33
+//! `K_y`, and the second derivatives of the master's corner normals
+//! ([`NormalTerms`]), so that the point's block is `Aᵀ K_y A` plus those.
 //!
-//! A Q1 point touches 48–72 dofs, a Q2 point 162–243: the dense blocks
-//! (2 304 to 59 049 entries) cost far more than the factors (`24 n + 576`),
-//! so the tangent is kept factored and applied matrix-free,
-//! `K v = Σ_p Aᵀ (K_y (A v_p))` in `O(24 n)` per point; its diagonal (for
+//! A Q1 point touches a hundred or more dofs (the slave cell, the master
+//! cells of the hit patch's corners and of the vertices around them): the
+//! dense blocks cost far more than the factors (`33 n + 1 089`), so the
+//! tangent is kept factored and applied matrix-free,
+//! `K v = Σ_p Aᵀ (K_y (A v_p))` in `O(33 n)` per point; its diagonal (for
 //! Jacobi) and the assembled triplets are available too.
 
 use faer::sparse::Triplet;
 
 use super::enforce_gap::NVAR;
+use super::vec3::cross;
 
 /// One active point's factors.
 #[derive(Clone, Debug)]
@@ -21,6 +24,84 @@ pub struct PointTangent {
     pub(super) columns: Vec<[f64; NVAR]>,
     /// `K_y`, row-major.
     pub(super) k_y: Vec<[f64; NVAR]>,
+    /// The corner normals' second-derivative term.
+    pub(super) normals: NormalTerms,
+}
+
+/// A master vertex's current position as a function of the dofs:
+/// `q = X + Σ_b weights[b] (u[dofs[b]], u[dofs[b] + 1], u[dofs[b] + 2])`.
+#[derive(Clone, Debug)]
+pub struct VertexShape {
+    /// The first (x) global dof of each node of the vertex's cell.
+    pub(super) dofs: Vec<usize>,
+    pub(super) weights: Vec<f64>,
+}
+
+impl VertexShape {
+    fn gather(&self, v: &[f64]) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for (&d, &w) in self.dofs.iter().zip(&self.weights) {
+            (0..3).for_each(|c| out[c] += w * v[d + c]);
+        }
+        out
+    }
+
+    fn scatter(&self, x: [f64; 3], out: &mut [f64]) {
+        for (&d, &w) in self.dofs.iter().zip(&self.weights) {
+            (0..3).for_each(|c| out[d + c] += w * x[c]);
+        }
+    }
+}
+
+/// One term `μ · (δq_a × δq_b)` of the quadratic form (counted twice: the
+/// form is `2 Σ μ·(δq_a × δq_b)`), between the vertices in slots `a`, `b`.
+#[derive(Clone, Copy, Debug)]
+pub struct NormalPair {
+    pub(super) a: usize,
+    pub(super) b: usize,
+    pub(super) mu: [f64; 3],
+}
+
+/// `Σ_k μ_k · ∇²_u m_k` for the corner normals `m_k` (see
+/// `enforce_normals`): as a matrix, the pair `(a, b)` has the block
+/// `S = −[μ]×` (`x·S y = μ·(x × y)`) between `q_a` and `q_b` and `Sᵀ`
+/// between `q_b` and `q_a`; `S` is skew, so the diagonal gains nothing.
+#[derive(Clone, Debug, Default)]
+pub struct NormalTerms {
+    pub(super) vertices: Vec<VertexShape>,
+    pub(super) pairs: Vec<NormalPair>,
+}
+
+impl NormalTerms {
+    /// `out += (Σ μ·∇²m) v`.
+    fn apply_add(&self, v: &[f64], out: &mut [f64]) {
+        for p in &self.pairs {
+            let (a, b) = (&self.vertices[p.a], &self.vertices[p.b]);
+            let (va, vb) = (a.gather(v), b.gather(v));
+            a.scatter(cross(vb, p.mu), out);
+            b.scatter(cross(p.mu, va), out);
+        }
+    }
+
+    /// The assembled entries `(row, column, value)`.
+    fn triplets(&self, out: &mut Vec<Triplet<usize, usize, f64>>) {
+        for p in &self.pairs {
+            let m = p.mu;
+            let s = [[0.0, m[2], -m[1]], [-m[2], 0.0, m[0]], [m[1], -m[0], 0.0]];
+            let (a, b) = (&self.vertices[p.a], &self.vertices[p.b]);
+            for (&da, &wa) in a.dofs.iter().zip(&a.weights) {
+                for (&db, &wb) in b.dofs.iter().zip(&b.weights) {
+                    for (r, row) in s.iter().enumerate() {
+                        for (c, &value) in row.iter().enumerate() {
+                            let x = wa * wb * value;
+                            out.push(Triplet::new(da + r, db + c, x));
+                            out.push(Triplet::new(db + c, da + r, x));
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
 
 fn dot(a: &[f64; NVAR], b: &[f64; NVAR]) -> f64 {
@@ -28,7 +109,7 @@ fn dot(a: &[f64; NVAR], b: &[f64; NVAR]) -> f64 {
 }
 
 impl PointTangent {
-    /// `K_y A`, one column of 24 per local dof.
+    /// `K_y A`, one column of 33 per local dof.
     fn k_y_times_columns(&self) -> Vec<[f64; NVAR]> {
         self.columns
             .iter()
@@ -64,6 +145,7 @@ impl ContactTangent {
             for (c, &d) in p.columns.iter().zip(&p.dofs) {
                 out[d] += dot(c, &kav);
             }
+            p.normals.apply_add(v, out);
         }
     }
 
@@ -93,6 +175,7 @@ impl ContactTangent {
                     out.push(Triplet::new(da, db, dot(ca, kb)));
                 }
             }
+            p.normals.triplets(&mut out);
         }
         out
     }

@@ -24,6 +24,7 @@ mod enforce_dual;
 mod enforce_gap;
 mod enforce_law;
 mod enforce_local;
+mod enforce_normals;
 mod enforce_tangent;
 pub(crate) mod marching;
 pub mod patch;

@@ -125,45 +125,6 @@ pub fn cofactor_times<S: Real>(rows: &[Vec3<S>; 3], n: [f64; 3]) -> Vec3<S> {
     cof.map(|r| r[0].scale(n[0]) + r[1].scale(n[1]) + r[2].scale(n[2]))
 }
 
-/// The current corner normals of a master triangle, from its current
-/// corners `p` alone: the reference normals `N_k` (exact, on the reference
-/// surface at the reference corners `x_ref`) mapped by Nanson's formula
-/// with the triangle's own deformation gradient `A`, the linear map taking
-/// the reference edges `E1 = X1 − X0`, `E2 = X2 − X0` and unit normal `ν₀`
-/// to the current `e1`, `e2` and `ν`:
-/// `A = M M₀⁻¹` with `M = [e1 e2 ν]`, `M₀ = [E1 E2 ν₀]`, so
-/// `cof(A) N = cof(M) M₀ᵀ N / det M₀` and, with `w = M₀ᵀ N`,
-/// `cof(M) w = w₀ (e2 × ν) + w₁ (ν × e1) + w₂ (e1 × e2)`
-/// (returned without the positive factor `1/det M₀`; the patch normalises).
-///
-/// Why not `cof(F) N` with the displacement gradient at the corner: in a
-/// sliver cut cell `∇u` is poorly controlled (without the S-term a contact
-/// load there turns the corner normal by 0.1 rad at a strain of 10⁻⁴,
-/// measured on the annuli), while the corners' positions are the
-/// displacement's values, which the discretisation controls. The price: a
-/// corner shared by two triangles gets two normals that differ by
-/// O(strain × angle between the facets), so neighbouring patches meet up to
-/// a crack of O(strain · h²); under a rigid motion `A` is the rotation for
-/// every triangle and the patches are watertight.
-pub fn corner_normals<S: Real>(
-    x_ref: &[[f64; 3]; 3],
-    n_ref: &[[f64; 3]; 3],
-    p: &[Vec3<S>; 3],
-) -> [Vec3<S>; 3] {
-    let e1 = sub(&p[1], &p[0]);
-    let e2 = sub(&p[2], &p[0]);
-    let e12 = cross(&e1, &e2);
-    let nu = unit(&e12);
-    let r1 = sub(&x_ref[1], &x_ref[0]);
-    let r2 = sub(&x_ref[2], &x_ref[0]);
-    let nu0 = unit(&cross(&r1, &r2));
-    let (a, b) = (cross(&e2, &nu), cross(&nu, &e1));
-    n_ref.map(|n| {
-        let w = [dot(&r1, &n), dot(&r2, &n), dot(&nu0, &n)];
-        [0, 1, 2].map(|i| a[i].scale(w[0]) + b[i].scale(w[1]) + e12[i].scale(w[2]))
-    })
-}
-
 /// Exponents `(i, j, k)` of the ten control points, and their multinomial
 /// coefficients `3!/(i! j! k!)`.
 const EXPONENTS: [([usize; 3], f64); 10] = [

@@ -27,7 +27,7 @@
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
-use super::patch::{corner_normals, Patch};
+use super::patch::Patch;
 use super::surface::Surface;
 use super::vec3::{cross, dot, norm, normalize, scale, sub};
 use crate::fem::dofs::DofMap;
@@ -39,6 +39,7 @@ use crate::grid::Grid;
 pub struct MasterSurface<'a> {
     surface: &'a Surface,
     current: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
     bvh: Bvh,
 }
 
@@ -64,9 +65,9 @@ pub struct ContactPoint {
 /// Barycentric tolerance for a patch hit to count as inside its triangle.
 const INSIDE: f64 = 1e-10;
 
-/// How far outside its triangle (in barycentric coordinates) a hit through
-/// a crack between patches may be.
-const CRACK: f64 = 1e-3;
+/// How far outside its triangle (in barycentric coordinates) a hit may lie
+/// and still keep to the preferred patch ([`MasterSurface::search_near`]).
+const STICKY: f64 = 0.1;
 
 impl<'a> MasterSurface<'a> {
     /// The master `surface` with current vertex positions `current` (one
@@ -81,9 +82,11 @@ impl<'a> MasterSurface<'a> {
         let corners = (0..surface.num_triangles())
             .map(|t| surface.corners(&current, t))
             .collect();
+        let normals = surface.vertex_normals(&current);
         MasterSurface {
             surface,
             current,
+            normals,
             bvh: Bvh::new(corners),
         }
     }
@@ -93,13 +96,17 @@ impl<'a> MasterSurface<'a> {
         &self.current
     }
 
-    /// The current curved patch of triangle `t`, with the corner normals
-    /// of [`corner_normals`].
+    /// The current vertex normals ([`Surface::vertex_normals`]).
+    pub fn normals(&self) -> &[[f64; 3]] {
+        &self.normals
+    }
+
+    /// The current curved patch of triangle `t`, with the current vertex
+    /// normals at its corners.
     pub fn patch(&self, t: usize) -> Patch<f64> {
         let s = self.surface;
         let p = s.corners(&self.current, t);
-        let n = corner_normals(&s.reference_corners(t), &s.corners(&s.normals, t), &p);
-        Patch::new(&p, &n)
+        Patch::new(&p, &s.corners(&self.normals, t))
     }
 
     /// The ray search from `x1` along `n1` (normalised here) for hits with
@@ -107,16 +114,14 @@ impl<'a> MasterSurface<'a> {
     /// hit (the BVH) gives a triangle; the ray is intersected (Newton's
     /// method) with the patches of the triangles sharing a corner with it,
     /// and the hit inside its triangle (barycentric coordinates ≥ −10⁻¹⁰)
-    /// of smallest `|t|` is taken (ties: the lowest triangle index). A ray
-    /// through the O(strain · h²) crack between two patches
-    /// ([`corner_normals`]) is inside neither: it takes the hit least outside
-    /// its triangle, when that is within [`CRACK`].
+    /// of smallest `|t|` is taken (ties: the lowest triangle index).
+    /// Neighbouring patches share their edge curve (it depends on the edge's
+    /// two corners and normals only), so a ray through an edge hits both.
     pub fn search(&self, x1: [f64; 3], n1: [f64; 3], radius: f64) -> Option<ContactPoint> {
         let n1 = normalize(n1);
         let hit = self.bvh.nearest_hit(x1, n1, radius)?;
         let start = [hit.barycentric[1], hit.barycentric[2], hit.t];
         let mut inside: Option<(f64, usize, [f64; 3])> = None;
-        let mut least_outside: Option<(f64, usize, [f64; 3])> = None;
         for t in self.surface.triangles_around(hit.triangle) {
             let Some(z) = self.patch(t).intersect(x1, n1, start) else {
                 continue;
@@ -125,16 +130,45 @@ impl<'a> MasterSurface<'a> {
                 continue;
             }
             let l = (1.0 - z[0] - z[1]).min(z[0]).min(z[1]);
-            if l >= -INSIDE {
-                if inside.is_none_or(|(tau, _, _)| z[2].abs() < tau) {
-                    inside = Some((z[2].abs(), t, z));
-                }
-            } else if least_outside.is_none_or(|(m, _, _)| l > m) {
-                least_outside = Some((l, t, z));
+            if l >= -INSIDE && inside.is_none_or(|(tau, _, _)| z[2].abs() < tau) {
+                inside = Some((z[2].abs(), t, z));
             }
         }
-        let (_, t, z) = inside.or(least_outside.filter(|&(l, _, _)| l >= -CRACK))?;
+        let (_, t, z) = inside?;
         Some(self.contact_point(&self.patch(t), t, x1, n1, z))
+    }
+
+    /// [`MasterSurface::search`], keeping to the patch `preferred` (the one
+    /// hit at the last converged state) while the hit on its surface lies
+    /// within [`STICKY`] of its triangle in barycentric coordinates.
+    ///
+    /// Why: the patches meet along their edges with a small kink in the
+    /// normal (PN triangles are not tangent-continuous across edges), and
+    /// the contact solution tends to settle slave points exactly on such an
+    /// edge; a point that switched patch at every Newton iteration would see
+    /// a gap whose gradient jumps there, and Newton would oscillate across
+    /// the kink. Kept on one patch (extended a little beyond its triangle,
+    /// where it deviates from the neighbour by the kink times that distance)
+    /// the gap is smooth in the displacement throughout the step.
+    pub fn search_near(
+        &self,
+        x1: [f64; 3],
+        n1: [f64; 3],
+        radius: f64,
+        preferred: Option<usize>,
+    ) -> Option<ContactPoint> {
+        let n1 = normalize(n1);
+        if let Some(t) = preferred {
+            let patch = self.patch(t);
+            let start = [1.0 / 3.0, 1.0 / 3.0, 0.0];
+            if let Some(z) = patch.intersect(x1, n1, start) {
+                let l = (1.0 - z[0] - z[1]).min(z[0]).min(z[1]);
+                if l >= -STICKY && z[2].abs() <= radius {
+                    return Some(self.contact_point(&patch, t, x1, n1, z));
+                }
+            }
+        }
+        self.search(x1, n1, radius)
     }
 
     fn contact_point(

@@ -153,18 +153,33 @@ impl Surface {
         self.vertex_triangles = list;
     }
 
+    /// The vertex normals at `positions`: the sum over the triangles around
+    /// each vertex of `(p1 − p0) × (p2 − p0)` (twice the area times the unit
+    /// normal, so a sliver weighs nothing), not normalised.
+    pub fn vertex_normals(&self, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        (0..self.vertices.len())
+            .map(|v| {
+                self.triangles_at_vertex(v).fold([0.0; 3], |acc, t| {
+                    add(acc, triangle_normal_scaled(&self.corners(positions, t as usize)))
+                })
+            })
+            .collect()
+    }
+
+    /// The triangles around vertex `v`.
+    pub fn triangles_at_vertex(&self, v: usize) -> impl Iterator<Item = u32> + '_ {
+        self.vertex_triangles[self.vertex_start[v]..self.vertex_start[v + 1]]
+            .iter()
+            .copied()
+    }
+
     /// The triangles sharing a corner with triangle `t` (`t` included, in
     /// increasing order, each once).
     pub fn triangles_around(&self, t: usize) -> Vec<usize> {
         let mut out: Vec<usize> = self.triangles[t]
             .vertices
             .iter()
-            .flat_map(|&v| {
-                let v = v as usize;
-                self.vertex_triangles[self.vertex_start[v]..self.vertex_start[v + 1]]
-                    .iter()
-                    .map(|&o| o as usize)
-            })
+            .flat_map(|&v| self.triangles_at_vertex(v as usize).map(|o| o as usize))
             .collect();
         out.sort_unstable();
         out.dedup();
