@@ -79,6 +79,11 @@ impl TwoBodies {
     }
 
     fn pair_with_friction(&self, friction: f64) -> ContactPairData<'_> {
+        self.pair_with(friction, false)
+    }
+
+    /// The pair on the flat facets or, `curved`, on the curved patches.
+    fn pair_with(&self, friction: f64, curved: bool) -> ContactPairData<'_> {
         ContactPairData {
             slave: ContactBody {
                 grid: &self.slave.grid,
@@ -96,6 +101,7 @@ impl TwoBodies {
             young: YOUNG,
             search_radius: 0.1,
             friction,
+            curved,
         }
     }
 
@@ -200,9 +206,14 @@ fn worst_directional_error(
     worst
 }
 
-fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: f64) -> f64 {
+fn tangent_against_differences(
+    order: ElementOrder,
+    level: u32,
+    traction_scale: f64,
+    curved: bool,
+) -> f64 {
     let bodies = sphere_on_block(0.04, level, order);
-    let pair = bodies.pair();
+    let pair = bodies.pair_with(0.0, curved);
     let u = random_field(bodies.ndofs(), 3e-3, 7);
     let kappa = pair.stiffness();
     let history = fresh(&random_field(
@@ -218,7 +229,7 @@ fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: 
         "{active} active of {hits} hits"
     );
     let what = format!(
-        "{order:?} level {level}, T̂ scale {traction_scale}, {active} active of {hits} hits"
+        "{order:?} level {level}, curved {curved}, T̂ scale {traction_scale}, {active} active of {hits} hits"
     );
     worst_directional_error(&pair, &u, &history, &what)
 }
@@ -227,8 +238,13 @@ fn tangent_against_differences(order: ElementOrder, level: u32, traction_scale: 
 fn the_tangent_is_the_derivative_of_the_residual() {
     for (order, level) in [(ElementOrder::Q1, 3), (ElementOrder::Q2, 2)] {
         for traction_scale in [0.0, 1.0] {
-            let rel = tangent_against_differences(order, level, traction_scale);
-            assert!(rel < 1e-6, "{order:?}: relative error {rel:e}");
+            for curved in [false, true] {
+                let rel = tangent_against_differences(order, level, traction_scale, curved);
+                assert!(
+                    rel < 1e-6,
+                    "{order:?}, curved {curved}: relative error {rel:e}"
+                );
+            }
         }
     }
 }

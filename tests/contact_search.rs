@@ -1,7 +1,8 @@
 //! The contact search's geometry (issue 8, DESIGN §6): the marching-tet
 //! surface converges to the exact one at rate 2, the BVH equals brute force,
 //! the ray-search gap on the curved (PN) master patches equals the analytic
-//! ray–sphere distance to O(h³) (measured: rate ≈ 4), a
+//! ray–sphere distance to O(h²) (measured: 0.20–0.25 h² at levels 3–6,
+//! where the flat facets gave 0.29–0.34 h²), a
 //! rigid motion of the master equals the opposite motion of the slave, and
 //! the current configuration (Q1 interpolation, Nanson) is exact for linear
 //! displacement fields.
@@ -173,10 +174,12 @@ fn slave_points(c: [f64; 3], count: usize) -> Vec<([f64; 3], [f64; 3])> {
 }
 
 #[test]
-fn vertex_normals_are_exact_and_the_sphere_is_closed() {
+fn the_sphere_is_closed_and_its_vertex_normals_are_outward() {
     let (_, _, s) = sphere_surface(4);
+    // Area-weighted vertex normals within a few degrees of the radius.
     for (x, n) in s.vertices.iter().zip(&s.normals) {
-        assert!((0..3).all(|i| (x[i] - n[i]).abs() < 1e-12), "{x:?} {n:?}");
+        let cos: f64 = (0..3).map(|i| x[i] * n[i]).sum::<f64>() / norm(*n);
+        assert!(cos > 0.99, "{x:?} {n:?}");
     }
     // Closed: every edge is shared by exactly two triangles, in opposite
     // directions.
@@ -199,61 +202,73 @@ fn vertex_normals_are_exact_and_the_sphere_is_closed() {
 }
 
 #[test]
-fn gap_equals_the_analytic_ray_sphere_distance_to_third_order() {
+fn gap_equals_the_analytic_ray_sphere_distance_to_second_order() {
     let c = [0.1, -0.2, 0.05];
     let points = slave_points(c, 400);
-    let mut errors = Vec::new();
+    // Largest gap error over h² per level: flat facets, curved patches.
+    let mut errors = [Vec::new(), Vec::new()];
     for level in 3..=6 {
         let (grid, _, s) = sphere_surface(level);
-        let master = MasterSurface::new(&s, s.deformed(|_, _| c));
-        let found = master.search_all(&points, 2.0);
-        let mut max_err = 0.0f64;
-        for (&(x, n), hit) in points.iter().zip(&found) {
-            let hit = hit.expect("every ray meets the sphere");
-            let err = (hit.gap - ray_sphere(x, n, c)).abs();
-            max_err = max_err.max(err);
-            // x2 lies on the line, on the master patch, near the sphere.
-            let on_line = [0, 1, 2].map(|i| x[i] + hit.gap * n[i] - hit.x2[i]);
-            assert!(norm(on_line) < 1e-12);
-            let from_c = [0, 1, 2].map(|i| hit.x2[i] - c[i]);
-            assert!((norm(from_c) - 1.0).abs() < grid.h.powi(3));
-            let radial = normalize(from_c);
-            let cos = (0..3)
-                .map(|i| radial[i] * hit.master_normal[i])
-                .sum::<f64>();
-            assert!(cos > 1.0 - grid.h * grid.h, "master normal {:?}", hit.master_normal);
-            let back = [0, 1, 2].map(|i| hit.reference_x2[i] + c[i] - hit.x2[i]);
-            assert!(norm(back) < 1e-12);
+        for (curved, bound) in [(false, 0.5), (true, 0.3)] {
+            let master = MasterSurface::new(&s, s.deformed(|_, _| c), curved);
+            let found = master.search_all(&points, 2.0);
+            let mut max_err = 0.0f64;
+            for (&(x, n), hit) in points.iter().zip(&found) {
+                let hit = hit.expect("every ray meets the sphere");
+                let err = (hit.gap - ray_sphere(x, n, c)).abs();
+                max_err = max_err.max(err);
+                // x2 lies on the line, on the master surface, near the sphere.
+                let on_line = [0, 1, 2].map(|i| x[i] + hit.gap * n[i] - hit.x2[i]);
+                assert!(norm(on_line) < 1e-12);
+                let from_c = [0, 1, 2].map(|i| hit.x2[i] - c[i]);
+                assert!((norm(from_c) - 1.0).abs() < grid.h.powi(2));
+                let radial = normalize(from_c);
+                let cos = (0..3)
+                    .map(|i| radial[i] * hit.master_normal[i])
+                    .sum::<f64>();
+                assert!(cos > 1.0 - grid.h, "master normal {:?}", hit.master_normal);
+                let back = [0, 1, 2].map(|i| hit.reference_x2[i] + c[i] - hit.x2[i]);
+                assert!(norm(back) < 1e-12);
+            }
+            eprintln!(
+                "level {level}, curved {curved}: h = {:.5}, max |g − g_exact| = {max_err:.3e}, / h² = {:.3}",
+                grid.h,
+                max_err / grid.h.powi(2)
+            );
+            assert!(max_err < bound * grid.h.powi(2), "level {level}: {max_err}");
+            errors[usize::from(curved)].push(max_err);
         }
-        eprintln!(
-            "level {level}: h = {:.5}, max |g − g_exact| = {max_err:.3e}, / h³ = {:.4}",
-            grid.h,
-            max_err / grid.h.powi(3)
-        );
-        assert!(max_err < 0.05 * grid.h.powi(3), "level {level}: {max_err}");
-        errors.push(max_err);
     }
-    let r = rates(&errors);
-    eprintln!("gap rates {r:?}");
-    assert!(r.iter().all(|&x| x > 3.0), "rates {r:?}");
+    for e in &errors {
+        let r = rates(e);
+        eprintln!("gap rates {r:?}");
+        assert!(r.iter().all(|&x| x > 1.6), "rates {r:?}");
+    }
+    // The curved patches are closer to the sphere at every level.
+    assert!(
+        errors[1].iter().zip(&errors[0]).all(|(c, f)| c < f),
+        "{errors:?}"
+    );
 }
 
 #[test]
 fn translating_the_master_equals_moving_the_slave_back() {
     let (_, _, s) = sphere_surface(4);
     let u = [0.13, -0.07, 0.21];
-    let moved_master = MasterSurface::new(&s, s.deformed(|_, _| u));
-    let still_master = MasterSurface::new(&s, s.vertices.clone());
-    for (x, n) in slave_points([0.0; 3], 200) {
-        let a = moved_master.search([0, 1, 2].map(|i| x[i] + u[i]), n, 1.0);
-        let b = still_master.search(x, n, 1.0);
-        match (a, b) {
-            (Some(a), Some(b)) => {
-                assert_eq!(a.triangle, b.triangle);
-                assert!((a.gap - b.gap).abs() < 1e-12, "{} vs {}", a.gap, b.gap);
-                assert!((0..3).all(|i| (a.barycentric[i] - b.barycentric[i]).abs() < 1e-9));
+    for curved in [false, true] {
+        let moved_master = MasterSurface::new(&s, s.deformed(|_, _| u), curved);
+        let still_master = MasterSurface::new(&s, s.vertices.clone(), curved);
+        for (x, n) in slave_points([0.0; 3], 200) {
+            let a = moved_master.search([0, 1, 2].map(|i| x[i] + u[i]), n, 1.0);
+            let b = still_master.search(x, n, 1.0);
+            match (a, b) {
+                (Some(a), Some(b)) => {
+                    assert_eq!(a.triangle, b.triangle);
+                    assert!((a.gap - b.gap).abs() < 1e-12, "{} vs {}", a.gap, b.gap);
+                    assert!((0..3).all(|i| (a.barycentric[i] - b.barycentric[i]).abs() < 1e-9));
+                }
+                (a, b) => assert_eq!(a.is_some(), b.is_some()),
             }
-            (a, b) => assert_eq!(a.is_some(), b.is_some()),
         }
     }
 }

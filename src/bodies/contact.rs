@@ -34,7 +34,7 @@ use std::sync::Mutex;
 
 use super::problem::{Coupling, CouplingTangent};
 use super::traction::{normal_traction, StressSampler};
-use crate::case::bodies::BodiesCase;
+use crate::case::bodies::{BodiesCase, MasterSurfaceKind};
 use crate::cells::Cells;
 use crate::contact::enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
@@ -57,6 +57,7 @@ struct Pair {
     penalty: f64,
     young: f64,
     friction: f64,
+    curved: bool,
     search_radius: f64,
     /// The slave body's stress sampler when `T̂_N` is recovered.
     sampler: Option<StressSampler>,
@@ -108,6 +109,7 @@ impl ContactCoupling {
                     penalty: p.penalty,
                     young: case.bodies[p.slave.body].spec.material.young,
                     friction: p.friction,
+                    curved: spec.master_surface == MasterSurfaceKind::Curved,
                     search_radius: 0.5 * diagonal(s.solid).min(diagonal(m.solid)),
                     sampler: spec.recovered_traction.then(|| StressSampler::new(s.cells)),
                 }
@@ -149,6 +151,7 @@ impl ContactCoupling {
             young: p.young,
             search_radius: p.search_radius,
             friction: p.friction,
+            curved: p.curved,
         }
     }
 

@@ -59,6 +59,7 @@
 //! penalty = 30.0               # k of λ_N = min(0, T̂_N + (k E/h) g_N), as k1
 //! friction = 0.0               # Coulomb coefficient (0: frictionless)
 //! recovered_traction = true    # T̂_N recovered by SPR (false: pure penalty, T̂_N = 0)
+//! master_surface = "facets"    # or "curved": PN patches on the current vertex normals
 //! ```
 //!
 //! # Plane strain
@@ -251,6 +252,21 @@ pub struct ContactPairSpec {
     /// penalty).
     #[serde(default = "default_recovered_traction")]
     pub recovered_traction: bool,
+    /// The master surface: flat facets of its triangulation or curved (PN)
+    /// patches on them.
+    #[serde(default)]
+    pub master_surface: MasterSurfaceKind,
+}
+
+/// How the master surface is represented (`contact.master_surface`).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MasterSurfaceKind {
+    /// The flat marching-tetrahedra facets.
+    #[default]
+    Facets,
+    /// Curved PN patches on the facets, from the current vertex normals.
+    Curved,
 }
 
 fn default_penalty() -> f64 {

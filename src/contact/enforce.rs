@@ -13,11 +13,14 @@
 //! **Kinematics** (module `enforce_gap`). `x1 = X + u_s(X)`, current
 //! normal `n1` by Nanson, area ratio `J_s = |cof(F) N|`; the ray search on
 //! the current master surface (built from `u_m` at every call) gives the
-//! master patch (a curved PN triangle, see `patch`), whose current corners
-//! `p_k = X_k + u_m(X_k)` are evaluated with the shape functions of the
-//! triangle's master cell; its corner normals follow from the corners; then
-//! `g_N` is the ray parameter of the hit on the patch, exactly the search's
-//! `(x2 − x1)·n1`, differentiated through the ray–patch equations.
+//! master patch (a flat facet or, with [`ContactPairData::curved`], a PN
+//! triangle on the current vertex normals, see `patch`), whose current
+//! corners `p_k = X_k + u_m(X_k)` are evaluated with the shape functions of
+//! the triangle's master cell; then `g_N` is the ray parameter of the hit on
+//! the patch, exactly the search's `(x2 − x1)·n1` (in closed form on a
+//! facet, through the ray–patch equations on a curved patch). Each point
+//! keeps to the patch of its [`PointHistory::patch`] while the ray stays
+//! near it.
 //! A hit whose master normal `m` does not oppose `n1` (`n1·m ≥ 0`, e.g. a
 //! backward ray from a slave point beside the contact zone reaching the
 //! master's surface under it, or the master's far side) is no contact.
@@ -115,6 +118,8 @@ pub struct ContactPairData<'a> {
     pub search_radius: f64,
     /// Coulomb coefficient `μ` (0: frictionless).
     pub friction: f64,
+    /// Curved master patches (`true`) or flat facets.
+    pub curved: bool,
 }
 
 impl ContactPairData<'_> {
@@ -140,8 +145,10 @@ pub struct PointHistory {
     pub anchor: Option<MasterPoint>,
     /// The tangential traction `t_T` at the last converged step.
     pub tangential: [f64; 3],
-    /// The master patch hit at the last converged step, preferred by the
-    /// search while the ray stays near it ([`MasterSurface::search_near`]).
+    /// The master patch hit at the last Newton iterate (or converged step),
+    /// preferred by the search while the ray stays near it
+    /// ([`MasterSurface::search_near`]; updated by the caller with each
+    /// tangent, [`Enforcement::points`]' hits).
     pub patch: Option<usize>,
 }
 
@@ -283,7 +290,8 @@ fn enforce(
     );
     let (master, m) = (pair.master, pair.master_surface);
     let um = &u[master.offset..master.offset + master.dofs.ndofs()];
-    let surface = MasterSurface::new(m, m.deformed_by_field(master.grid, master.dofs, um));
+    let current = m.deformed_by_field(master.grid, master.dofs, um);
+    let surface = MasterSurface::new(m, current, pair.curved);
     let results: Vec<(PointState, Option<Local>)> = pair
         .slave_points
         .par_iter()

@@ -23,14 +23,16 @@
 //! Newton steps of the ray–patch equations in forward-mode numbers in `z`,
 //! from the converged `(s, t, g_N)`, give its exact gradient and Hessian in
 //! `z`; the chain rule to `y` ([`HyperDual::compose`]) adds the second
-//! derivatives of `c`, quadratic in `F`. The area ratio is
-//! `J_s = da/dA = |c|`.
+//! derivatives of `c`, quadratic in `F`. On a flat facet (the default
+//! master surface) the same gap has a closed form in `y`,
+//! `g_N = |c| (p0 − x1)·ν / (c·ν)` with `ν = (p1 − p0) × (p2 − p0)`, and
+//! the `m_k` are not used. The area ratio is `J_s = da/dA = |c|`.
 //!
 //! **Slip.** The tangential relative displacement from the anchor,
 //! `g_T = (I − n1 ⊗ n1)(x1 − a)`.
 
 use super::enforce_dual::HyperDual;
-use super::patch::{cofactor_times, dot, Patch};
+use super::patch::{cofactor_times, cross, dot, sub, Patch};
 
 /// Number of kinematic variables.
 pub const NVAR: usize = 33;
@@ -108,20 +110,37 @@ fn gap_in_z(zv: &[f64; NZ], start: [f64; 3]) -> Z {
     z[2]
 }
 
+/// `g_N` on the plane of a flat facet, in closed form: the ray meets the
+/// plane of normal `ν = (p1 − p0) × (p2 − p0)` at
+/// `g_N = |c| (p0 − x1)·ν / (c·ν)`.
+fn flat_gap(y: &[f64; NVAR], c: &V) -> D {
+    let x1 = vector(y, X1);
+    let p = [0, 1, 2].map(|k| vector(y, P + 3 * k));
+    let nu = cross(&sub(&p[1], &p[0]), &sub(&p[2], &p[0]));
+    dot(c, c).sqrt() * dot(&sub(&p[0], &x1), &nu) * dot(c, &nu).recip()
+}
+
 /// `g_N`, `J_s`, `n1` and `g_T` at the kinematic state `y` for the slave
 /// point's reference unit normal `n_ref`, the search's patch coordinates and
-/// gap `start = (s, t, g_N)` (where the Newton iteration starts).
-pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], start: [f64; 3]) -> LocalGap {
+/// gap `start = (s, t, g_N)` (where the Newton iteration starts), on the
+/// curved patch (`curved`, corner normals `m_k` from `y`) or the flat facet
+/// (the `m_k` of `y` are not used).
+pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], start: [f64; 3], curved: bool) -> LocalGap {
     let c = cofactor_block(y, F, n_ref);
     let mut z: Vec<(usize, Block)> = block_vector(y, X1).to_vec();
     z.extend(c);
     (0..3).for_each(|k| z.extend(block_vector(y, P + 3 * k)));
     (0..3).for_each(|k| z.extend(block_vector(y, M + 3 * k)));
     let z: [(usize, Block); NZ] = z.try_into().expect("24 inner variables");
-    let zv = z.each_ref().map(|(_, b)| b.v);
-    let gap = D::compose(&gap_in_z(&zv, start), &z);
+    let c_y = c.map(|(at, b)| D::embed(at, &b));
+    let gap = if curved {
+        let zv = z.each_ref().map(|(_, b)| b.v);
+        D::compose(&gap_in_z(&zv, start), &z)
+    } else {
+        flat_gap(y, &c_y)
+    };
 
-    let c = c.map(|(at, b)| D::embed(at, &b));
+    let c = c_y;
     let area_ratio = dot(&c, &c).sqrt();
     let inverse_norm = area_ratio.recip();
     let n1 = c.map(|ci| ci * inverse_norm);
@@ -141,7 +160,6 @@ pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], start: [f64; 3]) -> LocalGap 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::patch::unit;
 
     /// A state: a sheared slave point over a tilted, curved master patch.
     fn state() -> [f64; NVAR] {
@@ -166,7 +184,7 @@ mod tests {
         let n_ref = [0.0, 0.0, -1.0];
         let y = state();
         let start = [1.0 / 3.0, 1.0 / 3.0, 0.0];
-        let lg = local_gap(&y, n_ref, start);
+        let lg = local_gap(&y, n_ref, start, true);
         // Independent value: x1 + g n1 lies on the current patch.
         let fm = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y[F + 3 * i + j]));
         let n1 = crate::contact::current_normal(&fm, n_ref);
@@ -190,8 +208,8 @@ mod tests {
             yp[b] += eps;
             ym[b] -= eps;
             let (gp, gm) = (
-                local_gap(&yp, n_ref, start).gap,
-                local_gap(&ym, n_ref, start).gap,
+                local_gap(&yp, n_ref, start, true).gap,
+                local_gap(&ym, n_ref, start, true).gap,
             );
             for a in 0..NVAR {
                 let fd = (gp.g[a] - gm.g[a]) / (2.0 * eps);
@@ -204,8 +222,8 @@ mod tests {
             let fd = (gp.v - gm.v) / (2.0 * eps);
             assert!((fd - lg.gap.g[b]).abs() < 1e-8, "{b}");
             let (sp, sm) = (
-                local_gap(&yp, n_ref, start).slip,
-                local_gap(&ym, n_ref, start).slip,
+                local_gap(&yp, n_ref, start, true).slip,
+                local_gap(&ym, n_ref, start, true).slip,
             );
             for i in 0..3 {
                 for a in 0..NVAR {

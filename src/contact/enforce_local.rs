@@ -15,8 +15,8 @@
 use super::enforce::SlaveQuadraturePoint;
 use super::enforce::{ContactBody, ContactPairData, MasterPoint, PointHistory, PointState};
 use super::enforce_gap::{local_gap, A, F, M, NVAR, P, X1};
-use super::enforce_normals::CornerNormals;
 use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
+use super::enforce_normals::CornerNormals;
 use super::enforce_tangent::PointTangent;
 use super::search::{area_ratio, current_normal, MasterSurface};
 use super::vec3::dot;
@@ -194,16 +194,18 @@ pub fn point_contact(
     add_master_columns(&mut jac, &pair.master, hit.cell, &in_hit_cell);
     let anchor_x = anchor.map_or([0.0; 3], |a| a.x);
     let mut y = jac.state(reference_state(p.x, &corners, anchor_x), u);
-    // The corner normals: their values, then their (state-dependent) columns.
+    // The corner normals of a curved patch: their values, then their
+    // (state-dependent) columns.
     let master = pair.master_surface;
-    let vertices = master.triangles[hit.triangle].vertices.map(|v| v as usize);
-    for (k, &v) in vertices.iter().enumerate() {
-        y[M + 3 * k..M + 3 * k + 3].copy_from_slice(&surface.normals()[v]);
-    }
-    let normals =
-        CornerNormals::add_columns(&mut jac, &pair.master, master, surface.current(), vertices);
+    let normals = surface.normals().map(|current_normals| {
+        let vertices = master.triangles[hit.triangle].vertices.map(|v| v as usize);
+        for (k, &v) in vertices.iter().enumerate() {
+            y[M + 3 * k..M + 3 * k + 3].copy_from_slice(&current_normals[v]);
+        }
+        CornerNormals::add_columns(&mut jac, &pair.master, master, surface.current(), vertices)
+    });
     let start = [hit.barycentric[1], hit.barycentric[2], hit.gap];
-    let lg = local_gap(&y, p.normal, start);
+    let lg = local_gap(&y, p.normal, start, normals.is_some());
     state.hit = Some((hit.triangle, lg.gap.v));
     let input = LawInput {
         recovered: history.recovered,
@@ -225,7 +227,7 @@ pub fn point_contact(
         dofs: jac.dofs.clone(),
         columns: jac.columns,
         k_y: tangent_in_y(&lg, &tr, p.weight),
-        normals: normals.second_derivatives(master, &r_y),
+        normals: normals.map_or_else(Default::default, |n| n.second_derivatives(master, &r_y)),
     });
     let local = Local {
         dofs: jac.dofs,

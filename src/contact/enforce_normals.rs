@@ -96,7 +96,11 @@ impl CornerNormals {
                 for a in 0..3 {
                     let (sa, sb) = (self.slots[&v[a]], self.slots[&v[(a + 1) % 3]]);
                     // μ·(δa × δb) = −μ·(δb × δa): one key per unordered pair.
-                    let (key, sign) = if sa < sb { ((sa, sb), 1.0) } else { ((sb, sa), -1.0) };
+                    let (key, sign) = if sa < sb {
+                        ((sa, sb), 1.0)
+                    } else {
+                        ((sb, sa), -1.0)
+                    };
                     let sum = pairs.entry(key).or_insert([0.0; 3]);
                     (0..3).for_each(|c| sum[c] += sign * mu[c]);
                 }

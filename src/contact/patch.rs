@@ -1,17 +1,35 @@
-//! The master surface's curved triangles: PN (point–normal) triangles of
+//! The master surface's triangles as patches: PN (point–normal) triangles of
 //! Vlachos, Peters, Boyd and Mitchell (2001), and the ray–patch intersection.
+//! With every corner normal equal to the facet's own the patch is the flat
+//! facet (the default master surface, `contact.master_surface = "facets"`);
+//! with the current vertex normals it is curved (`"curved"`).
 //!
 //! **Why curved triangles.** On the flat marching-tetrahedra facets the
 //! normal jumps by O(h) across every edge, and so does the gradient of the
-//! ray gap: a slave point that the solution puts on an edge makes Newton
-//! oscillate between the two facets (docs/verification.md, "The
-//! aligned-grid stall"). A patch built from the corners `p_k` *and* the
-//! surface normals `n_k` there has, at each corner, exactly the tangent
-//! plane `⊥ n_k` — the same on every patch sharing the corner — and its edge
-//! curve depends only on the edge's two corners and normals, so neighbours
-//! share it (the surface stays watertight). The normal still jumps across
-//! an edge, but by the patches' tangent error, O(h²) on a smooth surface,
-//! instead of O(h).
+//! ray gap. A patch built from the corners `p_k` *and* vertex normals `n_k`
+//! has, at each corner, exactly the tangent plane `⊥ n_k` — the same on
+//! every patch sharing the corner — and its edge curve depends only on the
+//! edge's two corners and normals, so neighbours share it (the surface is
+//! watertight). The normal still jumps across an edge, but less. (What
+//! stopped Newton on aligned grids, points oscillating across an edge, is
+//! cured for both surfaces by keeping each point on one patch within a
+//! Newton iteration, [`super::search::MasterSurface::search_near`].)
+//!
+//! **Which vertex normals.** The current ones, `n_v = Σ_f (q1 − q0) × (q2 − q0)`
+//! over the triangles around the vertex (area-weighted,
+//! [`super::surface::Surface::vertex_normals`]): they depend on the current
+//! corner positions only, which the displacement's values control, and a
+//! sliver weighs nothing. Two alternatives were tried and dropped: the exact
+//! reference normal mapped by Nanson's formula with the displacement
+//! gradient of the vertex's cell (in a sliver cut cell without the S-term
+//! `∇u` turned a corner normal by 0.13 rad at the first touch of the annuli,
+//! and Newton stalled), and per-triangle normals mapped by the triangle's own
+//! deformation (neighbours then disagree along their edge: a crack, and a
+//! kink of 0.2 rad measured at a sliver). Area-weighted normals are O(h)
+//! accurate on the irregular marching-tetrahedra stars, so the patches are
+//! O(h²) accurate (0.20–0.25 h² for the gap on the sphere, where the facets
+//! give 0.29–0.34 h²); normals exact for a sphere (Max's weights) put large
+//! weights on tiny triangles, the ones whose normals deform erratically.
 //!
 //! **Why PN triangles** (rather than Nagata's quadratic patches): Nagata's
 //! curvature coefficient divides by `1 − (n_0·n_1)²`, singular where two
@@ -104,7 +122,7 @@ pub fn cross<S: Real>(a: &Vec3<S>, b: &Vec3<S>) -> Vec3<S> {
     ]
 }
 
-fn sub<S: Real>(a: &Vec3<S>, b: &Vec3<S>) -> Vec3<S> {
+pub fn sub<S: Real>(a: &Vec3<S>, b: &Vec3<S>) -> Vec3<S> {
     [0, 1, 2].map(|i| a[i] - b[i])
 }
 

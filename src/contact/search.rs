@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use super::bvh::Bvh;
 use super::patch::Patch;
 use super::surface::Surface;
-use super::vec3::{cross, dot, norm, normalize, scale, sub};
+use super::vec3::{cross, dot, norm, normalize, scale, sub, triangle_normal_scaled};
 use crate::fem::dofs::DofMap;
 use crate::fem::field::value_and_gradient;
 use crate::grid::Grid;
@@ -39,7 +39,8 @@ use crate::grid::Grid;
 pub struct MasterSurface<'a> {
     surface: &'a Surface,
     current: Vec<[f64; 3]>,
-    normals: Vec<[f64; 3]>,
+    /// The current vertex normals of curved patches (`None`: flat facets).
+    normals: Option<Vec<[f64; 3]>>,
     bvh: Bvh,
 }
 
@@ -71,9 +72,10 @@ const STICKY: f64 = 0.1;
 
 impl<'a> MasterSurface<'a> {
     /// The master `surface` with current vertex positions `current` (one
-    /// per surface vertex, e.g. from [`Surface::deformed`]); builds the BVH
-    /// over the flat facets.
-    pub fn new(surface: &'a Surface, current: Vec<[f64; 3]>) -> MasterSurface<'a> {
+    /// per surface vertex, e.g. from [`Surface::deformed`]), made of curved
+    /// patches on the current vertex normals (`curved`) or of the flat
+    /// facets; builds the BVH over the flat facets.
+    pub fn new(surface: &'a Surface, current: Vec<[f64; 3]>, curved: bool) -> MasterSurface<'a> {
         assert_eq!(
             current.len(),
             surface.vertices.len(),
@@ -82,7 +84,7 @@ impl<'a> MasterSurface<'a> {
         let corners = (0..surface.num_triangles())
             .map(|t| surface.corners(&current, t))
             .collect();
-        let normals = surface.vertex_normals(&current);
+        let normals = curved.then(|| surface.vertex_normals(&current));
         MasterSurface {
             surface,
             current,
@@ -96,17 +98,22 @@ impl<'a> MasterSurface<'a> {
         &self.current
     }
 
-    /// The current vertex normals ([`Surface::vertex_normals`]).
-    pub fn normals(&self) -> &[[f64; 3]] {
-        &self.normals
+    /// The current vertex normals ([`Surface::vertex_normals`]) of curved
+    /// patches.
+    pub fn normals(&self) -> Option<&[[f64; 3]]> {
+        self.normals.as_deref()
     }
 
-    /// The current curved patch of triangle `t`, with the current vertex
-    /// normals at its corners.
+    /// The current patch of triangle `t`: with the current vertex normals
+    /// at its corners, or the flat facet (every corner normal the facet's).
     pub fn patch(&self, t: usize) -> Patch<f64> {
         let s = self.surface;
         let p = s.corners(&self.current, t);
-        Patch::new(&p, &s.corners(&self.normals, t))
+        let n = match &self.normals {
+            Some(normals) => s.corners(normals, t),
+            None => [triangle_normal_scaled(&p); 3],
+        };
+        Patch::new(&p, &n)
     }
 
     /// The ray search from `x1` along `n1` (normalised here) for hits with
@@ -121,6 +128,10 @@ impl<'a> MasterSurface<'a> {
         let n1 = normalize(n1);
         let hit = self.bvh.nearest_hit(x1, n1, radius)?;
         let start = [hit.barycentric[1], hit.barycentric[2], hit.t];
+        if self.normals.is_none() {
+            let t = hit.triangle;
+            return Some(self.contact_point(&self.patch(t), t, x1, n1, start));
+        }
         let mut inside: Option<(f64, usize, [f64; 3])> = None;
         for t in self.surface.triangles_around(hit.triangle) {
             let Some(z) = self.patch(t).intersect(x1, n1, start) else {
@@ -139,17 +150,19 @@ impl<'a> MasterSurface<'a> {
     }
 
     /// [`MasterSurface::search`], keeping to the patch `preferred` (the one
-    /// hit at the last converged state) while the hit on its surface lies
+    /// hit at the last Newton iterate) while the hit on its surface lies
     /// within [`STICKY`] of its triangle in barycentric coordinates.
     ///
-    /// Why: the patches meet along their edges with a small kink in the
-    /// normal (PN triangles are not tangent-continuous across edges), and
-    /// the contact solution tends to settle slave points exactly on such an
-    /// edge; a point that switched patch at every Newton iteration would see
-    /// a gap whose gradient jumps there, and Newton would oscillate across
-    /// the kink. Kept on one patch (extended a little beyond its triangle,
-    /// where it deviates from the neighbour by the kink times that distance)
-    /// the gap is smooth in the displacement throughout the step.
+    /// Why: neighbouring patches meet along their edges with a kink in the
+    /// normal (flat facets, and PN triangles too, less so), and the contact
+    /// solution tends to settle slave points exactly on such an edge; a
+    /// point that switched patch at every Newton iteration would see a gap
+    /// whose gradient jumps there, and Newton oscillated across the kink
+    /// (docs/verification.md, "The aligned-grid stall"). Kept on one patch
+    /// (extended a little beyond its triangle, where it deviates from the
+    /// neighbour by the kink times that distance) the gap is smooth in the
+    /// displacement within a Newton iteration; the caller moves the
+    /// preference to the patch hit at each new iterate.
     pub fn search_near(
         &self,
         x1: [f64; 3],
@@ -180,7 +193,12 @@ impl<'a> MasterSurface<'a> {
         z: [f64; 3],
     ) -> ContactPoint {
         let s = self.surface;
-        let reference = Patch::new(&s.reference_corners(t), &s.corners(&s.normals, t));
+        let x = s.reference_corners(t);
+        let n = match self.normals {
+            Some(_) => s.corners(&s.normals, t),
+            None => [triangle_normal_scaled(&x); 3],
+        };
+        let reference = Patch::new(&x, &n);
         let x2 = patch.eval(z[0], z[1]).0;
         ContactPoint {
             triangle: t,

@@ -36,7 +36,7 @@
 use rayon::prelude::*;
 
 use super::marching;
-use super::vec3::{add, dot, norm, normalize, scale, triangle_normal_scaled};
+use super::vec3::{add, dot, norm, normalize, triangle_normal_scaled};
 use crate::fem::dofs::DofMap;
 use crate::fem::field::value_and_gradient;
 use crate::geometry::scalar::Dual;
@@ -64,9 +64,9 @@ pub struct Surface {
     /// A grid cell whose closure contains each vertex, that of the first
     /// triangle using it (for evaluating `u`).
     pub vertex_cell: Vec<usize>,
-    /// The exact unit outward normal `N` of the boundary part at each
-    /// vertex, `±∇ψ/|∇ψ|` of its leaf (the corner normals of the curved
-    /// master patches, [`super::patch`]).
+    /// The reference vertex normals, [`Surface::vertex_normals`] at
+    /// [`Surface::vertices`] (the corner normals of the reference patches,
+    /// [`super::patch`]).
     pub normals: Vec<[f64; 3]>,
     pub triangles: Vec<SurfaceTriangle>,
     /// The triangles around each vertex: those of vertex `v` are
@@ -92,6 +92,7 @@ impl Surface {
             }
         }
         surface.index_vertex_triangles();
+        surface.normals = surface.vertex_normals(&surface.vertices);
         surface
     }
 
@@ -103,23 +104,17 @@ impl Surface {
         for (mut v, cell) in raw.triangles {
             let p = v.map(|k| raw.vertices[k as usize]);
             let centroid = [0, 1, 2].map(|a| (p[0][a] + p[1][a] + p[2][a]) / 3.0);
-            let sign = match polarity_on_boundary(geometry, leaf, centroid, grid.h) {
+            match polarity_on_boundary(geometry, leaf, centroid, grid.h) {
                 None => continue,
-                Some(Polarity::Subtracted) => {
-                    v.swap(1, 2);
-                    -1.0
-                }
-                Some(Polarity::Added) => 1.0,
-            };
+                Some(Polarity::Subtracted) => v.swap(1, 2),
+                Some(Polarity::Added) => {}
+            }
             let vertices = v.map(|k| {
                 let k = k as usize;
                 if kept[k] == u32::MAX {
                     kept[k] = self.vertices.len() as u32;
-                    let x = raw.vertices[k];
-                    self.vertices.push(x);
+                    self.vertices.push(raw.vertices[k]);
                     self.vertex_cell.push(cell);
-                    let gradient = leaf_gradient(leaf, x);
-                    self.normals.push(scale(normalize(gradient), sign));
                 }
                 kept[k]
             });
@@ -160,7 +155,10 @@ impl Surface {
         (0..self.vertices.len())
             .map(|v| {
                 self.triangles_at_vertex(v).fold([0.0; 3], |acc, t| {
-                    add(acc, triangle_normal_scaled(&self.corners(positions, t as usize)))
+                    add(
+                        acc,
+                        triangle_normal_scaled(&self.corners(positions, t as usize)),
+                    )
                 })
             })
             .collect()
@@ -237,12 +235,6 @@ impl Surface {
     pub fn deformed_by_field(&self, grid: &Grid, dofs: &DofMap, u: &[f64]) -> Vec<[f64; 3]> {
         self.deformed(|cell, x| value_and_gradient(grid, dofs, u, cell, x).0)
     }
-}
-
-/// The gradient of `leaf`'s level set at `x`.
-fn leaf_gradient(leaf: &Leaf, x: [f64; 3]) -> [f64; 3] {
-    leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)])
-        .d
 }
 
 /// How a leaf enters the body's level set where it is the boundary.
