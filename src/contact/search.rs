@@ -68,7 +68,7 @@ const INSIDE: f64 = 1e-10;
 
 /// How far outside its triangle (in barycentric coordinates) a hit may lie
 /// and still keep to the preferred patch ([`MasterSurface::search_near`]).
-const STICKY: f64 = 0.1;
+const STICKY: f64 = 0.02;
 
 impl<'a> MasterSurface<'a> {
     /// The master `surface` with current vertex positions `current` (one
