@@ -27,7 +27,7 @@
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
-use super::patch::Patch;
+use super::patch::{cofactor_times, Patch};
 use super::surface::Surface;
 use super::vec3::{cross, dot, norm, normalize, scale, sub, triangle_normal_scaled};
 use crate::fem::dofs::DofMap;
@@ -229,12 +229,6 @@ pub fn deformation_gradient(g: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     let mut f = *g;
     (0..3).for_each(|i| f[i][i] += 1.0);
     f
-}
-
-/// `cof(F) N = J F⁻ᵀ N` (rows of F: `f[i]`).
-fn cofactor_times(f: &[[f64; 3]; 3], n: [f64; 3]) -> [f64; 3] {
-    let rows = [cross(f[1], f[2]), cross(f[2], f[0]), cross(f[0], f[1])];
-    rows.map(|r| dot(r, n))
 }
 
 /// The current unit normal `F⁻ᵀN / |F⁻ᵀN|` (Nanson) of the reference normal
