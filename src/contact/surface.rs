@@ -25,6 +25,10 @@
 //! curvature κ sag by at most `κ ℓ²/8` over an edge of length `ℓ ≤ √3 h`,
 //! and the area converges at rate 2 (measured in `tests/contact_search.rs`).
 //!
+//! The surface also indexes the triangles around each vertex, for the
+//! area-weighted vertex normals of the curved master patches
+//! ([`super::patch`]) and the search's candidates around a hit.
+//!
 //! Each triangle also carries the cell whose tetrahedron produced it. The
 //! current configuration maps each reference vertex `X` to `x = X + u(X)`,
 //! with `u` evaluated in the cell of a triangle using the vertex (the vertex
