@@ -49,8 +49,8 @@ impl CornerNormals {
             shapes: Vec::new(),
             rings: corners.map(|v| surface.triangles_at_vertex(v).map(|t| t as usize).collect()),
         };
-        for k in 0..3 {
-            for &f in &normals.rings[k].clone() {
+        for (k, &corner) in corners.iter().enumerate() {
+            for f in surface.triangles_at_vertex(corner).map(|t| t as usize) {
                 let v = surface.triangles[f].vertices.map(|v| v as usize);
                 for a in 0..3 {
                     let d = sub(current[v[(a + 1) % 3]], current[v[(a + 2) % 3]]);

@@ -260,15 +260,16 @@ impl Patch<f64> {
             .fold(0.0, f64::max)
             .sqrt();
         let mut z = start;
+        let mut at_z = self.eval(z[0], z[1]).0;
         for _ in 0..MAX_NEWTON {
             let next = self.newton_step(&x1, &d, z);
             if next.iter().any(|c| !c.is_finite()) {
                 return None;
             }
-            let (x, _, _) = self.eval(next[0], next[1]);
-            let (y, _, _) = self.eval(z[0], z[1]);
-            let moved = dot(&sub(&x, &y), &sub(&x, &y)).sqrt() + (next[2] - z[2]).abs();
-            z = next;
+            let at_next = self.eval(next[0], next[1]).0;
+            let step = sub(&at_next, &at_z);
+            let moved = dot(&step, &step).sqrt() + (next[2] - z[2]).abs();
+            (z, at_z) = (next, at_next);
             if moved <= 1e-14 * (size + z[2].abs() + norm_inf(&x1)) {
                 return Some(z);
             }

@@ -5,8 +5,8 @@
 //! current unit outward normal `n1`, the line `x1 + t n1` is intersected with
 //! the current master surface (both directions, so a penetrated point finds
 //! the surface behind it); `x2` is the hit of smallest `|t|` within the search
-//! radius on the curved master patches ([`super::patch`]: PN triangles on the
-//! marching-tetrahedra facets), and the normal gap is
+//! radius on the master surface (the marching-tetrahedra facets, or curved PN
+//! patches on them, [`super::patch`]), and the normal gap is
 //! `g_N = (x2 − x1)·n1`
 //! (= t: positive when the master lies ahead of the slave's outward normal,
 //! i.e. the bodies are apart; negative on penetration). With the hit come
@@ -47,7 +47,7 @@ pub struct MasterSurface<'a> {
 /// The result of a successful search from one slave point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactPoint {
-    /// Index of the master triangle (of its curved patch) in its [`Surface`].
+    /// Index of the master triangle (of its patch) in its [`Surface`].
     pub triangle: usize,
     /// The master cell the triangle lies in.
     pub cell: usize,
@@ -117,9 +117,10 @@ impl<'a> MasterSurface<'a> {
     }
 
     /// The ray search from `x1` along `n1` (normalised here) for hits with
-    /// `|t| ≤ radius` on the curved master surface: the flat facets' nearest
-    /// hit (the BVH) gives a triangle; the ray is intersected (Newton's
-    /// method) with the patches of the triangles sharing a corner with it,
+    /// `|t| ≤ radius`: the flat facets' nearest hit (the BVH), which is the
+    /// answer on flat facets; on curved patches the ray is then intersected
+    /// (Newton's method) with the patches of the triangles sharing a corner
+    /// with that facet,
     /// and the hit inside its triangle (barycentric coordinates ≥ −10⁻¹⁰)
     /// of smallest `|t|` is taken (ties: the lowest triangle index).
     /// Neighbouring patches share their edge curve (it depends on the edge's
