@@ -264,6 +264,18 @@ pub struct LoadStepRow {
     pub failure: Option<String>,
 }
 
+/// `reactions {body, part, step, force}`: the resultant of a Dirichlet part
+/// at a converged load step.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ReactionRow {
+    pub body: String,
+    /// The boundary part's tag.
+    pub part: String,
+    pub step: usize,
+    /// The force the prescribed displacement exerts on the body.
+    pub force: [f64; 3],
+}
+
 /// The report of a multi-body (large-deformation) run.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct BodiesReport {
@@ -289,6 +301,8 @@ pub struct BodiesReport {
     pub load_steps: Vec<LoadStepRow>,
     /// Per contact pair and converged load step.
     pub contact: Vec<crate::contact::ContactRow>,
+    /// Per body, Dirichlet part and converged load step.
+    pub reactions: Vec<ReactionRow>,
     /// Seconds per phase.
     pub timings: BTreeMap<String, f64>,
 }

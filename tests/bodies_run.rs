@@ -16,7 +16,9 @@ use cgfem_gpu::geometry::{Aabb, Geometry};
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution};
-use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Region, VectorField};
+use cgfem_gpu::hyper::problem::{
+    DirichletCondition, HyperProblem, Loads, Ramp, Region, VectorField,
+};
 use cgfem_gpu::progress::Silent;
 use serde_json::Value;
 
@@ -175,6 +177,7 @@ fn alone(
             tag: geometry.tag_id(name).unwrap(),
             components,
             value,
+            ramps: [Ramp::LINEAR; 3],
         }
     };
     let dirichlet = [

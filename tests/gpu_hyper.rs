@@ -14,7 +14,7 @@ use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::mirror::{hyper_tangent, HyperTangentParams, InsideTangentData};
-use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads};
+use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 use cgfem_gpu::hyper::tangent::TangentOperator;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -28,6 +28,7 @@ fn sphere(level: u32, material: Material) -> (HyperProblem, Vec<f64>) {
         tag: 0,
         components: [true; 3],
         value: Arc::new(|_| [0.0; 3]),
+        ramps: [Ramp::LINEAR; 3],
     }];
     let p = HyperProblem::new(&grid, &cells, material, 3e4, &dirichlet, &Loads::default()).unwrap();
     let mut u = vec![0.0; p.ndofs()];

@@ -17,7 +17,7 @@ use cgfem_gpu::fem::operator::{AssembledOperator, ElasticOperator, OperatorParam
 use cgfem_gpu::geometry::{Aabb, Geometry};
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
-use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads};
+use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 use cgfem_gpu::hyper::residual::{energy, residual};
 use cgfem_gpu::hyper::tangent::TangentOperator;
 use rand::{Rng, SeedableRng};
@@ -37,6 +37,7 @@ fn sphere(level: u32, material: Material) -> HyperProblem {
         tag: 0,
         components: [true; 3],
         value: Arc::new(|x: [f64; 3]| [0.1 * x[0] * x[1], -0.05 * x[2] * x[2], 0.08 * x[0]]),
+        ramps: [Ramp::LINEAR; 3],
     }];
     let loads = Loads {
         body: Some(Arc::new(|x: [f64; 3]| [10.0, -20.0 * x[0], 5.0])),

@@ -13,7 +13,7 @@ use cgfem_gpu::geometry::{Aabb, Geometry};
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions};
-use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads};
+use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 use cgfem_gpu::hyper::residual::{energy, residual};
 use cgfem_gpu::hyper::tangent::TangentOperator;
 use cgfem_gpu::progress::Silent;
@@ -33,6 +33,7 @@ fn sphere(level: u32, a: f64) -> HyperProblem {
         tag: 0,
         components: [true; 3],
         value: Arc::new(|x: [f64; 3]| [0.1 * x[0] * x[1], -0.05 * x[2], 0.08 * x[0]]),
+        ramps: [Ramp::LINEAR; 3],
     }];
     let material = Material::neo_hookean(E, NU);
     let mut p = HyperProblem::new(
@@ -66,6 +67,7 @@ fn twisted_ring_cells(level: u32, angle: f64, k2: f64, a: f64) -> (HyperProblem,
             tag: g.tag_id("inner").unwrap(),
             components: [true; 3],
             value: Arc::new(|_| [0.0; 3]),
+            ramps: [Ramp::LINEAR; 3],
         },
         DirichletCondition {
             tag: g.tag_id("outer").unwrap(),
@@ -73,6 +75,7 @@ fn twisted_ring_cells(level: u32, angle: f64, k2: f64, a: f64) -> (HyperProblem,
             value: Arc::new(move |x: [f64; 3]| {
                 [c * x[0] - s * x[1] - x[0], s * x[0] + c * x[1] - x[1], 0.0]
             }),
+            ramps: [Ramp::LINEAR; 3],
         },
     ];
     let material = Material::neo_hookean(E, NU);

@@ -10,7 +10,8 @@
 //! so far with its load factor as time and its body index as part. Each
 //! contact pair `i` adds `DIR/contact<i>_<k>.vtp`, its slave points in the
 //! current configuration with the point data `gap` (`NaN` where no master
-//! was found), `pressure` (`−λ_N`), `recovered_pressure` (`−T̂_N`) and
+//! was found), `pressure` (`−λ_N`), `recovered_pressure` (`−T̂_N`),
+//! `friction` (0 off, 1 stick, 2 slip) and
 //! `normal`, as the part after the bodies'. Each body `b` also adds
 //! `DIR/<b>_surface_<k>.vtp`, its boundary as triangles on the reference
 //! positions ([`crate::fem::boundary_mesh`]) with the point data
@@ -189,6 +190,7 @@ impl Series {
                 DataArray::scalars_f64("gap", c.gap.clone()),
                 DataArray::scalars_f64("pressure", c.pressure.clone()),
                 DataArray::scalars_f64("recovered_pressure", c.recovered_pressure.clone()),
+                DataArray::scalars_f64("friction", c.friction.clone()),
                 DataArray::vectors("normal", &c.normal),
             ];
             write_vtp_points(&dir.join(&file), &c.x, &data, VtuEncoding::Binary)?;

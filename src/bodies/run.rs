@@ -17,7 +17,7 @@ use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
 };
 use crate::progress::Progress;
-use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory};
+use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory, ReactionRow};
 
 /// What a run produced: the set-up, the last converged state, the report
 /// (status filled in) and how the solve ended.
@@ -82,10 +82,12 @@ pub fn run_setup(
     let mut solution = HyperSolution::zero(&setup.problem);
     let mut series = Series::default();
     let mut contact = Vec::new();
+    let mut reactions = Vec::new();
     let problem = &setup.problem;
     let mut converged = |s: &HyperSolution| {
         let points = problem.contact_points(&s.u);
         contact.extend(problem.step_converged(&s.u, s.converged_steps));
+        reactions.extend(reaction_rows(&setup, s));
         match dir {
             Some(dir) => {
                 let nb = problem.bodies.len();
@@ -112,12 +114,30 @@ pub fn run_setup(
     timings.insert("solve".to_string(), t.elapsed().as_secs_f64());
     let mut report = report(case, &setup, &solution, &result, timings);
     report.contact = contact;
+    report.reactions = reactions;
     Ok(RunOutcome {
         setup,
         solution,
         report,
         result,
     })
+}
+
+/// The Dirichlet reactions of every body at the converged `s`.
+fn reaction_rows(setup: &BodiesSetup, s: &HyperSolution) -> Vec<ReactionRow> {
+    let problem = &setup.problem;
+    let mut rows = Vec::new();
+    for (b, (body, p)) in setup.bodies.iter().zip(&problem.bodies).enumerate() {
+        for (tag, force) in p.dirichlet_reactions(problem.part(b, &s.u), s.load_factor) {
+            rows.push(ReactionRow {
+                body: body.name.clone(),
+                part: body.solid.tag_name(tag).to_string(),
+                step: s.converged_steps,
+                force,
+            });
+        }
+    }
+    rows
 }
 
 /// The report of a run that ended with `result`.
@@ -157,6 +177,7 @@ fn report(
         load_factor: solution.load_factor,
         load_steps: load_step_rows(&solution.attempts),
         contact: Vec::new(),
+        reactions: Vec::new(),
         timings,
     }
 }

@@ -20,7 +20,7 @@ use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::material::{Material, MaterialModel};
 use crate::hyper::newton::NewtonOptions;
-use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Region, TractionField};
+use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp, Region, TractionField};
 use crate::progress::Progress;
 use crate::solver::KrylovOptions;
 
@@ -158,6 +158,7 @@ fn body_problem(
             components: d.mask(),
             // "exact" is refused in [[body]] cases (no exact field).
             value: Arc::new(move |x: [f64; 3]| spec.value_at(x, || [0.0; 3])),
+            ramps: d.ramps().map(|[start, end]| Ramp { start, end }),
         });
         regions.push(
             d.region

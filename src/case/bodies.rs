@@ -9,7 +9,8 @@
 //! overlap_tolerance = 1e-3     # overlap allowed at the start, × the smaller body's volume
 //!
 //! [load]
-//! steps = 5                    # the prescribed values grow linearly: step k of N applies k/N
+//! steps = 5                    # step k of N is load factor t = k/N; a prescribed value grows
+//!                              # with t (linearly, or along its `ramp`: case::boundary)
 //!
 //! [newton]
 //! max_iterations = 25          # per load step
@@ -115,7 +116,8 @@ fn default_overlap_tolerance() -> f64 {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct LoadSpec {
-    /// Load steps; step k of N applies k/N of every prescribed value.
+    /// Load steps; step k of N is load factor `k/N`, where every prescribed
+    /// value is at its ramp's factor (`t` itself by default).
     pub steps: usize,
 }
 
@@ -479,6 +481,7 @@ impl BodiesCase {
             &s.dirichlet,
             &s.neumann,
             false,
+            true,
         )
     }
 

@@ -8,6 +8,8 @@
 //! # value = ["0", "free", "free"] # a roller / symmetry plane: only u_x held
 //! # value = ["exact", "free", "0"] # components may also be "exact"
 //! region = { min = [-inf, -inf, 0.5] }   # optional: only where min ≤ x ≤ max
+//! ramp = [0.5, 1]                # optional, [[body]] cases: the load path
+//! # ramp = [[0.5, 1], [0, 1], [0, 0.5]]  # or one [start, end] per component
 //!
 //! [neumann.load]                 # a traction per unit area ...
 //! traction = ["0", "0", "-1"]    # ... three expressions, or "exact" (σ(u) n)
@@ -16,6 +18,12 @@
 //! A free component of a Dirichlet part is traction free. A point of a
 //! Dirichlet part outside its `region` is traction free too. Parts named in
 //! neither table are traction free.
+//!
+//! `ramp = [start, end]` is the load path of a prescribed value in a
+//! `[[body]]` case: at load factor `t` the value is `r(t) g(x)` with
+//! `r(t) = clamp((t − start)/(end − start), 0, 1)`, so `[0, 1]` (the default)
+//! grows with the load factor and `[0, 0.5]` then `[0.5, 1]` press first and
+//! push after. A single-body case has no load path and refuses the key.
 
 use std::collections::BTreeMap;
 
@@ -35,6 +43,26 @@ pub struct DirichletSpec {
     pub value: DirichletValue,
     #[serde(default)]
     pub region: Option<RegionSpec>,
+    #[serde(default)]
+    pub ramp: Option<RampSpec>,
+}
+
+/// `ramp`: one `[start, end]` for every component or one per component.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum RampSpec {
+    All([f64; 2]),
+    Each([[f64; 2]; 3]),
+}
+
+impl RampSpec {
+    /// `[start, end]` per component.
+    pub fn per_component(&self) -> [[f64; 2]; 3] {
+        match self {
+            RampSpec::All(r) => [*r; 3],
+            RampSpec::Each(r) => *r,
+        }
+    }
 }
 
 /// The prescribed value: `"exact"` (every component from `[exact]`) or three
@@ -116,6 +144,13 @@ impl DirichletSpec {
     /// Which components are held.
     pub fn mask(&self) -> [bool; 3] {
         [0, 1, 2].map(|a| *self.component(a) != Component::Free)
+    }
+
+    /// `[start, end]` of the load path per component (`[0, 1]` by default).
+    pub fn ramps(&self) -> [[f64; 2]; 3] {
+        self.ramp
+            .as_ref()
+            .map_or([[0.0, 1.0]; 3], RampSpec::per_component)
     }
 
     /// Does the condition apply at `x` (inside its region, if any)?
@@ -205,6 +240,21 @@ impl NeumannSpec {
     }
 }
 
+/// Why `ramp` is not a valid load path, if it is not.
+fn ramp_problem(ramp: &RampSpec, load_path: bool) -> Option<String> {
+    if !load_path {
+        return Some(
+            "a single-body case has no load path: write the body as [[body]] with [load] steps"
+                .into(),
+        );
+    }
+    let bad = |[start, end]: &[f64; 2]| !(0.0 <= *start && start < end && *end <= 1.0);
+    ramp.per_component()
+        .iter()
+        .find(|r| bad(r))
+        .map(|r| format!("[start, end] must have 0 ≤ start < end ≤ 1, got {r:?}"))
+}
+
 /// Boundary conditions per tag.
 pub type DirichletTable = BTreeMap<String, DirichletSpec>;
 /// Tractions per tag.
@@ -213,8 +263,9 @@ pub type NeumannTable = BTreeMap<String, NeumannSpec>;
 /// Checks a body's boundary tables against its `geometry`: every tag exists,
 /// no tag has both kinds, a Dirichlet part holds a component and its region
 /// is a box, a Neumann part has one of `traction` and `pressure`, `"exact"`
-/// only where the body has an exact field. `prefix` is the tables' key path
-/// (`""` or `"body[2]."`).
+/// only where the body has an exact field, a `ramp` only where the case has
+/// a load path (`load_path`) and with `0 ≤ start < end ≤ 1`. `prefix` is the
+/// tables' key path (`""` or `"body[2]."`).
 pub(super) fn check_boundary(
     file: &str,
     prefix: &str,
@@ -222,6 +273,7 @@ pub(super) fn check_boundary(
     dirichlet: &DirichletTable,
     neumann: &NeumannTable,
     has_exact: bool,
+    load_path: bool,
 ) -> Result<()> {
     let known = geometry.tag_names().join(", ");
     let key = |k: String| format!("{prefix}{k}");
@@ -243,6 +295,11 @@ pub(super) fn check_boundary(
             if (0..3).any(|a| r.min[a].is_nan() || r.max[a].is_nan() || r.min[a] > r.max[a]) {
                 let reason = format!("min {:?} must not exceed max {:?}", r.min, r.max);
                 return bad(format!("dirichlet.{tag}.region"), reason);
+            }
+        }
+        if let Some(r) = &d.ramp {
+            if let Some(reason) = ramp_problem(r, load_path) {
+                return bad(format!("dirichlet.{tag}.ramp"), reason);
             }
         }
     }

@@ -218,6 +218,7 @@ impl Case {
             &s.dirichlet,
             &s.neumann,
             s.exact.is_some(),
+            false,
         )?;
         if let Some(b) = &s.body_load {
             if b.value == FieldValue::Exact && s.exact.is_none() {

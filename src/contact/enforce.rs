@@ -179,8 +179,32 @@ pub struct PointState {
     pub pressure: f64,
     /// `t_T` (zero without friction).
     pub tangential: [f64; 3],
-    /// Whether `t_T` lies on the Coulomb cone.
-    pub slipping: bool,
+    /// Whether friction applies, and if so whether `t_T` lies inside the
+    /// Coulomb cone (stick) or on it (slip).
+    pub friction: FrictionState,
+}
+
+/// The Coulomb state of a slave point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrictionState {
+    /// No tangential traction: inactive, frictionless, or touching for the
+    /// first time (no anchor yet).
+    Off,
+    /// `|t_trial| ≤ μ |λ_N|`.
+    Stick,
+    /// On the cone.
+    Slip,
+}
+
+impl FrictionState {
+    /// The ParaView code: 0 off, 1 stick, 2 slip.
+    pub fn code(self) -> f64 {
+        match self {
+            FrictionState::Off => 0.0,
+            FrictionState::Stick => 1.0,
+            FrictionState::Slip => 2.0,
+        }
+    }
 }
 
 /// The contact residual, optionally its tangent, and the points' states.
@@ -207,6 +231,7 @@ impl Enforcement {
                     weight: p.weight,
                     gap,
                     pressure: p.pressure,
+                    sticking: p.friction == FrictionState::Stick,
                 })
             })
             .collect();
@@ -227,6 +252,7 @@ impl Enforcement {
                 .collect(),
             pressure: self.points.iter().map(|p| p.pressure).collect(),
             recovered_pressure: history.iter().map(|h| -h.recovered).collect(),
+            friction: self.points.iter().map(|p| p.friction.code()).collect(),
         }
     }
 

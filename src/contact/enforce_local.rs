@@ -13,7 +13,9 @@
 //! `enforce_tangent`).
 
 use super::enforce::SlaveQuadraturePoint;
-use super::enforce::{ContactBody, ContactPairData, MasterPoint, PointHistory, PointState};
+use super::enforce::{
+    ContactBody, ContactPairData, FrictionState, MasterPoint, PointHistory, PointState,
+};
 use super::enforce_gap::{local_gap, A, F, M, NVAR, P, X1};
 use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
 use super::enforce_normals::CornerNormals;
@@ -165,7 +167,7 @@ pub fn point_contact(
         master_point: None,
         pressure: 0.0,
         tangential: [0.0; 3],
-        slipping: false,
+        friction: FrictionState::Off,
     };
     let hit = surface
         .search_near(state.x, normal, pair.search_radius, history.patch)
@@ -219,7 +221,10 @@ pub fn point_contact(
     state.pressure = -tr.normal.v;
     if let Some((t, slipping)) = &tr.tangential {
         state.tangential = t.map(|ti| ti.v);
-        state.slipping = *slipping;
+        state.friction = match slipping {
+            true => FrictionState::Slip,
+            false => FrictionState::Stick,
+        };
     }
     let r_y = residual_in_y(&lg, &tr, p.weight);
     let residual = jac.columns.iter().map(|c| dot_n(c, &r_y)).collect();

@@ -7,7 +7,9 @@
 //! contact pressure `p_k = −λ_N,k ≥ 0` (compression positive):
 //! `normal_force = Σ_k w_k p_k`, `contact_area = Σ_{k: p_k > 0} w_k`,
 //! `peak_pressure = max_k p_k` and `max_penetration = max(0, max_k −g_k)`
-//! (all 0 for a pair without points).
+//! (all 0 for a pair without points). `stick_area = Σ_{k sticking} w_k` is
+//! the area where friction holds the surfaces together (`|t_T| < μ p`; 0
+//! without friction, and on points touching for the first time).
 //!
 //! `peak_recovered_pressure = max_k −T̂_N,k` is the largest recovered normal
 //! traction (DESIGN §6) of the points, the smooth SPR estimate of the peak
@@ -29,12 +31,14 @@ pub struct SlaveSample {
     pub gap: f64,
     /// Contact pressure, compression positive.
     pub pressure: f64,
+    /// Friction applies and holds (stick).
+    pub sticking: bool,
 }
 
 /// The slave points of one pair at a converged state, for the ParaView
 /// output: current position and normal, gap (`NaN` where the search found
-/// no master within its radius), pressure `−λ_N` and recovered pressure
-/// `−T̂_N` (compression positive).
+/// no master within its radius), pressure `−λ_N`, recovered pressure
+/// `−T̂_N` (compression positive) and friction state (0 off, 1 stick, 2 slip).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ContactPoints {
     pub pair: String,
@@ -43,16 +47,18 @@ pub struct ContactPoints {
     pub gap: Vec<f64>,
     pub pressure: Vec<f64>,
     pub recovered_pressure: Vec<f64>,
+    pub friction: Vec<f64>,
 }
 
-/// `contact {pair, step, normal_force, contact_area, peak_pressure,
-/// max_penetration}` in `report.json`.
+/// `contact {pair, step, normal_force, contact_area, stick_area,
+/// peak_pressure, max_penetration, …}` in `report.json`.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct ContactRow {
     pub pair: String,
     pub step: usize,
     pub normal_force: f64,
     pub contact_area: f64,
+    pub stick_area: f64,
     pub peak_pressure: f64,
     pub max_penetration: f64,
     pub peak_recovered_pressure: f64,
@@ -63,12 +69,18 @@ pub struct ContactRow {
 impl ContactRow {
     /// The row of pair `pair` at load step `step` from its slave samples.
     pub fn from_samples(pair: &str, step: usize, samples: &[SlaveSample]) -> ContactRow {
-        let active = samples.iter().filter(|s| s.pressure > 0.0);
+        // Sums folded from +0 (an empty float `sum` is −0).
+        let area_where = |on: fn(&SlaveSample) -> bool| {
+            let weights = samples.iter().filter(|s| on(s)).map(|s| s.weight);
+            weights.fold(0.0, |a, w| a + w)
+        };
+        let forces = samples.iter().map(|s| s.weight * s.pressure);
         ContactRow {
             pair: pair.to_string(),
             step,
-            normal_force: samples.iter().map(|s| s.weight * s.pressure).sum(),
-            contact_area: active.map(|s| s.weight).sum(),
+            normal_force: forces.fold(0.0, |a, f| a + f),
+            contact_area: area_where(|s| s.pressure > 0.0),
+            stick_area: area_where(|s| s.sticking),
             peak_pressure: samples.iter().map(|s| s.pressure).fold(0.0, f64::max),
             max_penetration: samples.iter().map(|s| -s.gap).fold(0.0, f64::max),
             peak_recovered_pressure: 0.0,
@@ -102,16 +114,17 @@ mod tests {
 
     #[test]
     fn a_hand_made_row() {
-        let s = |weight, gap, pressure| SlaveSample {
+        let s = |weight, gap, pressure, sticking| SlaveSample {
             weight,
             gap,
             pressure,
+            sticking,
         };
         let samples = [
-            s(0.5, -0.002, 10.0),
-            s(0.25, -0.001, 4.0),
-            s(0.125, 0.0, 0.0),
-            s(1.0, 0.3, 0.0),
+            s(0.5, -0.002, 10.0, true),
+            s(0.25, -0.001, 4.0, false),
+            s(0.125, 0.0, 0.0, false),
+            s(1.0, 0.3, 0.0, false),
         ];
         let row = ContactRow::from_samples("ring", 3, &samples);
         assert_eq!(
@@ -121,6 +134,7 @@ mod tests {
                 step: 3,
                 normal_force: 6.0,
                 contact_area: 0.75,
+                stick_area: 0.5,
                 peak_pressure: 10.0,
                 max_penetration: 0.002,
                 peak_recovered_pressure: 0.0,
@@ -131,7 +145,7 @@ mod tests {
         let json = serde_json::to_string(&row).unwrap();
         assert_eq!(
             json,
-            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"peak_pressure":10.0,"max_penetration":0.002,"peak_recovered_pressure":0.0,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
+            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"stick_area":0.5,"peak_pressure":10.0,"max_penetration":0.002,"peak_recovered_pressure":0.0,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
         );
         let empty = ContactRow::from_samples("none", 0, &[]);
         assert_eq!(

@@ -16,7 +16,7 @@ use crate::element::ElementOrder;
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 use crate::hyper::material::Material;
-use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads};
+use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 
 fn validate(precision: Precision) -> naga::Module {
     let src = source(precision);
@@ -65,6 +65,7 @@ fn sphere_tangent_inputs(material: Material) -> (HyperProblem, Vec<f64>) {
         tag: 0,
         components: [true; 3],
         value: Arc::new(|_| [0.0; 3]),
+        ramps: [Ramp::LINEAR; 3],
     }];
     let p = HyperProblem::new(&grid, &cells, material, 3e4, &dirichlet, &Loads::default()).unwrap();
     let mut u = vec![0.0; p.ndofs()];

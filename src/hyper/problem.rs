@@ -34,15 +34,38 @@ pub type Region = Arc<dyn Fn([f64; 3]) -> bool + Send + Sync>;
 /// A traction of the reference position and outward normal.
 pub type TractionField = Arc<dyn Fn([f64; 3], [f64; 3]) -> [f64; 3] + Send + Sync>;
 
+/// The load path of a prescribed value: its factor at load factor `t` is
+/// `r(t) = clamp((t − start)/(end − start), 0, 1)`, with `0 ≤ start < end ≤ 1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ramp {
+    pub start: f64,
+    pub end: f64,
+}
+
+impl Ramp {
+    /// `r(t) = t`: the value grows with the load factor.
+    pub const LINEAR: Ramp = Ramp {
+        start: 0.0,
+        end: 1.0,
+    };
+
+    /// `r(t)`; 0 at `t = 0` and 1 at `t = 1`.
+    pub fn factor(&self, t: f64) -> f64 {
+        ((t - self.start) / (self.end - self.start)).clamp(0.0, 1.0)
+    }
+}
+
 /// A prescribed displacement on one boundary part, imposed by the penalty
-/// `(β/h) ∫ N m_i (u_i − t g_i)` on the components `i` with `m_i = 1`
-/// (all three: a fixed part; one: a roller).
+/// `(β/h) ∫ N m_i (u_i − r_i(t) g_i)` on the components `i` with `m_i = 1`
+/// (all three: a fixed part; one: a roller), `r_i` the component's [`Ramp`].
 #[derive(Clone)]
 pub struct DirichletCondition {
     pub tag: u16,
     pub components: [bool; 3],
     /// `g` at load factor 1.
     pub value: VectorField,
+    /// Per component: how `g_i` grows with the load factor.
+    pub ramps: [Ramp; 3],
 }
 
 /// Dead loads at load factor 1, on the reference configuration.
@@ -60,13 +83,23 @@ pub struct QuadPoint {
     pub w: f64,
 }
 
-/// A Dirichlet penalty point: shape values, `w β/h`, mask and `g` at load 1.
+/// A Dirichlet penalty point: its boundary tag, shape values, `w β/h`,
+/// mask, `g` at load 1 and its ramps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PenaltyPoint {
+    pub tag: u16,
     pub n: [f64; NODES],
     pub weight: f64,
     pub mask: [f64; 3],
     pub g: [f64; 3],
+    pub ramps: [Ramp; 3],
+}
+
+impl PenaltyPoint {
+    /// The prescribed value at load factor `t`: `r_i(t) g_i`.
+    pub fn target(&self, t: f64) -> [f64; 3] {
+        [0, 1, 2].map(|i| self.ramps[i].factor(t) * self.g[i])
+    }
 }
 
 /// The body, its grid and its boundary conditions.
@@ -176,10 +209,12 @@ impl HyperProblem {
                     let mut n = [0.0; NODES];
                     shape_values(ElementOrder::Q1, xi(q.x), &mut n);
                     p.penalty.push(PenaltyPoint {
+                        tag: d.tag,
                         n,
                         weight: q.w * beta * inv_h,
                         mask: d.components.map(|m| if m { 1.0 } else { 0.0 }),
                         g: (d.value)(q.x),
+                        ramps: d.ramps,
                     });
                 }
             }
@@ -187,6 +222,25 @@ impl HyperProblem {
         }
         p.external = external_loads(grid, cells, &p.dofs, loads);
         Ok(p)
+    }
+
+    /// The reaction of each Dirichlet part at `u` and load factor `t`, by
+    /// tag (ascending): the force the condition exerts on the body,
+    /// `−Σ_q w_q β/h M (u_h(x_q) − r(t) g)`.
+    pub fn dirichlet_reactions(&self, u: &[f64], t: f64) -> Vec<(u16, [f64; 3])> {
+        let mut sums = std::collections::BTreeMap::<u16, [f64; 3]>::new();
+        for k in 0..self.cells.len() {
+            let ue = self.gather(k, u);
+            for pp in self.penalty_points(k) {
+                let target = pp.target(t);
+                let sum = sums.entry(pp.tag).or_default();
+                for i in 0..3 {
+                    let uh: f64 = (0..NODES).map(|b| pp.n[b] * ue[b][i]).sum();
+                    sum[i] -= pp.weight * pp.mask[i] * (uh - target[i]);
+                }
+            }
+        }
+        sums.into_iter().collect()
     }
 
     /// Switches the S-term on (`k2 > 0`) with weight `k2 E` and threshold
@@ -314,4 +368,23 @@ fn external_loads(grid: &Grid, cells: &Cells, dofs: &DofMap, loads: &Loads) -> V
         }
     }
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ramp_holds_zero_then_grows_then_holds_one() {
+        let r = Ramp {
+            start: 0.25,
+            end: 0.75,
+        };
+        let factors = [0.0, 0.25, 0.5, 0.625, 0.75, 1.0].map(|t| r.factor(t));
+        assert_eq!(factors, [0.0, 0.0, 0.5, 0.75, 1.0, 1.0]);
+        assert_eq!(
+            [0.0, 0.3, 1.0].map(|t| Ramp::LINEAR.factor(t)),
+            [0.0, 0.3, 1.0]
+        );
+    }
 }

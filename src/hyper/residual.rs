@@ -54,16 +54,18 @@ pub fn add_bt_stress(p: &Matrix3<f64>, q: &QuadPoint, out: &mut CellVector) {
 }
 
 /// `out_a += w N_a M (Σ_b N_b v_b − shift)` for each penalty point; `shift`
-/// is `t g` for the residual and 0 for the tangent.
+/// is the prescribed value at load factor `t` for the residual and 0 (at
+/// `t = 0`) for the tangent.
 pub fn add_penalty(points: &[PenaltyPoint], ve: &CellVector, t: f64, out: &mut CellVector) {
     for pp in points {
+        let target = pp.target(t);
         let mut jump = [0.0; 3];
         for i in 0..3 {
             let mut s = 0.0;
             for b in 0..NODES {
                 s += pp.n[b] * ve[b][i];
             }
-            jump[i] = pp.mask[i] * (s - t * pp.g[i]);
+            jump[i] = pp.mask[i] * (s - target[i]);
         }
         for a in 0..NODES {
             for i in 0..3 {
@@ -121,9 +123,10 @@ pub fn energy(p: &HyperProblem, u: &[f64], t: f64) -> Option<f64> {
                 e += q.w * p.material.energy(&s);
             }
             for pp in p.penalty_points(k) {
+                let target = pp.target(t);
                 for i in 0..3 {
                     let s: f64 = (0..NODES).map(|b| pp.n[b] * ue[b][i]).sum();
-                    let jump = pp.mask[i] * (s - t * pp.g[i]);
+                    let jump = pp.mask[i] * (s - target[i]);
                     e += 0.5 * pp.weight * jump * jump;
                 }
             }

@@ -11,7 +11,7 @@ use cgfem_gpu::geometry::{Aabb, Geometry};
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::{Material, MaterialModel};
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions};
-use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, VectorField};
+use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp, VectorField};
 use cgfem_gpu::hyper::residual::{point_fields, residual};
 use cgfem_gpu::progress::{Event, Progress, Silent};
 use cgfem_gpu::solver::{KrylovMethod, KrylovOptions, Preconditioner};
@@ -38,6 +38,7 @@ fn stretched_box(material: Material, level: u32, delta: f64, beta: f64) -> Hyper
             tag: g.tag_id(name).unwrap(),
             components,
             value,
+            ramps: [Ramp::LINEAR; 3],
         }
     };
     let dirichlet = [
@@ -185,6 +186,7 @@ fn twisted_ring(level: u32, angle: f64) -> HyperProblem {
             tag: g.tag_id("inner").unwrap(),
             components: [true; 3],
             value: zero(),
+            ramps: [Ramp::LINEAR; 3],
         },
         DirichletCondition {
             tag: g.tag_id("outer").unwrap(),
@@ -192,6 +194,7 @@ fn twisted_ring(level: u32, angle: f64) -> HyperProblem {
             value: Arc::new(move |x: [f64; 3]| {
                 [c * x[0] - s * x[1] - x[0], s * x[0] + c * x[1] - x[1], 0.0]
             }),
+            ramps: [Ramp::LINEAR; 3],
         },
     ];
     let material = Material::neo_hookean(E, NU);

@@ -162,10 +162,41 @@ fn other_bad_inputs_name_their_key() {
             BLOCKS.replace("[load]", "[stabilisation]\nbalanced = true\n[load]"),
             "stabilisation.balanced",
         ),
+        (
+            BLOCKS.replace("\"-0.1*z\"]", "\"-0.1*z\"], ramp = [0.5, 0.5]"),
+            "body[1].dirichlet.zmax.ramp",
+        ),
+        (
+            BLOCKS.replace(
+                "\"-0.1*z\"]",
+                "\"-0.1*z\"], ramp = [[0, 1], [0, 1], [0.2, 1.5]]",
+            ),
+            "body[1].dirichlet.zmax.ramp",
+        ),
     ];
     for (text, key) in cases {
         assert_eq!(key_of(parse(&text)), key, "{text}");
     }
+}
+
+#[test]
+fn a_ramp_gives_each_component_its_load_path() {
+    let text = BLOCKS.replace(
+        "\"-0.1*z\"]",
+        "\"-0.1*z\"], ramp = [[0.5, 1], [0, 1], [0, 0.25]]",
+    );
+    let case = parse(&text).unwrap();
+    let d = &case.bodies[1].spec.dirichlet["zmax"];
+    assert_eq!(d.ramps(), [[0.5, 1.0], [0.0, 1.0], [0.0, 0.25]]);
+    let one = parse(&BLOCKS.replace("\"-0.1*z\"]", "\"-0.1*z\"], ramp = [0, 0.5]")).unwrap();
+    assert_eq!(
+        one.bodies[1].spec.dirichlet["zmax"].ramps(),
+        [[0.0, 0.5]; 3]
+    );
+    assert_eq!(
+        parse(BLOCKS).unwrap().bodies[1].spec.dirichlet["zmax"].ramps(),
+        [[0.0, 1.0]; 3]
+    );
 }
 
 #[test]
