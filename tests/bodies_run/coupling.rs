@@ -22,6 +22,7 @@ impl Coupling for Spring {
             weight: 1.0,
             gap,
             pressure: self.k * gap.powi(3),
+            sticking: false,
         };
         vec![ContactRow::from_samples("spring", step, &[sample])]
     }
