@@ -7,7 +7,7 @@
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::contact::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
-    Enforcement, PointHistory, SlaveQuadraturePoint, Surface,
+    Enforcement, FrictionState, PointHistory, SlaveQuadraturePoint, Surface,
 };
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::fem::dofs::DofMap;
@@ -150,10 +150,10 @@ fn apply(e: &Enforcement, v: &[f64]) -> Vec<f64> {
 }
 
 /// Hit triangles, activity and slip of every point.
-fn active_set(e: &Enforcement) -> Vec<(Option<usize>, bool, bool)> {
+fn active_set(e: &Enforcement) -> Vec<(Option<usize>, bool, FrictionState)> {
     e.points
         .iter()
-        .map(|p| (p.hit.map(|h| h.0), p.pressure > 0.0, p.slipping))
+        .map(|p| (p.hit.map(|h| h.0), p.pressure > 0.0, p.friction))
         .collect()
 }
 
@@ -393,7 +393,10 @@ fn the_friction_tangent_is_the_derivative_of_the_residual_in_stick_and_slip() {
         let active: Vec<usize> = (0..e.points.len())
             .filter(|&i| e.points[i].pressure > 0.0 && anchored(i))
             .collect();
-        let slipping = active.iter().filter(|&&i| e.points[i].slipping).count();
+        let slipping = active
+            .iter()
+            .filter(|&&i| e.points[i].friction == FrictionState::Slip)
+            .count();
         let sticking = active.len() - slipping;
         let other_cell = active
             .iter()
@@ -424,7 +427,7 @@ fn the_friction_tangent_is_the_derivative_of_the_residual_in_stick_and_slip() {
                 size <= mu * p.pressure * (1.0 + 1e-12),
                 "{what}: outside the cone"
             );
-            if p.slipping {
+            if p.friction == FrictionState::Slip {
                 assert!(
                     (size - mu * p.pressure).abs() < 1e-9 * size,
                     "{what}: not on the cone"

@@ -36,7 +36,7 @@ pub(crate) mod vec3;
 pub use bvh::{intersect_line, Bvh, Hit, NodeView};
 pub use enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
-    Enforcement, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,
+    Enforcement, FrictionState, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,
 };
 pub use enforce_tangent::ContactTangent;
 pub use report::{ContactPoints, ContactRow, SlaveSample};
