@@ -1,10 +1,13 @@
 //! Cattaneo–Mindlin partial slip against its closed form (issue 19):
 //! `cases/mindlin.toml` (a sphere pressed onto a block, then sheared below
-//! μN; a half model) at level 3. At every shear step the stick radius over
-//! the contact radius is Mindlin's `c/a = (1 − Q/(μN))^(1/3)` within 10 %,
-//! with `Q` and `N` the run's own tangential and normal contact forces and
-//! both radii from the report's areas (`sqrt(2 · area / π)`, half model).
-//! `CGFEM_MINDLIN_LEVEL=4` runs the case's own level (about 10 minutes).
+//! μN; a half model) at level 3. At every shear step up to `Q = 0.7 μN` the
+//! stick radius over the contact radius is Mindlin's
+//! `c/a = (1 − Q/(μN))^(1/3)` within 10 %, with `Q` and `N` the run's own
+//! tangential and normal contact forces and both radii from the report's
+//! areas (`sqrt(2 · area / π)`, half model). Beyond 0.7 μN the stick zone
+//! is under two cells across (`c < 0.15`, `h = 1/16` at level 4) and its
+//! radius is printed, not asserted (docs/verification.md has the figures).
+//! `CGFEM_MINDLIN_LEVEL=4` runs the case's own level (about 5 minutes).
 
 use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::bodies::BodiesCase;
