@@ -11,7 +11,12 @@
 //! options (through [`TangentSolver`], so that any backend can run it), then
 //! backtrack `α = 1, 1/2, 1/4, …` until `‖R(u_k + α Δu)‖ ≤ (1 − 10⁻⁴ α) ‖R(u_k)‖`
 //! (Armijo on the residual norm; a trial with `det F ≤ 0` somewhere, or a
-//! non-finite residual, counts as a failed trial). The step has converged at
+//! non-finite residual, counts as a failed trial). Where no trial passes,
+//! Newton takes the trial with the smallest residual anyway, as long as it
+//! is not above the step's starting residual, up to 3 times per solve (a
+//! non-monotone step): contact's active set and master patches make `R`
+//! only piecewise smooth, and at a kink the Newton direction need not
+//! decrease `‖R‖` although the next iterate converges. The step has converged at
 //! `u_k` when both
 //! ```text
 //! ‖R(u_k)‖ ≤ residual_tol · ‖R(u_0)‖      and      |Δu_k · R(u_k)| ≤ energy_tol · |Δu_0 · R(u_0)|
@@ -58,7 +63,8 @@
 //!
 //! # Step cutting
 //! A step fails when Newton runs out of iterations, the line search finds no
-//! decrease, or the Krylov solve fails. The displacement is then reset to the
+//! decrease (after the non-monotone steps are spent), or the Krylov solve
+//! fails. The displacement is then reset to the
 //! last converged one and the increment halved. The cut increment is kept
 //! until the load has passed the point that failed; after that, each
 //! converged step doubles it again (up to the nominal one). (Doubling sooner
@@ -559,6 +565,7 @@ fn newton_step(
         return Ok(());
     }
     report.residuals.push(norm(&r) / r0);
+    let mut non_monotone_left = NON_MONOTONE_STEPS;
     for k in 0..opts.max_iterations {
         if ctx.progress.should_stop() {
             return Err(StepFailure::Interrupted(k));
@@ -607,8 +614,17 @@ fn newton_step(
             return Ok(());
         }
         let backtracks = opts.line_search.then_some(opts.max_backtracks);
-        let (alpha, r_new) = line_search(p, t, u, &du, &r, backtracks)
-            .ok_or_else(|| diverged("the line search found no decrease of the residual"))?;
+        let trial = line_search(p, t, u, &du, &r, backtracks)
+            .ok_or_else(|| diverged("every trial of the line search inverts an element"))?;
+        if !trial.decreased {
+            if non_monotone_left == 0 || norm(&trial.residual) > r0 {
+                return Err(diverged(
+                    "the line search found no decrease of the residual",
+                ));
+            }
+            non_monotone_left -= 1;
+        }
+        let (alpha, r_new) = (trial.alpha, trial.residual);
         for (x, d) in u.iter_mut().zip(&du) {
             *x += alpha * d;
         }
@@ -630,9 +646,23 @@ fn newton_step(
     )))
 }
 
+/// Newton iterations of one solve that may take a step without a decrease of
+/// `‖R‖` (module doc, *Newton–Raphson*).
+const NON_MONOTONE_STEPS: usize = 3;
+
+/// A point of the line search: `α`, `R(u + α du)`, and whether it passed
+/// the Armijo test.
+struct Trial {
+    alpha: f64,
+    residual: Vec<f64>,
+    decreased: bool,
+}
+
 /// Backtracking on `‖R‖`: the first `α = 2^-j` with
-/// `‖R(u + α du)‖ ≤ (1 − 10⁻⁴ α) ‖R(u)‖`, and the residual there. Without
-/// backtracking (`None`) the full step is taken wherever `R` is defined.
+/// `‖R(u + α du)‖ ≤ (1 − 10⁻⁴ α) ‖R(u)‖`; if none passes, the trial with
+/// the smallest `‖R‖` (`decreased = false`). Without backtracking (`None`)
+/// the full step is taken wherever `R` is defined. `None` when `R` is
+/// undefined (an inverted element) at every trial.
 fn line_search(
     p: &dyn NonlinearProblem,
     t: f64,
@@ -640,17 +670,31 @@ fn line_search(
     du: &[f64],
     r: &[f64],
     max_backtracks: Option<usize>,
-) -> Option<(f64, Vec<f64>)> {
+) -> Option<Trial> {
     let r_norm = norm(r);
     let mut alpha = 1.0;
+    let mut best: Option<(f64, Trial)> = None;
     for _ in 0..=max_backtracks.unwrap_or(0) {
         let trial: Vec<f64> = u.iter().zip(du).map(|(x, d)| x + alpha * d).collect();
-        if let Some(r_trial) = p.residual(&trial, t) {
-            if max_backtracks.is_none() || norm(&r_trial) <= (1.0 - 1e-4 * alpha) * r_norm {
-                return Some((alpha, r_trial));
+        if let Some(residual) = p.residual(&trial, t) {
+            let size = norm(&residual);
+            if max_backtracks.is_none() || size <= (1.0 - 1e-4 * alpha) * r_norm {
+                return Some(Trial {
+                    alpha,
+                    residual,
+                    decreased: true,
+                });
+            }
+            if best.as_ref().is_none_or(|(b, _)| size < *b) {
+                let trial = Trial {
+                    alpha,
+                    residual,
+                    decreased: false,
+                };
+                best = Some((size, trial));
             }
         }
         alpha *= 0.5;
     }
-    None
+    best.map(|(_, trial)| trial)
 }

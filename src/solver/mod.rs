@@ -25,7 +25,7 @@
 //!   artefact) is floored,
 //!   not a breakdown, and counted in
 //!   [`KrylovStats::floored_diagonal_entries`]; see [`DIAGONAL_FLOOR`].
-//! - CGS or BiCGStab diverging (the residual 1e4 times above the best saved
+//! - CGS or BiCGStab diverging (the residual 1e8 times above the best saved
 //!   iterate's): the saved iterate is put back and the method restarts from
 //!   it (`divergence`), counted in [`KrylovStats::divergence_restarts`].
 //! - Iteration budget used up: [`Error::MaxIterations`]. Both exit with code 3.
