@@ -14,13 +14,12 @@
 //! breakdown is detected on the device by `scalar_ratio` (a zero `ρ` or `σ`;
 //! for CG a `p·Ap` or `r·M⁻¹r` that is not positive), which records the
 //! culprit for the host's [`Error::Breakdown`]; non-finite values show in the
-//! `‖r‖²` read back. CGS's divergence guard (`crate::solver`'s) looks at the
-//! residual once per batch. Not kept: the per-iteration residual history (one entry
+//! `‖r‖²` read back. Not kept: the per-iteration residual history (one entry
 //! per batch) and the Lanczos coefficients of CG.
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
-use crate::solver::{breakdown, drive, Cycles, Precond, SavedIterate};
+use crate::solver::{breakdown, drive, Cycles, Precond};
 use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
 use super::backend::{GpuBackend, GpuVector};
@@ -238,8 +237,6 @@ impl Cycle<'_, '_> {
         }
         be.submit(enc);
         let start = stats.iterations;
-        // CGS's divergence guard, looked at once per batch.
-        let mut saved = cgs.then(|| SavedIterate::start(be, x, r));
         loop {
             let left = self.opts.max_iterations - stats.iterations;
             let mut enc = be.encoder();
@@ -265,11 +262,6 @@ impl Cycle<'_, '_> {
             }
             if s[0] != 0.0 || stats.iterations >= self.opts.max_iterations {
                 return Ok(());
-            }
-            if let Some(saved) = saved.as_mut() {
-                if saved.diverged(be, x, rr, stats) {
-                    return Ok(());
-                }
             }
         }
     }

@@ -9,7 +9,7 @@
 use crate::backend::Backend;
 use crate::error::{Error, Result};
 
-use super::{KrylovMethod, KrylovStats, Precond, SavedIterate};
+use super::{KrylovMethod, KrylovStats, Precond};
 
 /// What a cycle needs besides its vectors.
 pub(super) struct Problem<'a, 'o, B: Backend> {
@@ -152,8 +152,7 @@ pub(super) fn cg<B: Backend>(
 /// ```
 ///
 /// Vectors: `r, r̃, u, p, q, v` and one preconditioner scratch (`M⁻¹p`, then
-/// `M⁻¹u`); `v` holds `A M⁻¹ p`, then `A û`; and the saved iterate of the
-/// divergence guard (`super::divergence`).
+/// `M⁻¹u`); `v` holds `A M⁻¹ p`, then `A û`.
 pub(super) fn cgs<B: Backend>(
     pb: &Problem<'_, '_, B>,
     x: &mut B::Vector,
@@ -165,7 +164,6 @@ pub(super) fn cgs<B: Backend>(
     be.copy(r, &mut rt);
     let (mut u, mut p, mut q, mut v) = (be.zeros(n), be.zeros(n), be.zeros(n), be.zeros(n));
     let mut z = pb.pre.scratch(be, n);
-    let mut saved = SavedIterate::start(be, x, r);
     let mut rho = pb.finite(be.dot(r, &rt), stats.iterations, "ρ = r̃·r")?;
     let mut rho_prev = rho;
     loop {
@@ -181,7 +179,7 @@ pub(super) fn cgs<B: Backend>(
         be.apply(pb.op, uh, &mut v);
         be.axpy(-alpha, &v, r);
         let (rr, rho_next) = be.dot2(r, r, &rt);
-        if pb.step(stats, rr)? || saved.diverged(be, x, rr, stats) {
+        if pb.step(stats, rr)? {
             return Ok(());
         }
         rho_prev = rho_now;
@@ -206,8 +204,6 @@ pub(super) fn cgs<B: Backend>(
 ///     r = s − ω t;  (‖r‖², ρ') = (r·r, r·r̃)  stop on ‖r‖
 ///     ρ_prev = ρ;  ρ = ρ'
 /// ```
-///
-/// With the divergence guard's saved iterate (`super::divergence`).
 pub(super) fn bicgstab<B: Backend>(
     pb: &Problem<'_, '_, B>,
     x: &mut B::Vector,
@@ -219,7 +215,6 @@ pub(super) fn bicgstab<B: Backend>(
     be.copy(r, &mut rt);
     let (mut p, mut v, mut t) = (be.zeros(n), be.zeros(n), be.zeros(n));
     let (mut zp, mut zs) = (pb.pre.scratch(be, n), pb.pre.scratch(be, n));
-    let mut saved = SavedIterate::start(be, x, r);
     let mut rho = pb.finite(be.dot(r, &rt), stats.iterations, "ρ = r̃·r")?;
     let (mut rho_prev, mut alpha, mut omega) = (rho, 1.0, 1.0);
     loop {
@@ -245,7 +240,7 @@ pub(super) fn bicgstab<B: Backend>(
         be.axpy2(alpha, ph, omega, sh, x);
         be.axpy(-omega, &t, r);
         let (rr, rho_next) = be.dot2(r, r, &rt);
-        if pb.step(stats, rr)? || saved.diverged(be, x, rr, stats) {
+        if pb.step(stats, rr)? {
             return Ok(());
         }
         rho_prev = rho_now;

@@ -25,12 +25,8 @@
 //!   artefact) is floored,
 //!   not a breakdown, and counted in
 //!   [`KrylovStats::floored_diagonal_entries`]; see [`DIAGONAL_FLOOR`].
-//! - CGS or BiCGStab diverging (the residual 1e8 times above the best saved
-//!   iterate's): the saved iterate is put back and the method restarts from
-//!   it (`divergence`), counted in [`KrylovStats::divergence_restarts`].
 //! - Iteration budget used up: [`Error::MaxIterations`]. Both exit with code 3.
 
-mod divergence;
 mod krylov;
 mod lanczos;
 mod precond;
@@ -48,7 +44,6 @@ use crate::error::{Error, Result};
 
 pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 
-pub(crate) use divergence::SavedIterate;
 pub(crate) use krylov::breakdown;
 use krylov::Problem;
 pub(crate) use precond::Precond;
@@ -151,12 +146,8 @@ pub struct KrylovStats {
     /// Iterations over all cycles (one iteration of CGS and BiCGStab applies
     /// the operator twice, one of CG once).
     pub iterations: usize,
-    /// Restarts from the true residual after the recursive one drifted away,
-    /// a breakdown or a divergence.
+    /// Restarts from the true residual after the recursive one drifted away.
     pub restarts: usize,
-    /// CGS and BiCGStab: cycles ended because the residual diverged, the
-    /// best iterate put back (see `divergence`).
-    pub divergence_restarts: usize,
     /// The last relative residual the method updated recursively
     /// (the true one when no iteration was needed).
     pub relative_residual: f64,
