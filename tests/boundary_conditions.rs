@@ -232,3 +232,54 @@ fn a_linear_and_a_neo_hookean_body_agree_at_small_strain() {
     // The linear body's tangent is constant: one Newton iteration per pass.
     assert!(linear.newton_iterations() <= neo.newton_iterations());
 }
+
+/// A linear bar on `[0, 1] × [0, 0.5]²`, clamped on `xmin`, loaded on
+/// `xmax` by `load` (a `neumann` or `dirichlet` entry), in 4 load steps.
+fn ramped_bar(load: &str) -> String {
+    format!(
+        r#"[load]
+steps = 4
+[[body]]
+name = "bar"
+geometry = {{ type = "cuboid", min = [0, 0, 0], max = [1, 0.5, 0.5] }}
+grid = {{ level = 3, offset = [0.3, 0.6, 0.45] }}
+material = {{ model = "linear", young = 1000.0, poisson = 0.3 }}
+dirichlet.xmin = {{ value = ["0", "0", "0"] }}
+{load}
+"#
+    )
+}
+
+/// The x-reaction of the clamped face per converged step.
+fn clamp_reactions(text: &str) -> Vec<f64> {
+    let case = BodiesCase::from_str_with("bar.toml", text, &[]).unwrap();
+    let outcome = run(&case, None, None, &Silent).unwrap();
+    outcome.result.unwrap();
+    let rows = outcome.report.reactions.iter().filter(|r| r.part == "xmin");
+    rows.map(|r| r.force[0]).collect()
+}
+
+#[test]
+fn a_ramp_holds_a_load_back_until_its_start() {
+    // A traction of 8 on the 0.5 × 0.5 end: resultant 2. With ramp
+    // [0.5, 1] steps 1 and 2 (t = 0.25, 0.5) carry nothing and steps 3 and 4
+    // half and all of it; the clamp balances it (linear body: exactly, to
+    // the solver's tolerance).
+    let traction = clamp_reactions(&ramped_bar(
+        r#"neumann.xmax = { traction = ["8", "0", "0"], ramp = [0.5, 1] }"#,
+    ));
+    println!("traction ramp [0.5, 1]: clamp reactions {traction:?}");
+    let expected = [0.0, 0.0, -1.0, -2.0];
+    for (r, e) in traction.iter().zip(expected) {
+        assert!((r - e).abs() < 1e-6, "{traction:?}");
+    }
+    // A prescribed displacement on one component only: ramp [0, 0.5] on
+    // u_x reaches its value at step 2 and holds it.
+    let pulled = clamp_reactions(&ramped_bar(
+        r#"dirichlet.xmax = { value = ["0.001", "free", "free"], ramp = [0, 0.5] }"#,
+    ));
+    println!("displacement ramp [0, 0.5]: clamp reactions {pulled:?}");
+    assert!(pulled[0] < 0.0 && (pulled[1] / pulled[0] - 2.0).abs() < 1e-6);
+    assert!((pulled[2] - pulled[1]).abs() < 1e-9 * pulled[1].abs());
+    assert!((pulled[3] - pulled[1]).abs() < 1e-9 * pulled[1].abs());
+}

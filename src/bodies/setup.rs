@@ -20,7 +20,9 @@ use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::material::{Material, MaterialModel};
 use crate::hyper::newton::NewtonOptions;
-use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp, Region, TractionField};
+use crate::hyper::problem::{
+    DirichletCondition, HyperProblem, Loads, Ramp, Region, TractionField, TractionLoad,
+};
 use crate::progress::Progress;
 use crate::solver::KrylovOptions;
 
@@ -170,10 +172,15 @@ fn body_problem(
         .neumann
         .iter()
         .map(|(name, n)| {
+            let ramps = n.ramps().map(|[start, end]| Ramp { start, end });
             let n = n.clone();
             // "exact" is refused in [[body]] cases (no exact field).
             let field = move |x: [f64; 3], normal: [f64; 3]| n.eval(x, normal, |_, _| [0.0; 3]);
-            (tag(name), Arc::new(field) as TractionField)
+            TractionLoad {
+                tag: tag(name),
+                field: Arc::new(field) as TractionField,
+                ramps,
+            }
         })
         .collect();
     let loads = Loads {

@@ -14,13 +14,14 @@
 //! [neumann.load]                 # a traction per unit area ...
 //! traction = ["0", "0", "-1"]    # ... three expressions, or "exact" (σ(u) n)
 //! # pressure = "100"             # or a scalar pressure p: t = −p n
+//! ramp = [0, 0.5]                # optional, [[body]] cases: the load path
 //! ```
 //! A free component of a Dirichlet part is traction free. A point of a
 //! Dirichlet part outside its `region` is traction free too. Parts named in
 //! neither table are traction free.
 //!
-//! `ramp = [start, end]` is the load path of a prescribed value in a
-//! `[[body]]` case: at load factor `t` the value is `r(t) g(x)` with
+//! `ramp = [start, end]` is the load path of a prescribed value or a traction
+//! in a `[[body]]` case: at load factor `t` the value is `r(t) g(x)` with
 //! `r(t) = clamp((t − start)/(end − start), 0, 1)`, so `[0, 1]` (the default)
 //! grows with the load factor and `[0, 0.5]` then `[0.5, 1]` press first and
 //! push after. A single-body case has no load path and refuses the key.
@@ -212,6 +213,8 @@ pub struct NeumannSpec {
     pub traction: Option<FieldValue>,
     #[serde(default)]
     pub pressure: Option<Expr>,
+    #[serde(default)]
+    pub ramp: Option<RampSpec>,
 }
 
 impl NeumannSpec {
@@ -232,6 +235,14 @@ impl NeumannSpec {
             }
             (None, None) => [0.0; 3],
         }
+    }
+
+    /// `[start, end]` of the load path per traction component (`[0, 1]` by
+    /// default; a pressure's ramp applies to its traction's components).
+    pub fn ramps(&self) -> [[f64; 2]; 3] {
+        self.ramp
+            .as_ref()
+            .map_or([[0.0, 1.0]; 3], RampSpec::per_component)
     }
 
     /// Is the traction `"exact"`?
@@ -318,6 +329,11 @@ pub(super) fn check_boundary(
         }
         if n.is_exact() && !has_exact {
             return bad(format!("neumann.{tag}.traction"), needs_exact);
+        }
+        if let Some(r) = &n.ramp {
+            if let Some(reason) = ramp_problem(r, load_path) {
+                return bad(format!("neumann.{tag}.ramp"), reason);
+            }
         }
     }
     Ok(())

@@ -133,6 +133,7 @@ fn physics_errors_name_the_key() {
         ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"0\",\"0\"]\nregion = { min = [0, 0, 1], max = [1, 1, 0] }\n", "dirichlet.surface.region"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"0\",\"0\"]\nregion = { mid = [0, 0, 1] }\n", "dirichlet.surface.region.mid"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"0\",\"0\"]\nramp = [0, 0.5]\n", "dirichlet.surface.ramp"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\npressure = \"1\"\nramp = [0, 0.5]\n", "neumann.surface.ramp"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\npressure = \"1\"\ntraction = [\"0\",\"0\",\"0\"]\n", "neumann.surface"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\n", "neumann.surface"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[neumann.surface]\npressure = \"1 +\"\n", "neumann.surface.pressure"),

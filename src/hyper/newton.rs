@@ -21,7 +21,9 @@
 //! ```text
 //! ‖R(u_k)‖ ≤ residual_tol · ‖R(u_0)‖      and      |Δu_k · R(u_k)| ≤ energy_tol · |Δu_0 · R(u_0)|
 //! ```
-//! hold (`u_0`: the last converged displacement at the new load factor):
+//! hold (`u_0`: the last converged displacement at the new load factor;
+//! a step whose `‖R(u_0)‖` is at round-off, 1e-13 of the largest starting
+//! residual so far, is converged as it stands: a load path holding still):
 //! the residual is small and so is the energy of the correction Newton would
 //! still make. That costs one linear solve at the converged state, but the two
 //! tests then look at the same state, and a residual already at round-off
@@ -73,6 +75,8 @@
 //! increment end the solve with
 //! [`Error::LoadStepFailed`], which names the last converged step; the
 //! [`HyperSolution`] passed in then holds that step's displacement.
+
+use std::cell::Cell;
 
 use super::problem::HyperProblem;
 use super::residual::residual;
@@ -352,6 +356,7 @@ pub fn solve_load_steps_with(
     // The load of the last failed attempt, until a converged step passes it.
     let mut failed_at: Option<f64> = None;
     let mut solves = 0;
+    let scale = Cell::new(0.0);
     while solution.load_factor < 1.0 {
         let from = solution.load_factor;
         // The last increment lands exactly on 1.
@@ -373,6 +378,7 @@ pub fn solve_load_steps_with(
             progress,
             step: solution.converged_steps + 1,
             refresh_each: None,
+            scale: &scale,
         };
         let outcome = recovered_step(&ctx, to, &mut u, solver, &mut report, &mut solves);
         if !matches!(outcome, Err(StepFailure::Interrupted(_))) {
@@ -444,7 +450,14 @@ struct Context<'a> {
     step: usize,
     /// Embedded recovery: re-evaluates the recovered terms after each update.
     refresh_each: Option<&'a Refresh<'a>>,
+    /// The largest starting residual `‖R(u_0)‖` of the solve so far.
+    scale: &'a Cell<f64>,
 }
+
+/// A step whose starting residual is at most this times the largest one of
+/// the solve so far has nothing left to solve (a load path holding still):
+/// round-off cannot be decreased further.
+const STILL: f64 = 1e-13;
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
@@ -560,7 +573,8 @@ fn newton_step(
         .residual(u, t)
         .ok_or_else(|| diverged("an element is inverted at the start"))?;
     let r0 = *refs.residual.get_or_insert(norm(&r));
-    if r0 == 0.0 {
+    ctx.scale.set(ctx.scale.get().max(r0));
+    if r0 <= STILL * ctx.scale.get() {
         report.residuals.push(1.0);
         return Ok(());
     }

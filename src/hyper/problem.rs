@@ -68,12 +68,29 @@ pub struct DirichletCondition {
     pub ramps: [Ramp; 3],
 }
 
-/// Dead loads at load factor 1, on the reference configuration.
+/// Dead loads at load factor 1, on the reference configuration. The body
+/// load grows with the load factor; each traction along its ramps.
 #[derive(Clone, Default)]
 pub struct Loads {
     pub body: Option<VectorField>,
-    /// Per boundary tag.
-    pub tractions: Vec<(u16, TractionField)>,
+    pub tractions: Vec<TractionLoad>,
+}
+
+/// A traction on the boundary part `tag`, its component `i` scaled by
+/// `ramps[i]` at load factor `t`.
+#[derive(Clone)]
+pub struct TractionLoad {
+    pub tag: u16,
+    pub field: TractionField,
+    pub ramps: [Ramp; 3],
+}
+
+/// Part of `f_ext`: the loads that share one set of ramps, assembled at load
+/// factor 1; component `i` of every node is scaled by `ramps[i]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExternalLoad {
+    pub ramps: [Ramp; 3],
+    pub f: Vec<f64>,
 }
 
 /// A volume quadrature point: physical shape gradients `∇_X N_a` and weight.
@@ -121,8 +138,8 @@ pub struct HyperProblem {
     cut_start: Vec<usize>,
     penalty: Vec<PenaltyPoint>,
     penalty_start: Vec<usize>,
-    /// `f_ext` at load factor 1.
-    pub external: Vec<f64>,
+    /// `f_ext`, one part per set of ramps ([`HyperProblem::external_at`]).
+    pub external: Vec<ExternalLoad>,
     /// The S-stabilisation of the pathological cells, if switched on.
     pub s_term: Option<STerm>,
 }
@@ -222,6 +239,19 @@ impl HyperProblem {
         }
         p.external = external_loads(grid, cells, &p.dofs, loads);
         Ok(p)
+    }
+
+    /// `f_ext(t) = Σ_parts Σ_i r_i(t) f_i`, `f_i` a part's load on the
+    /// component-`i` dofs.
+    pub fn external_at(&self, t: f64) -> Vec<f64> {
+        let mut f = vec![0.0; self.ndofs()];
+        for part in &self.external {
+            let factors = part.ramps.map(|r| r.factor(t));
+            for (k, (out, v)) in f.iter_mut().zip(&part.f).enumerate() {
+                *out += factors[k % 3] * v;
+            }
+        }
+        f
     }
 
     /// The reaction of each Dirichlet part at `u` and load factor `t`, by
@@ -339,10 +369,24 @@ fn quad_point(xi: [f64; 3], w: f64, inv_h: f64) -> QuadPoint {
 }
 
 /// `f_ext = ∫ Nᵀ b dV + ∫_ΓN Nᵀ t dA` on the reference configuration, with the
-/// same rules as the linear right-hand side (one Gauss order more inside).
-fn external_loads(grid: &Grid, cells: &Cells, dofs: &DofMap, loads: &Loads) -> Vec<f64> {
-    let mut f = vec![0.0; dofs.ndofs()];
-    if let Some(body) = &loads.body {
+/// same rules as the linear right-hand side (one Gauss order more inside),
+/// one part per distinct set of ramps (the body load's is linear).
+fn external_loads(grid: &Grid, cells: &Cells, dofs: &DofMap, loads: &Loads) -> Vec<ExternalLoad> {
+    let mut parts: Vec<ExternalLoad> = Vec::new();
+    let mut part = |ramps: [Ramp; 3]| -> usize {
+        match parts.iter().position(|p| p.ramps == ramps) {
+            Some(i) => i,
+            None => {
+                let f = vec![0.0; dofs.ndofs()];
+                parts.push(ExternalLoad { ramps, f });
+                parts.len() - 1
+            }
+        }
+    };
+    let indices: Vec<usize> = loads.tractions.iter().map(|t| part(t.ramps)).collect();
+    let body_index = loads.body.as_ref().map(|_| part([Ramp::LINEAR; 3]));
+    if let (Some(body), Some(i)) = (&loads.body, body_index) {
+        let f = &mut parts[i].f;
         let rule = tensor_gauss_rule(3);
         let vol = grid.h.powi(3);
         for (c, kind) in cells.kinds.iter().enumerate() {
@@ -350,24 +394,27 @@ fn external_loads(grid: &Grid, cells: &Cells, dofs: &DofMap, loads: &Loads) -> V
                 let lo = grid.cell_box(c).lo;
                 for (xi, w) in &rule {
                     let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-                    add_point_load(grid, dofs, c, x, body(x).map(|v| v * w * vol), &mut f);
+                    add_point_load(grid, dofs, c, x, body(x).map(|v| v * w * vol), f);
                 }
             }
         }
         for (i, &c) in cells.cut.iter().enumerate() {
             for q in cells.volume_points(i) {
-                add_point_load(grid, dofs, c, q.x, body(q.x).map(|v| v * q.w), &mut f);
+                add_point_load(grid, dofs, c, q.x, body(q.x).map(|v| v * q.w), f);
             }
         }
     }
     for (i, &c) in cells.cut.iter().enumerate() {
         for q in cells.surface_points(i) {
-            for (_, t) in loads.tractions.iter().filter(|(tag, _)| *tag == q.tag) {
-                add_point_load(grid, dofs, c, q.x, t(q.x, q.n).map(|v| v * q.w), &mut f);
+            for (t, &k) in loads.tractions.iter().zip(&indices) {
+                if t.tag == q.tag {
+                    let load = (t.field)(q.x, q.n).map(|v| v * q.w);
+                    add_point_load(grid, dofs, c, q.x, load, &mut parts[k].f);
+                }
             }
         }
     }
-    f
+    parts
 }
 
 #[cfg(test)]

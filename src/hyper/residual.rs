@@ -1,13 +1,15 @@
 //! The total Lagrangian residual of one body at load factor `t`:
 //! ```text
-//! R(u) = Σ_cells Σ_q w_q Bᵀ P(F_q)  +  Σ_p w_p (β/h) Nᵀ M (N u − t g)  −  t f_ext
+//! R(u) = Σ_cells Σ_q w_q Bᵀ P(F_q)  +  Σ_p w_p (β/h) Nᵀ M (N u − g(t))  −  f_ext(t)
 //! F_q  = I + Σ_a u_a ⊗ ∇_X N_a(X_q)        (Bᵀ P)_{a i} = P_iJ ∂N_a/∂X_J
 //! ```
-//! with `M = diag(m)` the component mask of the Dirichlet part, plus the
+//! with `M = diag(m)` the component mask of the Dirichlet part, `g(t)` and
+//! `f_ext(t)` the prescribed values and loads along their ramps (`t g` and
+//! `t f_ext` by default; [`super::problem::Ramp`]), plus the
 //! S-term `R_S` of [`super::stabilisation`] when the problem has one, and the
 //! total potential energy whose gradient it is:
 //! ```text
-//! Π(u) = Σ_q w_q W(F_q) + Σ_p w_p (β/h)/2 |M (N u − t g)|² − t f_ext · u  (+ Π_S).
+//! Π(u) = Σ_q w_q W(F_q) + Σ_p w_p (β/h)/2 |M (N u − g(t))|² − f_ext(t) · u  (+ Π_S).
 //! ```
 //! Each cell's vector is computed in parallel, then scattered. A point with
 //! `det F ≤ 0` has no energy: the residual is then `None` (the Newton line
@@ -105,7 +107,7 @@ pub fn residual(p: &HyperProblem, u: &[f64], t: f64) -> Option<Vec<f64>> {
         .into_par_iter()
         .map(|k| cell_residual(p, k, u, t, targets))
         .collect();
-    let mut r: Vec<f64> = p.external.iter().map(|f| -t * f).collect();
+    let mut r: Vec<f64> = p.external_at(t).iter().map(|f| -f).collect();
     p.scatter(&cell_vectors?, &mut r);
     Some(r)
 }
@@ -136,8 +138,8 @@ pub fn energy(p: &HyperProblem, u: &[f64], t: f64) -> Option<f64> {
             Some(e)
         })
         .collect();
-    let load: f64 = p.external.iter().zip(u).map(|(f, x)| f * x).sum();
-    Some(cells?.iter().sum::<f64>() - t * load)
+    let load: f64 = p.external_at(t).iter().zip(u).map(|(f, x)| f * x).sum();
+    Some(cells?.iter().sum::<f64>() - load)
 }
 
 /// `(F, P)` at a volume point.

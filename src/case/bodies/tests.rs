@@ -173,6 +173,14 @@ fn other_bad_inputs_name_their_key() {
             ),
             "body[1].dirichlet.zmax.ramp",
         ),
+        (
+            BLOCKS.replace(
+                "dirichlet.zmin = { value = [\"0\", \"0\", \"0\"] }",
+                "neumann.xmin = { pressure = \"1\", ramp = [1, 0] }\n\
+                 dirichlet.zmin = { value = [\"0\", \"0\", \"0\"] }",
+            ),
+            "body[0].neumann.xmin.ramp",
+        ),
     ];
     for (text, key) in cases {
         assert_eq!(key_of(parse(&text)), key, "{text}");
