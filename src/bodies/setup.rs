@@ -13,6 +13,7 @@ use std::sync::Arc;
 use super::contact::{ContactCoupling, ContactSide};
 use super::problem::BodiesProblem;
 use crate::case::bodies::{BodiesCase, HyperModel};
+use crate::case::boundary::RampSpec;
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
@@ -141,6 +142,11 @@ pub fn material(case: &BodiesCase, i: usize) -> Material {
     Material::from_young_poisson(model, m.young, m.poisson)
 }
 
+/// The [`Ramp`]s of an optional `ramp` of the case file.
+fn ramps(ramp: Option<&RampSpec>) -> [Ramp; 3] {
+    RampSpec::or_linear(ramp).map(|[start, end]| Ramp { start, end })
+}
+
 /// Body `i` as a [`HyperProblem`] on its grid and cells.
 fn body_problem(
     case: &BodiesCase,
@@ -160,7 +166,7 @@ fn body_problem(
             components: d.mask(),
             // "exact" is refused in [[body]] cases (no exact field).
             value: Arc::new(move |x: [f64; 3]| spec.value_at(x, || [0.0; 3])),
-            ramps: d.ramps().map(|[start, end]| Ramp { start, end }),
+            ramps: ramps(d.ramp.as_ref()),
         });
         regions.push(
             d.region
@@ -172,7 +178,7 @@ fn body_problem(
         .neumann
         .iter()
         .map(|(name, n)| {
-            let ramps = n.ramps().map(|[start, end]| Ramp { start, end });
+            let ramps = ramps(n.ramp.as_ref());
             let n = n.clone();
             // "exact" is refused in [[body]] cases (no exact field).
             let field = move |x: [f64; 3], normal: [f64; 3]| n.eval(x, normal, |_, _| [0.0; 3]);

@@ -64,6 +64,12 @@ impl RampSpec {
             RampSpec::Each(r) => *r,
         }
     }
+
+    /// `[start, end]` per component of an optional `ramp` (`[0, 1]`, growth
+    /// with the load factor, when there is none).
+    pub fn or_linear(ramp: Option<&RampSpec>) -> [[f64; 2]; 3] {
+        ramp.map_or([[0.0, 1.0]; 3], RampSpec::per_component)
+    }
 }
 
 /// The prescribed value: `"exact"` (every component from `[exact]`) or three
@@ -147,13 +153,6 @@ impl DirichletSpec {
         [0, 1, 2].map(|a| *self.component(a) != Component::Free)
     }
 
-    /// `[start, end]` of the load path per component (`[0, 1]` by default).
-    pub fn ramps(&self) -> [[f64; 2]; 3] {
-        self.ramp
-            .as_ref()
-            .map_or([[0.0, 1.0]; 3], RampSpec::per_component)
-    }
-
     /// Does the condition apply at `x` (inside its region, if any)?
     pub fn applies_at(&self, x: [f64; 3]) -> bool {
         self.region.as_ref().is_none_or(|r| r.contains(x))
@@ -213,6 +212,7 @@ pub struct NeumannSpec {
     pub traction: Option<FieldValue>,
     #[serde(default)]
     pub pressure: Option<Expr>,
+    /// Per traction component (a pressure's applies to its traction).
     #[serde(default)]
     pub ramp: Option<RampSpec>,
 }
@@ -235,14 +235,6 @@ impl NeumannSpec {
             }
             (None, None) => [0.0; 3],
         }
-    }
-
-    /// `[start, end]` of the load path per traction component (`[0, 1]` by
-    /// default; a pressure's ramp applies to its traction's components).
-    pub fn ramps(&self) -> [[f64; 2]; 3] {
-        self.ramp
-            .as_ref()
-            .map_or([[0.0, 1.0]; 3], RampSpec::per_component)
     }
 
     /// Is the traction `"exact"`?

@@ -2,7 +2,7 @@
 //! input names its key.
 
 use super::*;
-use crate::case::boundary::Component;
+use crate::case::boundary::{Component, RampSpec};
 use crate::error::Error;
 
 /// Two blocks stacked along z, 0.01 apart, the upper pushed down.
@@ -193,18 +193,14 @@ fn a_ramp_gives_each_component_its_load_path() {
         "\"-0.1*z\"]",
         "\"-0.1*z\"], ramp = [[0.5, 1], [0, 1], [0, 0.25]]",
     );
-    let case = parse(&text).unwrap();
-    let d = &case.bodies[1].spec.dirichlet["zmax"];
-    assert_eq!(d.ramps(), [[0.5, 1.0], [0.0, 1.0], [0.0, 0.25]]);
+    let ramps = |case: &BodiesCase| {
+        RampSpec::or_linear(case.bodies[1].spec.dirichlet["zmax"].ramp.as_ref())
+    };
+    let each = parse(&text).unwrap();
+    assert_eq!(ramps(&each), [[0.5, 1.0], [0.0, 1.0], [0.0, 0.25]]);
     let one = parse(&BLOCKS.replace("\"-0.1*z\"]", "\"-0.1*z\"], ramp = [0, 0.5]")).unwrap();
-    assert_eq!(
-        one.bodies[1].spec.dirichlet["zmax"].ramps(),
-        [[0.0, 0.5]; 3]
-    );
-    assert_eq!(
-        parse(BLOCKS).unwrap().bodies[1].spec.dirichlet["zmax"].ramps(),
-        [[0.0, 1.0]; 3]
-    );
+    assert_eq!(ramps(&one), [[0.0, 0.5]; 3]);
+    assert_eq!(ramps(&parse(BLOCKS).unwrap()), [[0.0, 1.0]; 3]);
 }
 
 #[test]
