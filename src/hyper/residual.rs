@@ -107,7 +107,8 @@ pub fn residual(p: &HyperProblem, u: &[f64], t: f64) -> Option<Vec<f64>> {
         .into_par_iter()
         .map(|k| cell_residual(p, k, u, t, targets))
         .collect();
-    let mut r: Vec<f64> = p.external_at(t).iter().map(|f| -f).collect();
+    let mut r = p.external_at(t);
+    r.iter_mut().for_each(|f| *f = -*f);
     p.scatter(&cell_vectors?, &mut r);
     Some(r)
 }
