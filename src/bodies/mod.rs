@@ -8,12 +8,15 @@
 //!   of [`crate::contact::enforce`], with the recovered normal traction).
 //! - [`traction`]: the slave body's recovered Cauchy stress (SPR) and
 //!   `T̂_N = n1 · σ̂ n1`.
+//! - [`multigrid`]: the bodies' coarse levels, preconditioning the Newton
+//!   tangents (`preconditioner = "multigrid"`).
 //! - [`setup`]: a [`crate::case::bodies::BodiesCase`] mapped to that problem.
 //! - [`output`]: the ParaView series (`solution.pvd`, one `<body>_<step>.vtu`
 //!   per body and converged load step).
 //! - [`run`]: the load steps with the outputs written as steps converge, and
 //!   the report rows.
 pub mod contact;
+pub mod multigrid;
 pub mod output;
 pub mod problem;
 pub mod run;

@@ -122,6 +122,11 @@ impl BodiesProblem {
         self.held[self.offsets[b] + d] = true;
     }
 
+    /// Per dof: held at zero.
+    pub fn held(&self) -> &[bool] {
+        &self.held
+    }
+
     /// Number of held dofs.
     pub fn num_held(&self) -> usize {
         self.held.iter().filter(|&&h| h).count()

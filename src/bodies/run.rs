@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::multigrid::BodiesMultigrid;
 use super::output::Series;
 use super::setup::BodiesSetup;
 use crate::case::bodies::BodiesCase;
@@ -15,8 +16,10 @@ use crate::gpu::GpuContext;
 use crate::hyper::convergence::convergence_order;
 use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
+    TangentSolver,
 };
 use crate::progress::Progress;
+use crate::solver::Preconditioner;
 use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory, ReactionRow};
 
 /// What a run produced: the set-up, the last converged state, the report
@@ -78,6 +81,10 @@ pub fn run_setup(
             reason: e.to_string(),
         })?;
     }
+    let multigrid = match setup.newton.krylov.preconditioner {
+        Preconditioner::Multigrid => Some(BodiesMultigrid::new(case, &setup)?),
+        _ => None,
+    };
     let t = Instant::now();
     let mut solution = HyperSolution::zero(&setup.problem);
     let mut series = Series::default();
@@ -102,15 +109,23 @@ pub fn run_setup(
             None => Ok(()),
         }
     };
+    let mut solver: Box<dyn TangentSolver> = match &multigrid {
+        Some(mg) => Box::new(mg.solver(&setup)),
+        None => Box::new(CpuTangentSolver::default()),
+    };
     let result = solve_load_steps_with(
         problem,
         &setup.newton,
-        &mut CpuTangentSolver::default(),
+        solver.as_mut(),
         progress,
         &mut solution,
         &mut converged,
     );
+    drop(solver);
     let mut timings = BTreeMap::new();
+    if let Some(mg) = &multigrid {
+        timings.insert("multigrid".to_string(), mg.seconds);
+    }
     timings.insert("solve".to_string(), t.elapsed().as_secs_f64());
     let mut report = report(case, &setup, &solution, &result, timings);
     report.contact = contact;

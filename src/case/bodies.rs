@@ -24,7 +24,7 @@
 //!
 //! [solver]                     # the inner Krylov solves
 //! method = "bicgstab"          # cgs | cg | bicgstab
-//! preconditioner = "jacobi"    # none | jacobi (multigrid: single-body cases only)
+//! preconditioner = "jacobi"    # none | jacobi | multigrid (CPU)
 //! rel_tol = 1e-8
 //! max_iterations = 20000
 //!
@@ -407,13 +407,6 @@ impl BodiesCase {
         }
         if s.solver.max_iterations == 0 {
             return Err(self.bad("solver.max_iterations", "must be at least 1".into()));
-        }
-        if s.solver.preconditioner == Preconditioner::Multigrid {
-            return Err(self.bad(
-                "solver.preconditioner",
-                "multigrid is not available for multi-body (Newton) cases yet: use \"jacobi\""
-                    .into(),
-            ));
         }
         if !(s.overlap_tolerance.is_finite() && s.overlap_tolerance >= 0.0) {
             return Err(self.bad(

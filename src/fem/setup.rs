@@ -11,6 +11,7 @@ use super::problem::Problem;
 use super::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
 use super::stabilisation::pathological_cells;
 use crate::backend::LinearOperator;
+use crate::case::physics::StabilisationSpec;
 use crate::case::Case;
 use crate::cells::Cells;
 use crate::element::ElementOrder;
@@ -43,17 +44,27 @@ impl LevelOperator {
         cells: &Cells,
         order: ElementOrder,
     ) -> LevelOperator {
-        let beta = case.spec.stabilisation.k1 * problem.young;
         let params = OperatorParams {
             young: problem.young,
             poisson: problem.poisson,
-            beta,
+            beta: case.spec.stabilisation.k1 * problem.young,
             dirichlet: &|tag, x| problem.dirichlet_mask(tag, x),
         };
-        let mut op = ElasticOperator::new(grid, cells, order, &params);
-        let st = &case.spec.stabilisation;
+        LevelOperator::with_params(grid, cells, order, &params, &case.spec.stabilisation)
+    }
+
+    /// [`LevelOperator::new`] from the operator's parameters and the
+    /// stabilisation settings (`k2`, `A`; `params.beta` is the penalty).
+    pub fn with_params(
+        grid: &Grid,
+        cells: &Cells,
+        order: ElementOrder,
+        params: &OperatorParams,
+        st: &StabilisationSpec,
+    ) -> LevelOperator {
+        let mut op = ElasticOperator::new(grid, cells, order, params);
         let omega_star = pathological_cells(cells, st.threshold(order));
-        let s_factor = st.k2 * problem.young / (grid.h * grid.h);
+        let s_factor = st.k2 * params.young / (grid.h * grid.h);
         if s_factor > 0.0 {
             for &c in &omega_star {
                 op.add_cut_cell_mass(c, s_factor);
@@ -61,7 +72,7 @@ impl LevelOperator {
         }
         LevelOperator {
             op,
-            beta,
+            beta: params.beta,
             omega_star,
             s_factor,
         }

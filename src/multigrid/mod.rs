@@ -36,6 +36,7 @@
 //! energy product and the coarse solve is exact, so `M⁻¹` is symmetric
 //! positive definite: it preconditions CG, and CGS and BiCGStab too.
 
+pub mod blocks;
 pub mod cycle;
 pub mod smoother;
 #[cfg(test)]
@@ -187,6 +188,31 @@ impl Hierarchy {
         fine: &ElasticOperator,
         opts: &MultigridOptions,
     ) -> Result<Hierarchy> {
+        Hierarchy::build(fine, opts, |last| {
+            Ok(match last.dofs.order {
+                ElementOrder::Q2 => Some(
+                    LevelOperator::new(case, problem, &last.grid, cells, ElementOrder::Q1).op,
+                ),
+                ElementOrder::Q1 => match last.grid.coarsened() {
+                    Some(grid) => {
+                        let cells = case.classify(&grid)?;
+                        Some(LevelOperator::new(case, problem, &grid, &cells, ElementOrder::Q1).op)
+                    }
+                    None => None,
+                },
+            })
+        })
+    }
+
+    /// The hierarchy under `fine` whose next level below an operator `last`
+    /// is `below(last)` (`None`: `last` is the coarsest), down to the first
+    /// level with at most `opts.coarse_dofs` unknowns; the smoothers of every
+    /// level but the coarsest and the factor of the coarsest.
+    pub fn build(
+        fine: &ElasticOperator,
+        opts: &MultigridOptions,
+        mut below: impl FnMut(&ElasticOperator) -> Result<Option<ElasticOperator>>,
+    ) -> Result<Hierarchy> {
         let t = Instant::now();
         let mut coarse: Vec<ElasticOperator> = Vec::new();
         loop {
@@ -194,19 +220,10 @@ impl Hierarchy {
             if last.nrows() <= opts.coarse_dofs {
                 break;
             }
-            let next = match last.dofs.order {
-                ElementOrder::Q2 => {
-                    LevelOperator::new(case, problem, &last.grid, cells, ElementOrder::Q1)
-                }
-                ElementOrder::Q1 => {
-                    let Some(grid) = last.grid.coarsened() else {
-                        break;
-                    };
-                    let cells = case.classify(&grid)?;
-                    LevelOperator::new(case, problem, &grid, &cells, ElementOrder::Q1)
-                }
-            };
-            coarse.push(next.op);
+            match below(last)? {
+                Some(next) => coarse.push(next),
+                None => break,
+            }
         }
         let levels: Vec<&ElasticOperator> = std::iter::once(fine).chain(&coarse).collect();
         let (coarsest, smoothed) = levels.split_last().expect("level 0 exists");
