@@ -17,7 +17,7 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
-use cgfem_gpu::solver::KrylovMethod;
+use cgfem_gpu::solver::{KrylovMethod, Preconditioner};
 use cli_progress::Terminal;
 use cli_run::{run_case, Device, Outputs};
 
@@ -431,8 +431,11 @@ fn reproduce(
     }
     if what == "table2" || what == "all" {
         let case = BodiesCase::from_str_with("cases/annuli_contact.toml", ANNULI_CASE, &[])?;
-        let methods = [KrylovMethod::Cgs, KrylovMethod::BiCgStab];
-        let rows = reproduce::table2(&case, &or(&[3, 4, 5]), &methods, &dir, progress)?;
+        let solvers: Vec<_> = [Preconditioner::Jacobi, Preconditioner::Multigrid]
+            .into_iter()
+            .flat_map(|p| [KrylovMethod::Cgs, KrylovMethod::BiCgStab].map(|m| (m, p)))
+            .collect();
+        let rows = reproduce::table2(&case, &or(&[3, 4, 5]), &solvers, &dir, progress)?;
         println!(
             "table2: {} rows; wrote {}/table2.{{json,md,svg}}",
             rows.len(),

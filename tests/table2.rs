@@ -1,13 +1,13 @@
-//! `reproduce::table2` at level 3 only (the default levels 3–5 are minutes):
-//! both runs converge, the rows add up to their load-step histories, the
+//! `reproduce::table2` at level 3 only (the default levels 3–5 are minutes),
+//! CGS with Jacobi and with the bodies' multigrid: every run converges, the rows add up to their load-step histories, the
 //! S-term run has Ω* cells, each attempt is one Newton loop with its
 //! recovered terms evaluated at its start (step recovery), and the files are
-//! written.
+//! written; multigrid needs fewer Krylov iterations than Jacobi.
 
 use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::reproduce::table2::{paper_iterations, table2, K2};
-use cgfem_gpu::solver::KrylovMethod;
+use cgfem_gpu::solver::{KrylovMethod, Preconditioner};
 
 const CASE: &str = include_str!("../cases/annuli_contact.toml");
 
@@ -15,9 +15,24 @@ const CASE: &str = include_str!("../cases/annuli_contact.toml");
 fn table2_at_level_3_is_consistent() {
     let case = BodiesCase::from_str_with("cases/annuli_contact.toml", CASE, &[]).unwrap();
     let out = std::env::temp_dir().join(format!("cgfem-table2-{}", std::process::id()));
-    let rows = table2(&case, &[3], &[KrylovMethod::Cgs], &out, &Silent).unwrap();
-    assert_eq!(rows.len(), 2);
+    let solvers = [
+        (KrylovMethod::Cgs, Preconditioner::Jacobi),
+        (KrylovMethod::Cgs, Preconditioner::Multigrid),
+    ];
+    let rows = table2(&case, &[3], &solvers, &out, &Silent).unwrap();
+    assert_eq!(rows.len(), 4);
     let (without, with) = (&rows[0], &rows[1]);
+    assert_eq!(rows[2].preconditioner, "multigrid");
+    for (jacobi, multigrid) in rows[..2].iter().zip(&rows[2..]) {
+        assert_eq!(jacobi.k2, multigrid.k2);
+        assert!(
+            multigrid.krylov_iterations < jacobi.krylov_iterations,
+            "k2 = {}: multigrid {} against Jacobi {}",
+            jacobi.k2,
+            multigrid.krylov_iterations,
+            jacobi.krylov_iterations
+        );
+    }
     assert_eq!((without.k2, with.k2), (0.0, K2));
     for r in &rows {
         assert!(r.converged, "level 3, k2 = {}: {:?}", r.k2, r.failure);
@@ -55,15 +70,18 @@ fn table2_at_level_3_is_consistent() {
     assert!(with.pathological > 0, "the rings have Ω* cells at level 3");
     // Step recovery: one Newton loop per attempt, the recovered terms
     // (contact traction in both runs, S in one) evaluated at its start.
-    for r in [without, with] {
+    for r in &rows {
         assert_eq!(r.passes, r.steps.len(), "one pass per attempt");
         assert!(r.steps.iter().all(|s| s.passes[0].change.is_some()));
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("table2.json")).unwrap()).unwrap();
-    assert_eq!(json["rows"].as_array().unwrap().len(), 2);
+    assert_eq!(json["rows"].as_array().unwrap().len(), 4);
     let md = std::fs::read_to_string(out.join("table2.md")).unwrap();
-    assert!(md.contains("| cgs | 3 | without |") && md.contains("| cgs | 3 | with |"));
+    for solver in ["cgs + jacobi", "cgs + multigrid"] {
+        assert!(md.contains(&format!("| {solver} | 3 | without |")));
+        assert!(md.contains(&format!("| {solver} | 3 | with |")));
+    }
     assert!(std::fs::read_to_string(out.join("table2.svg"))
         .unwrap()
         .contains("<svg"));

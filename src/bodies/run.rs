@@ -19,8 +19,8 @@ use crate::hyper::newton::{
     TangentSolver,
 };
 use crate::progress::Progress;
-use crate::solver::Preconditioner;
 use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory, ReactionRow};
+use crate::solver::Preconditioner;
 
 /// What a run produced: the set-up, the last converged state, the report
 /// (status filled in) and how the solve ended.

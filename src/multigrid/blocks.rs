@@ -131,7 +131,10 @@ impl<'a> BlockMultigrid<'a> {
     /// If `r` or `z` do not have the size of the operator.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         let n = self.op.nrows();
-        assert!(r.len() == n && z.len() == n, "block multigrid: vectors of {n}");
+        assert!(
+            r.len() == n && z.len() == n,
+            "block multigrid: vectors of {n}"
+        );
         let mut guard = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
         let Scratch { work, coarse } = &mut *guard;
         self.smoother.smooth(self.op, r, z, true, work);

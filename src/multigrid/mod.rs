@@ -190,9 +190,9 @@ impl Hierarchy {
     ) -> Result<Hierarchy> {
         Hierarchy::build(fine, opts, |last| {
             Ok(match last.dofs.order {
-                ElementOrder::Q2 => Some(
-                    LevelOperator::new(case, problem, &last.grid, cells, ElementOrder::Q1).op,
-                ),
+                ElementOrder::Q2 => {
+                    Some(LevelOperator::new(case, problem, &last.grid, cells, ElementOrder::Q1).op)
+                }
                 ElementOrder::Q1 => match last.grid.coarsened() {
                     Some(grid) => {
                         let cells = case.classify(&grid)?;

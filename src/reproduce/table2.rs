@@ -19,13 +19,16 @@
 //! passes of all step attempts (failed attempts and failed solves included:
 //! they were spent).
 //!
-//! Preconditioner: Jacobi. Unpreconditioned CGS (what the paper's Matlab
+//! Preconditioners: Jacobi, and the bodies' multigrid V-cycle
+//! ([`crate::bodies::multigrid`]), each run with each method. Unpreconditioned CGS (what the paper's Matlab
 //! `cgs` call would run) does not converge on these rings here, with or
 //! without the S-term, already at level 3: the Dirichlet and contact
 //! penalties (`30 E/h`) sit beside entries of order `E h`, and CGS diverges
 //! (the case's 20 000-iteration budget ends with a true relative residual
 //! of ~1e10). With Jacobi, CGS still diverges on some tangents (from level
-//! 4), which the load-step cutting absorbs or not; BiCGStab does not.
+//! 4), which the load-step cutting absorbs or not (at level 5 it does not);
+//! BiCGStab does not. With the multigrid V-cycle both converge at every
+//! level, with the same contact forces.
 
 use std::path::Path;
 use std::time::Instant;
@@ -103,21 +106,21 @@ pub fn paper_iterations(level: u32, stabilised: bool) -> Option<usize> {
 pub fn table2(
     case: &BodiesCase,
     levels: &[u32],
-    methods: &[KrylovMethod],
+    solvers: &[(KrylovMethod, Preconditioner)],
     out: &Path,
     progress: &dyn Progress,
 ) -> Result<Vec<Table2Row>> {
-    let runs = Runs::start(progress, 2 * levels.len() * methods.len());
+    let runs = Runs::start(progress, 2 * levels.len() * solvers.len());
     let mut rows = Vec::new();
-    for (&method, &level) in methods
+    for (&solver, &level) in solvers
         .iter()
         .flat_map(|m| levels.iter().map(move |l| (m, l)))
     {
         for k2 in [0.0, K2] {
-            let row = run(case, level, k2, method)?;
+            let row = run(case, level, k2, solver)?;
             runs.done(format!(
                 "table2 {} level {level}, k2 = {k2}: {} Krylov, {} Newton iterations, {} passes, {}",
-                method.name(),
+                row.solver(),
                 row.krylov_iterations,
                 row.newton_iterations,
                 row.passes,
@@ -138,14 +141,20 @@ pub fn table2(
     Ok(rows)
 }
 
-/// One run at `level` with the S-term weight `k2`; a failed solve is a
-/// measurement (the row says so), a failed set-up an error.
-fn run(case: &BodiesCase, level: u32, k2: f64, method: KrylovMethod) -> Result<Table2Row> {
+/// One run at `level` with the S-term weight `k2` and the Krylov method and
+/// preconditioner `solver`; a failed solve is a measurement (the row says
+/// so), a failed set-up an error.
+fn run(
+    case: &BodiesCase,
+    level: u32,
+    k2: f64,
+    (method, preconditioner): (KrylovMethod, Preconditioner),
+) -> Result<Table2Row> {
     let mut case = case.clone();
     case.spec.stabilisation.k2 = k2;
     case.spec.stabilisation.a = Some(A);
     case.spec.solver.method = method;
-    case.spec.solver.preconditioner = Preconditioner::Jacobi;
+    case.spec.solver.preconditioner = preconditioner;
     case.spec.newton.recovery = RecoveryMode::Step;
     let setup = BodiesSetup::new(&case, Some(level), &Silent)?;
     let pathological = setup
@@ -180,32 +189,39 @@ fn run(case: &BodiesCase, level: u32, k2: f64, method: KrylovMethod) -> Result<T
     })
 }
 
-/// The run of `rows` with `method` at `level` with (`true`) or without the S-term.
+impl Table2Row {
+    /// `method + preconditioner`, e.g. `cgs + jacobi`.
+    pub fn solver(&self) -> String {
+        format!("{} + {}", self.method, self.preconditioner)
+    }
+}
+
+/// The run of `rows` with `solver` at `level` with (`true`) or without the S-term.
 fn find<'r>(
     rows: &'r [Table2Row],
-    method: &str,
+    solver: &str,
     level: u32,
     stabilised: bool,
 ) -> Option<&'r Table2Row> {
     rows.iter()
-        .find(|r| r.method == method && r.level == level && (r.k2 > 0.0) == stabilised)
+        .find(|r| r.solver() == solver && r.level == level && (r.k2 > 0.0) == stabilised)
 }
 
 fn markdown(rows: &[Table2Row]) -> String {
     let mut s = String::from(
         "# Table 2: accumulated Krylov iterations of the contact problem (Problem 2)\n\n\
          Two plane-strain rings in contact (cases/annuli_contact.toml), 5 load steps,\n\
-         Jacobi preconditioner. Accumulated iterations: every Krylov iteration of\n\
+         per Krylov method and preconditioner. Accumulated iterations: every Krylov iteration of\n\
          the run (all attempts, fixed-point passes and Newton solves, failed ones\n\
          included). The paper's column is its CGS count.\n",
     );
     s += &format!("With S: k2 = {K2}, A = {A}. Ω*: pathological cells of both bodies.\n\n");
-    s += "| method | level | S-term | Ω* cells | converged | Krylov iterations | per solve | Newton iterations | load steps (failed attempts) | passes | seconds | paper (CGS) |\n";
+    s += "| solver | level | S-term | Ω* cells | converged | Krylov iterations | per solve | Newton iterations | load steps (failed attempts) | passes | seconds | paper (CGS) |\n";
     s += "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         s += &format!(
             "| {} | {} | {} | {} | {} | {} | {:.0} | {} | {} ({}) | {} | {:.1} | {} |\n",
-            r.method,
+            r.solver(),
             r.level,
             if r.k2 > 0.0 { "with" } else { "without" },
             r.pathological,
@@ -222,14 +238,14 @@ fn markdown(rows: &[Table2Row]) -> String {
         );
     }
     s += "\n## Without / with the S-term\n\n";
-    s += "| method | level | ours: without / with | both converged | paper (CGS): without / with |\n";
+    s += "| solver | level | ours: without / with | both converged | paper (CGS): without / with |\n";
     s += "|---|---|---|---|---|\n";
-    let mut runs: Vec<(&str, u32)> = rows.iter().map(|r| (r.method.as_str(), r.level)).collect();
+    let mut runs: Vec<(String, u32)> = rows.iter().map(|r| (r.solver(), r.level)).collect();
     runs.dedup();
-    for (method, level) in runs {
+    for (solver, level) in runs {
         let pair = (
-            find(rows, method, level, true),
-            find(rows, method, level, false),
+            find(rows, &solver, level, true),
+            find(rows, &solver, level, false),
         );
         if let (Some(w), Some(o)) = pair {
             let paper = match (
@@ -240,7 +256,7 @@ fn markdown(rows: &[Table2Row]) -> String {
                 _ => "–".into(),
             };
             s += &format!(
-                "| {method} | {level} | {:.2} | {} | {paper} |\n",
+                "| {solver} | {level} | {:.2} | {} | {paper} |\n",
                 o.krylov_iterations as f64 / w.krylov_iterations as f64,
                 if w.converged && o.converged {
                     "yes"
@@ -258,7 +274,7 @@ fn markdown(rows: &[Table2Row]) -> String {
     for r in rows.iter().filter(|r| !r.converged) {
         s += &format!(
             "\n{} level {}, k2 = {}: {}\n",
-            r.method,
+            r.solver(),
             r.level,
             r.k2,
             r.failure.as_deref().unwrap_or("")
@@ -267,21 +283,22 @@ fn markdown(rows: &[Table2Row]) -> String {
     s
 }
 
-/// Accumulated iterations against the level: ours per method and the
+/// Accumulated iterations against the level: ours per solver and the
 /// paper's (CGS), with and without the S-term.
 fn chart(rows: &[Table2Row]) -> Chart {
-    let mut methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
-    methods.dedup();
+    let mut solvers: Vec<String> = rows.iter().map(Table2Row::solver).collect();
+    solvers.sort();
+    solvers.dedup();
     let mut series = Vec::new();
     for (stabilised, name) in [(true, "with S"), (false, "without S")] {
         let pick = |r: &&Table2Row| (r.k2 > 0.0) == stabilised;
-        for &method in &methods {
+        for solver in &solvers {
             series.push(Series {
-                label: format!("ours, {method}, {name}"),
+                label: format!("ours, {solver}, {name}"),
                 points: rows
                     .iter()
                     .filter(pick)
-                    .filter(|r| r.method == method)
+                    .filter(|r| &r.solver() == solver)
                     .map(|r| (r.level as f64, r.krylov_iterations as f64))
                     .collect(),
                 reference: false,
