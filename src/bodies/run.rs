@@ -18,6 +18,7 @@ use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
     TangentSolver,
 };
+use crate::multigrid::MultigridOptions;
 use crate::progress::Progress;
 use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory, ReactionRow};
 use crate::solver::Preconditioner;
@@ -82,7 +83,11 @@ pub fn run_setup(
         })?;
     }
     let multigrid = match setup.newton.krylov.preconditioner {
-        Preconditioner::Multigrid => Some(BodiesMultigrid::new(case, &setup)?),
+        Preconditioner::Multigrid => Some(BodiesMultigrid::new(
+            case,
+            &setup,
+            &MultigridOptions::default(),
+        )?),
         _ => None,
     };
     let t = Instant::now();

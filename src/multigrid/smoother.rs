@@ -84,11 +84,6 @@ impl Work {
     pub fn residual(&self) -> &[f64] {
         &self.r
     }
-
-    /// [`Work::residual`], to edit in place.
-    pub fn residual_mut(&mut self) -> &mut [f64] {
-        &mut self.r
-    }
 }
 
 impl Chebyshev {

@@ -5,7 +5,6 @@
 
 use super::*;
 use crate::backend::CpuBackend;
-use crate::fem::setup::LevelOperator;
 use crate::fem::setup::Setup;
 use crate::solver::{solve, solve_preconditioned, KrylovMethod, KrylovOptions, Preconditioner};
 
@@ -223,96 +222,4 @@ fn a_coarsest_level_that_needs_a_shift_still_preconditions() {
     let stats =
         solve_preconditioned(&CpuBackend::new(), op, &mg, &setup.fixed_rhs, &mut u, &opts).unwrap();
     assert!(stats.iterations <= 20, "{} iterations", stats.iterations);
-}
-
-/// `A` with identity rows and columns on `held` (as the bodies' tangent has).
-struct WithHeld<'a> {
-    op: &'a ElasticOperator,
-    held: &'a [bool],
-}
-
-impl LinearOperator for WithHeld<'_> {
-    fn nrows(&self) -> usize {
-        self.op.nrows()
-    }
-
-    fn apply(&self, x: &[f64], y: &mut [f64]) {
-        let free: Vec<f64> = x
-            .iter()
-            .zip(self.held)
-            .map(|(&v, &h)| if h { 0.0 } else { v })
-            .collect();
-        self.op.apply(&free, y);
-        for (i, &h) in self.held.iter().enumerate() {
-            if h {
-                y[i] = x[i];
-            }
-        }
-    }
-
-    fn diagonal(&self) -> Vec<f64> {
-        let mut d = self.op.diagonal();
-        for (v, &h) in d.iter_mut().zip(self.held) {
-            if h {
-                *v = 1.0;
-            }
-        }
-        d
-    }
-}
-
-/// The block cycle over one block whose first coarse level is the
-/// rediscretised operator of the grid coarsened once is the plain V-cycle
-/// of [`Hierarchy::new`] (the same smoother, transfer and levels below), to
-/// round-off; with held rows it is symmetric, positive, and the identity on
-/// the held rows.
-#[test]
-fn block_cycle_is_the_v_cycle_and_keeps_held_rows() {
-    use super::blocks::{Block, BlockMultigrid};
-    let case = sphere("q1", 0.01);
-    let setup = Setup::new(&case, Some(4)).unwrap();
-    let op = &setup.op;
-    let plain = hierarchy(&case, &setup, &SMALL);
-    let grid = setup.grid.coarsened().unwrap();
-    let cells = case.classify(&grid).unwrap();
-    let top = LevelOperator::new(&case, &setup.problem, &grid, &cells, ElementOrder::Q1).op;
-    let below = Hierarchy::new(&case, &setup.problem, &cells, &top, &SMALL).unwrap();
-    assert_eq!(below.num_levels() + 1, plain.num_levels());
-    let block = Block {
-        offset: 0,
-        fine: Lattice {
-            dims: setup.grid.nodes_per_axis(ElementOrder::Q1),
-            dofs: &op.dofs,
-        },
-        top: &top,
-        below: &below,
-    };
-    let n = op.nrows();
-    let none = vec![false; n];
-    let blocks = BlockMultigrid::new(op, &none, &[block], smoother::DEGREE).unwrap();
-    let x = scrambled(n, 5);
-    let (mut z_block, mut z_plain) = (vec![0.0; n], vec![0.0; n]);
-    blocks.apply(&x, &mut z_block);
-    Multigrid::new(op, &plain).apply(&x, &mut z_plain);
-    let diff: Vec<f64> = z_block.iter().zip(&z_plain).map(|(a, b)| a - b).collect();
-    assert!(
-        max_abs(&diff) <= 1e-12 * max_abs(&z_plain),
-        "block against plain cycle: {:e}",
-        max_abs(&diff)
-    );
-
-    let held: Vec<bool> = (0..n).map(|i| i % 3 == 2 && i % 7 < 3).collect();
-    let with_held = WithHeld { op, held: &held };
-    let mg = BlockMultigrid::new(&with_held, &held, &[block], smoother::DEGREE).unwrap();
-    let y = scrambled(n, 6);
-    let (mut mx, mut my) = (vec![0.0; n], vec![0.0; n]);
-    mg.apply(&x, &mut mx);
-    mg.apply(&y, &mut my);
-    let (a, b) = (dot(&x, &my), dot(&y, &mx));
-    let scale = (dot(&x, &x) * dot(&my, &my)).sqrt();
-    assert!((a - b).abs() <= 1e-12 * scale, "x·M⁻¹y = {a}, y·M⁻¹x = {b}");
-    assert!(dot(&x, &mx) > 0.0 && dot(&y, &my) > 0.0);
-    for i in (0..n).filter(|&i| held[i]) {
-        assert_eq!(mx[i], x[i], "held row {i}");
-    }
 }
