@@ -14,7 +14,6 @@ use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::BodiesReport;
-use cgfem_gpu::solver::Preconditioner;
 
 use crate::cli_progress::Terminal;
 use crate::cli_run::{Device, Outputs};
@@ -27,20 +26,11 @@ fn write_report(dir: &Path, report: &BodiesReport) -> anyhow::Result<()> {
 
 /// The device for the bodies' inside-cell tangents: only with `--backend gpu`
 /// (`auto` keeps multi-body runs on the CPU, where the Krylov iterations run
-/// anyway), in f64. The multigrid preconditioner runs on the CPU backend
-/// only: with `--backend gpu` it is refused
-/// ([`cgfem_gpu::Error::UnsupportedOnBackend`], exit code 2).
-fn tangent_device(case: &BodiesCase, d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
+/// anyway), in f64. The preconditioner (Jacobi or the bodies' multigrid)
+/// runs on the CPU beside it.
+fn tangent_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
     if BackendChoice::resolve(d.backend)? != BackendChoice::Gpu {
         return Ok(None);
-    }
-    if case.spec.solver.preconditioner == Preconditioner::Multigrid {
-        return Err(cgfem_gpu::Error::UnsupportedOnBackend {
-            backend: "gpu".into(),
-            what: "the multigrid preconditioner".into(),
-            hint: "use --backend cpu (or auto), or solver.preconditioner = \"jacobi\"".into(),
-        }
-        .into());
     }
     if d.precision == PrecisionChoice::F32 {
         return Err(cgfem_gpu::Error::CaseFile {
@@ -80,7 +70,7 @@ pub fn run_bodies_case(
     if outputs.plots {
         println!("note: --plots has no chart for multi-body cases yet");
     }
-    let gpu = tangent_device(&case, device)?;
+    let gpu = tangent_device(device)?;
     if let Some(ctx) = &gpu {
         println!("tangent of the inside cells on {}", ctx.adapter.name);
     }

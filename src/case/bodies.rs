@@ -24,7 +24,7 @@
 //!
 //! [solver]                     # the inner Krylov solves
 //! method = "bicgstab"          # cgs | cg | bicgstab
-//! preconditioner = "jacobi"    # none | jacobi | multigrid (CPU)
+//! preconditioner = "multigrid" # or jacobi, none
 //! rel_tol = 1e-8
 //! max_iterations = 20000
 //!
@@ -178,7 +178,7 @@ impl Default for InnerSolverSpec {
     fn default() -> Self {
         InnerSolverSpec {
             method: KrylovMethod::BiCgStab,
-            preconditioner: Preconditioner::Jacobi,
+            preconditioner: Preconditioner::Multigrid,
             rel_tol: 1e-8,
             max_iterations: 20_000,
         }
