@@ -121,6 +121,10 @@ enum Command {
         /// Q2 runs cases/sphere_q2.toml (its own S-term and CG).
         #[arg(long)]
         element: Option<String>,
+        /// table2: the preconditioner, multigrid (the default of `[[body]]`
+        /// cases), jacobi, or all (both, each with CGS and BiCGStab).
+        #[arg(long, default_value = "multigrid")]
+        preconditioner: String,
     },
     /// Measure operator and solver throughput on the paper's sphere (Q1, f64):
     /// prints a table and writes DIR/bench.json.
@@ -265,6 +269,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             max_iterations,
             no_condition,
             element,
+            preconditioner,
         } => {
             let sweep = CutSweepOptions {
                 levels: if levels.is_empty() {
@@ -278,7 +283,16 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 condition: !no_condition,
                 ..CutSweepOptions::default()
             };
-            reproduce(&what, &levels, &sweep, element.as_deref(), out, progress)
+            let table2 = table2_preconditioners(&preconditioner)?;
+            reproduce(
+                &what,
+                &levels,
+                &sweep,
+                element.as_deref(),
+                &table2,
+                out,
+                progress,
+            )
         }
         Command::Bench {
             levels,
@@ -371,11 +385,31 @@ fn sphere_cases(element: Option<&str>, default: &str) -> anyhow::Result<Vec<Case
     })
 }
 
+/// The preconditioners `--preconditioner` names for `reproduce table2`.
+fn table2_preconditioners(name: &str) -> anyhow::Result<Vec<Preconditioner>> {
+    Ok(match name {
+        "multigrid" => vec![Preconditioner::Multigrid],
+        "jacobi" => vec![Preconditioner::Jacobi],
+        "all" => vec![Preconditioner::Jacobi, Preconditioner::Multigrid],
+        other => {
+            return Err(cgfem_gpu::Error::CaseFile {
+                file: "(command line)".into(),
+                key: "--preconditioner".into(),
+                reason: format!(
+                    "unknown preconditioner '{other}'; available: multigrid, jacobi, all"
+                ),
+            }
+            .into())
+        }
+    })
+}
+
 fn reproduce(
     what: &str,
     levels: &[u32],
     sweep: &CutSweepOptions,
     element: Option<&str>,
+    table2: &[Preconditioner],
     out: Option<PathBuf>,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
@@ -431,9 +465,9 @@ fn reproduce(
     }
     if what == "table2" || what == "all" {
         let case = BodiesCase::from_str_with("cases/annuli_contact.toml", ANNULI_CASE, &[])?;
-        let solvers: Vec<_> = [Preconditioner::Jacobi, Preconditioner::Multigrid]
-            .into_iter()
-            .flat_map(|p| [KrylovMethod::Cgs, KrylovMethod::BiCgStab].map(|m| (m, p)))
+        let solvers: Vec<_> = table2
+            .iter()
+            .flat_map(|p| [KrylovMethod::Cgs, KrylovMethod::BiCgStab].map(|m| (m, *p)))
             .collect();
         let rows = reproduce::table2(&case, &or(&[3, 4, 5]), &solvers, &dir, progress)?;
         println!(

@@ -13,14 +13,14 @@
 //! issue 8), so each step is one Newton loop and the S-term adds no Newton
 //! work of its own. (Refreshed after every Newton update,
 //! [`RecoveryMode::Embedded`], the lagged terms add Newton iterations; in
-//! passes, whole Newton solves.) With each of the given
-//! Krylov methods: CGS, the paper's, and BiCGStab, the case's own. The accumulated iterations are every Krylov iteration of
-//! the run: all linear solves of all Newton iterations of all fixed-point
+//! passes, whole Newton solves.) With each of the given Krylov methods
+//! (CGS, the paper's, and BiCGStab, the case's own) and preconditioners.
+//! The accumulated iterations are every Krylov iteration of the run: all linear solves of all Newton iterations of all fixed-point
 //! passes of all step attempts (failed attempts and failed solves included:
 //! they were spent).
 //!
-//! Preconditioners: Jacobi, and the bodies' multigrid V-cycle
-//! ([`crate::bodies::multigrid`]), each run with each method. Unpreconditioned CGS (what the paper's Matlab
+//! Preconditioners: the bodies' multigrid ([`crate::bodies::multigrid`],
+//! the default) and Jacobi. Unpreconditioned CGS (what the paper's Matlab
 //! `cgs` call would run) does not converge on these rings here, with or
 //! without the S-term, already at level 3: the Dirichlet and contact
 //! penalties (`30 E/h`) sit beside entries of order `E h`, and CGS diverges
