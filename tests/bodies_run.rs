@@ -20,6 +20,7 @@ use cgfem_gpu::hyper::problem::{
     DirichletCondition, HyperProblem, Loads, Ramp, Region, VectorField,
 };
 use cgfem_gpu::progress::Silent;
+use cgfem_gpu::solver::Preconditioner;
 use serde_json::Value;
 
 #[cfg(unix)]
@@ -224,10 +225,12 @@ fn each_body_equals_its_solve_alone() {
     ];
     for (b, p) in bodies.iter().enumerate() {
         let mut solution = HyperSolution::zero(p);
-        let opts = &outcome.setup.newton;
+        // Alone, with Jacobi (the stacked run used the case's multigrid).
+        let mut opts = outcome.setup.newton.clone();
+        opts.krylov.preconditioner = Preconditioner::Jacobi;
         solve_load_steps(
             p,
-            opts,
+            &opts,
             &mut CpuTangentSolver::default(),
             &Silent,
             &mut solution,
