@@ -32,7 +32,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use super::setup::BodiesSetup;
-use crate::backend::{CpuBackend, LinearOperator};
+use crate::backend::CpuBackend;
 use crate::case::bodies::{BodiesCase, PLANE_STRAIN_CAP};
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
@@ -41,9 +41,8 @@ use crate::fem::operator::{ElasticOperator, OperatorParams};
 use crate::fem::setup::LevelOperator;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
-use crate::hyper::newton::TangentSolver;
 use crate::multigrid::{Hierarchy, Multigrid, MultigridOptions};
-use crate::solver::{solve_preconditioned, ApplyInverse, KrylovOptions, KrylovStats};
+use crate::solver::ApplyInverse;
 
 /// Every body's levels: its linear operator on its grid and the hierarchy
 /// under it.
@@ -85,21 +84,18 @@ impl BodiesMultigrid {
         })
     }
 
-    /// The tangent solver of `setup`'s problem preconditioned by these levels.
-    pub fn solver<'a>(&'a self, setup: &'a BodiesSetup) -> MultigridTangentSolver<'a> {
+    /// The preconditioner of `setup`'s problem from these levels.
+    pub fn preconditioner<'a>(&'a self, setup: &'a BodiesSetup) -> BodiesVCycles<'a> {
         let problem = &setup.problem;
-        MultigridTangentSolver {
-            be: CpuBackend::new(),
-            pre: BodiesVCycles {
-                cycles: self
-                    .levels
-                    .iter()
-                    .map(|(fine, h)| Multigrid::new(fine, h))
-                    .collect(),
-                offsets: &problem.offsets,
-                held: problem.held(),
-                free: Mutex::new(vec![0.0; problem.held().len()]),
-            },
+        BodiesVCycles {
+            cycles: self
+                .levels
+                .iter()
+                .map(|(fine, h)| Multigrid::new(fine, h))
+                .collect(),
+            offsets: &problem.offsets,
+            held: problem.held(),
+            free: Mutex::new(vec![0.0; problem.held().len()]),
         }
     }
 }
@@ -186,40 +182,13 @@ impl ApplyInverse<CpuBackend> for BodiesVCycles<'_> {
     }
 }
 
-/// The CPU tangent solver with [`BodiesVCycles`] as preconditioner.
-pub struct MultigridTangentSolver<'a> {
-    be: CpuBackend,
-    pre: BodiesVCycles<'a>,
-}
-
-impl TangentSolver for MultigridTangentSolver<'_> {
-    fn solve(
-        &mut self,
-        tangent: &dyn LinearOperator,
-        rhs: &[f64],
-        du: &mut Vec<f64>,
-        opts: &KrylovOptions,
-    ) -> Result<KrylovStats> {
-        solve_preconditioned(&self.be, tangent, &self.pre, &rhs.to_vec(), du, opts)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::multigrid::tests::{dot, scrambled};
     use crate::progress::Silent;
 
     const CASE: &str = include_str!("../../cases/annuli_contact.toml");
-
-    fn scrambled(n: usize, seed: usize) -> Vec<f64> {
-        (0..n)
-            .map(|i| (((i + seed) * 7919 + 13 * seed) % 1009) as f64 / 504.5 - 1.0)
-            .collect()
-    }
-
-    fn dot(a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum()
-    }
 
     /// On the two plane-strain annuli at level 4, with small coarsest levels
     /// so that each body has a V-cycle: `M⁻¹` is symmetric and positive, the identity on the
@@ -234,14 +203,14 @@ mod tests {
         };
         let mg = BodiesMultigrid::new(&case, &setup, &opts).unwrap();
         assert!(mg.levels.iter().all(|(_, h)| h.num_levels() >= 2));
-        let solver = mg.solver(&setup);
+        let pre = mg.preconditioner(&setup);
         let held = setup.problem.held();
         let n = held.len();
         assert!(held.iter().any(|&h| h));
         let (x, y) = (scrambled(n, 1), scrambled(n, 2));
         let (mut mx, mut my) = (vec![0.0; n], vec![0.0; n]);
-        solver.pre.apply(&x, &mut mx);
-        solver.pre.apply(&y, &mut my);
+        pre.apply(&x, &mut mx);
+        pre.apply(&y, &mut my);
         let (a, b) = (dot(&x, &my), dot(&y, &mx));
         let scale = (dot(&x, &x) * dot(&my, &my)).sqrt();
         assert!((a - b).abs() <= 1e-12 * scale, "x·M⁻¹y = {a}, y·M⁻¹x = {b}");
@@ -252,7 +221,7 @@ mod tests {
             x_other[i] = -3.0 * x[i] + 1.0;
         }
         let mut m_other = vec![0.0; n];
-        solver.pre.apply(&x_other, &mut m_other);
+        pre.apply(&x_other, &mut m_other);
         for i in (0..n).filter(|&i| !held[i]) {
             assert_eq!(m_other[i], mx[i], "free row {i}");
         }

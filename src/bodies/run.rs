@@ -16,7 +16,6 @@ use crate::gpu::GpuContext;
 use crate::hyper::convergence::convergence_order;
 use crate::hyper::newton::{
     solve_load_steps_with, CpuTangentSolver, HyperSolution, NonlinearProblem, StepReport,
-    TangentSolver,
 };
 use crate::multigrid::MultigridOptions;
 use crate::progress::Progress;
@@ -114,19 +113,20 @@ pub fn run_setup(
             None => Ok(()),
         }
     };
-    let mut solver: Box<dyn TangentSolver> = match &multigrid {
-        Some(mg) => Box::new(mg.solver(&setup)),
-        None => Box::new(CpuTangentSolver::default()),
+    let preconditioner = multigrid.as_ref().map(|mg| mg.preconditioner(&setup));
+    let mut solver = match &preconditioner {
+        Some(pre) => CpuTangentSolver::with_multigrid(pre),
+        None => CpuTangentSolver::default(),
     };
     let result = solve_load_steps_with(
         problem,
         &setup.newton,
-        solver.as_mut(),
+        &mut solver,
         progress,
         &mut solution,
         &mut converged,
     );
-    drop(solver);
+    drop(preconditioner);
     let mut timings = BTreeMap::new();
     if let Some(mg) = &multigrid {
         timings.insert("multigrid".to_string(), mg.seconds);

@@ -84,7 +84,10 @@ use super::tangent::TangentOperator;
 use crate::backend::{CpuBackend, LinearOperator};
 use crate::error::{Error, Result};
 use crate::progress::{Event, Progress};
-use crate::solver::{solve, KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
+use crate::solver::{
+    solve, solve_preconditioned, ApplyInverse, KrylovMethod, KrylovOptions, KrylovStats,
+    Preconditioner,
+};
 
 /// A nonlinear problem for [`solve_load_steps`]: the residual `R(u, t)` at
 /// load factor `t` and its tangent `∂R/∂u`.
@@ -134,13 +137,28 @@ pub trait TangentSolver {
     ) -> Result<KrylovStats>;
 }
 
-/// The CPU backend with the matrix-free tangent (diagonal per tangent).
-#[derive(Clone, Debug, Default)]
-pub struct CpuTangentSolver {
+/// The CPU backend with the matrix-free tangent: Jacobi (its diagonal per
+/// tangent) or none, and the multigrid preconditioner when one is given
+/// ([`crate::bodies::multigrid`]); a multigrid option without one is refused
+/// by the solve ([`crate::Error::InvalidSolverOptions`]).
+#[derive(Clone, Default)]
+pub struct CpuTangentSolver<'a> {
     be: CpuBackend,
+    multigrid: Option<&'a dyn ApplyInverse<CpuBackend>>,
 }
 
-impl TangentSolver for CpuTangentSolver {
+impl<'a> CpuTangentSolver<'a> {
+    /// The solver with `multigrid` as the preconditioner of
+    /// `preconditioner = "multigrid"`.
+    pub fn with_multigrid(multigrid: &'a dyn ApplyInverse<CpuBackend>) -> Self {
+        CpuTangentSolver {
+            be: CpuBackend::new(),
+            multigrid: Some(multigrid),
+        }
+    }
+}
+
+impl TangentSolver for CpuTangentSolver<'_> {
     fn solve(
         &mut self,
         tangent: &dyn LinearOperator,
@@ -148,8 +166,12 @@ impl TangentSolver for CpuTangentSolver {
         du: &mut Vec<f64>,
         opts: &KrylovOptions,
     ) -> Result<KrylovStats> {
+        let rhs = rhs.to_vec();
+        if let (Some(mg), Preconditioner::Multigrid) = (self.multigrid, opts.preconditioner) {
+            return solve_preconditioned(&self.be, tangent, mg, &rhs, du, opts);
+        }
         let diag = (opts.preconditioner == Preconditioner::Jacobi).then(|| tangent.diagonal());
-        solve(&self.be, tangent, diag.as_ref(), &rhs.to_vec(), du, opts)
+        solve(&self.be, tangent, diag.as_ref(), &rhs, du, opts)
     }
 }
 

@@ -39,7 +39,7 @@
 pub mod cycle;
 pub mod smoother;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 pub mod transfer;
 
 use std::time::Instant;

@@ -53,13 +53,13 @@ fn sample(op: &ElasticOperator) -> Vec<f64> {
 }
 
 /// A fixed vector with no structure.
-fn scrambled(n: usize, seed: usize) -> Vec<f64> {
+pub(crate) fn scrambled(n: usize, seed: usize) -> Vec<f64> {
     (0..n)
         .map(|i| (((i + seed) * 7919 + 13 * seed) % 1009) as f64 / 504.5 - 1.0)
         .collect()
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
