@@ -119,21 +119,13 @@ fn body_operator(
         .plane_strain
         .then(|| solid.tag_id(PLANE_STRAIN_CAP))
         .flatten();
+    // A tag has at most one Dirichlet condition; the caps have none.
     let held = |tag: u16, x: [f64; 3]| -> Option<[bool; 3]> {
-        let mut mask: Option<[bool; 3]> = None;
-        let mut hold = |m: [bool; 3]| {
-            let old = mask.unwrap_or([false; 3]);
-            mask = Some([0, 1, 2].map(|c| old[c] || m[c]));
-        };
-        for (t, d) in &parts {
-            if *t == tag && d.applies_at(x) {
-                hold(d.mask());
-            }
-        }
         if cap == Some(tag) {
-            hold([false, false, true]);
+            return Some([false, false, true]);
         }
-        mask
+        let (_, d) = parts.iter().find(|(t, _)| *t == tag)?;
+        d.applies_at(x).then(|| d.mask())
     };
     let params = OperatorParams {
         young: spec.material.young,

@@ -126,6 +126,7 @@ pub fn run_setup(
         &mut solution,
         &mut converged,
     );
+    // The preconditioner borrows `setup`, which the outcome takes below.
     drop(preconditioner);
     let mut timings = BTreeMap::new();
     if let Some(mg) = &multigrid {
