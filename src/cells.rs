@@ -190,6 +190,24 @@ impl Cells {
         &self.samples[self.sample_start[i]..self.sample_start[i + 1]]
     }
 
+    /// At most about `max` points of the `i`-th cut cell for least-squares
+    /// fits (SPR samples): evenly strided, in sweep order, through its
+    /// [`Self::sample_points`] or, where it has none, its volume points. The
+    /// samples keep the base rule's points where the volume rule took more
+    /// ([`crate::quadrature::saye::box_rule`]), so the fits do not depend on
+    /// the accuracy of the volume rule.
+    pub fn fit_points(&self, i: usize, max: usize) -> Vec<[f64; 3]> {
+        let own = self.sample_points(i);
+        if own.is_empty() {
+            let pts = self.volume_points(i);
+            let stride = pts.len().div_ceil(max).max(1);
+            pts.iter().step_by(stride).map(|q| q.x).collect()
+        } else {
+            let stride = own.len().div_ceil(max).max(1);
+            own.iter().step_by(stride).copied().collect()
+        }
+    }
+
     /// Boundary points of the `i`-th cut cell.
     pub fn surface_points(&self, i: usize) -> &[SurfacePoint] {
         &self.surface[self.surface_start[i]..self.surface_start[i + 1]]
@@ -213,15 +231,17 @@ impl Cells {
         }
     }
 
-    /// `|Ω ∩ grid|`: inside cells exactly plus the cut-cell rules.
+    /// `|Ω ∩ grid|`: inside cells exactly plus the cut-cell rules, summed
+    /// with compensation (millions of weights summed plainly lose 1e-13
+    /// relative, above what the rules themselves reach).
     pub fn volume(&self, grid: &Grid) -> f64 {
-        let cut: f64 = self.volume.iter().map(|p| p.w).sum();
+        let cut = compensated_sum(self.volume.iter().map(|p| p.w));
         self.num_inside as f64 * grid.h.powi(3) + cut
     }
 
-    /// `|∂Ω ∩ grid|` by the surface rules.
+    /// `|∂Ω ∩ grid|` by the surface rules (compensated sum).
     pub fn boundary_area(&self) -> f64 {
-        self.surface.iter().map(|p| p.w).sum()
+        compensated_sum(self.surface.iter().map(|p| p.w))
     }
 
     /// Map node → dof-node index (`u32::MAX` for inactive nodes): the nodes of
@@ -293,4 +313,19 @@ fn descend(
             descend(grid, g, a, b, kinds, candidates);
         }
     }
+}
+
+/// Neumaier's compensated sum.
+fn compensated_sum(values: impl Iterator<Item = f64>) -> f64 {
+    let (mut sum, mut carry) = (0.0f64, 0.0f64);
+    for v in values {
+        let t = sum + v;
+        carry += if sum.abs() >= v.abs() {
+            (sum - t) + v
+        } else {
+            (v - t) + sum
+        };
+        sum = t;
+    }
+    sum + carry
 }

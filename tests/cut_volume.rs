@@ -1,38 +1,40 @@
-//! Volume of parts with edges by the cut-cell rules against the exact value,
-//! level by level: the cuboid minus a tilted cylinder (`4 − π r²/cos θ`, the
-//! cylinder crosses the slab whole) and the bracket of `cases/`
-//! (`52000 − 720π` mm³), under a random rotation and grid offset. The error
+//! Volume of parts by the cut-cell rules against the exact value, level by
+//! level: the cuboid minus a tilted cylinder (`4 − π r²/cos θ`, the cylinder
+//! crosses the slab whole), the bracket of `cases/` (`52000 − 720π` mm³),
+//! under a random rotation and grid offset, and the unit sphere. The error
 //! must converge at 2nd order or better with the Q1 rules and 3rd order or
-//! better with the Q2 rules (the rates the elements need).
+//! better with the Q2 rules (the rates the elements need), from the coarsest
+//! level.
 //!
 //! Measured (`CGFEM_VOLUME_LEVELS=7 cargo test --release --test cut_volume
-//! -- --nocapture`, relative errors):
+//! -- --nocapture --test-threads=1`, relative errors):
 //!
-//! | part, rules | L2 | L3 | L4 | L5 | L6 | L7 |
-//! |---|---|---|---|---|---|---|
-//! | plate, Q1 | 6.4e-7 | 6.1e-7 | 9.7e-7 | 1.4e-6 | 1.0e-7 | 6.5e-9 |
-//! | plate, Q2 | 1.5e-10 | 2.9e-10 | 1.2e-9 | 2.4e-10 | 1.1e-12 | 2.4e-15 |
-//! | bracket, Q1 | | 1.0e-7 | 4.5e-7 | 1.9e-7 | 4.8e-7 | 4.0e-8 |
-//! | bracket, Q2 | | 9.2e-12 | 1.4e-10 | 2.6e-10 | 1.1e-10 | 1.5e-13 |
+//! | part, rules | L2 | L3 | L4 | L5 | L6 | L7 | fitted rate |
+//! |---|---|---|---|---|---|---|---|
+//! | plate, Q1 | 4.6e-7 | 1.2e-8 | 1.8e-10 | 9.4e-12 | 2.0e-11 | 7.4e-13 | 3.93 |
+//! | plate, Q2 | 2.7e-11 | 2.2e-13 | 4.9e-16 | 0 | 0 | 3.7e-16 | floor from L3 |
+//! | bracket, Q1 | | 2.3e-7 | 4.5e-9 | 4.3e-11 | 5.7e-12 | 8.2e-12 | 3.91 |
+//! | bracket, Q2 | | 1.6e-11 | 3.6e-13 | 2.6e-13 | 4.2e-13 | 1.1e-13 | floor from L4 |
+//! | sphere, Q1 | | 1.2e-9 | 3.3e-9 | 1.9e-11 | 7.2e-13 | 1.5e-14 | 2.97 |
+//! | sphere, Q2 | | 4.6e-14 | 2.2e-14 | 2.1e-16 | 2.1e-16 | 2.1e-16 | floor from L3 |
 //!
-//! The errors sit on a plateau up to level 5 (plate) or 6 (bracket) and then
-//! fall at the rules' asymptotic rate (Q1 rules: 3.7 and 4.0 from level 5 to
-//! 7 on the plate, 3.6 from 6 to 7 on the bracket; Q2 rules: to round-off).
-//! The plateau is a quadrature-order error in cells cut by a cylinder alone,
-//! not at the edges: the height functions' branch points stay a fixed
-//! distance (`≈ Q² R / 2`) outside the boxes while the cells are not small
-//! against the cylinder's radius (`docs/volume-floor-findings.md`). Issue 15
-//! asks for the rates from the coarsest level; that is not met (a prototype,
-//! described in `docs/volume-floor-findings.md`, met it at +31% wall time on
-//! the level-6 sphere).
-//! The test holds every level below `1e-5` (Q1 rules) and `1e-8` (Q2 rules),
-//! which Saye's rules without edge splitting miss by one to three orders of
-//! magnitude, and with `CGFEM_VOLUME_LEVELS ≥ 7` the rate between the two
-//! finest levels: at least 2 (Q1 rules) and 3 (Q2 rules), or an error at
-//! round-off (`1e-13`).
+//! Without the extra points of `quadrature::branch` (the plain `q`-point
+//! rules in every dimension) the plate and the bracket sat on a plateau of
+//! about 1e-6 (Q1 rules) and 1e-10 (Q2 rules) up to level 5 or 6
+//! (`docs/volume-floor-findings.md`): the height functions' branch points
+//! stay a fixed distance outside the boxes while the cells are not small
+//! against the cylinder's radius. The bracket's Q2 errors stop falling at
+//! 1e-13–4e-13 relative (5e-9–2e-8 mm³) from level 4: not round-off (8
+//! points per segment everywhere, `[quadrature] points = 8`, gives 3.6e-14 and
+//! 4.5e-15 at levels 4 and 5) but a quadrature error of a few cells that the
+//! branch-point estimate does not see; at that size it is no concern to the
+//! elements, and the rate is asked above [`RATE_FLOOR`] only.
 //!
-//! `CGFEM_VOLUME_LEVELS=N` adds levels up to N (default: 2–5 for the plate,
-//! 3–5 for the bracket).
+//! The test holds every level below `1e-6` (Q1 rules) and `1e-10` (Q2 rules)
+//! and the least-squares rate over the levels above [`RATE_FLOOR`]
+//! at least 2 (Q1 rules) and 3 (Q2 rules).
+//!
+//! `CGFEM_VOLUME_LEVELS=N` adds levels up to N (default: up to 5).
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::grid::Grid;
@@ -47,8 +49,10 @@ axis = [-0.2, 0.9, 0.4]
 angle_deg = 23
 of = { type = "difference", of = [ { type = "union", of = [ { type = "cuboid", min = [0.0, 0.0, 0.0], max = [80.0, 40.0, 10.0] }, { type = "cuboid", min = [0.0, 0.0, 0.0], max = [10.0, 40.0, 60.0] } ] }, { type = "union", of = [ { type = "cylinder", start = [50.0, 20.0, -5.0], end = [50.0, 20.0, 15.0], radius = 6.0 }, { type = "cylinder", start = [70.0, 20.0, -5.0], end = [70.0, 20.0, 15.0], radius = 6.0 } ] } ] }"#;
 
-/// A relative volume error at round-off: no rate is asked of it.
-const ROUND_OFF: f64 = 1e-13;
+/// Relative volume errors below this take no part in the rate: the plate's
+/// and the sphere's Q2 errors are at round-off (1e-16–1e-14) there, the
+/// bracket's stop at 1e-13–4e-13 (see the module doc).
+const RATE_FLOOR: f64 = 1e-12;
 
 fn max_level(default: u32) -> u32 {
     std::env::var("CGFEM_VOLUME_LEVELS")
@@ -75,35 +79,48 @@ fn volume_errors(geometry: &str, exact: f64, element: &str, levels: &[u32]) -> V
         .collect()
 }
 
-/// The least-squares slope of `−log2(error)` against the level.
-fn rate(levels: &[u32], errors: &[f64]) -> f64 {
-    let n = levels.len() as f64;
-    let xs: Vec<f64> = levels.iter().map(|&l| l as f64).collect();
-    let ys: Vec<f64> = errors.iter().map(|e| -e.log2()).collect();
+/// The least-squares slope of `−log2(error)` against the level, over the
+/// levels whose error is above [`RATE_FLOOR`]; `None` with fewer than two.
+fn rate(levels: &[u32], errors: &[f64]) -> Option<f64> {
+    let (xs, ys): (Vec<f64>, Vec<f64>) = levels
+        .iter()
+        .zip(errors)
+        .filter(|(_, &e)| e > RATE_FLOOR)
+        .map(|(&l, &e)| (l as f64, -e.log2()))
+        .unzip();
+    if xs.len() < 2 {
+        return None;
+    }
+    let n = xs.len() as f64;
     let (mx, my) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
     let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
     let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
-    sxy / sxx
+    Some(sxy / sxx)
 }
 
 fn check(name: &str, geometry: &str, exact: f64, first: u32) {
     let levels: Vec<u32> = (first..=max_level(5)).collect();
     let mut failed = Vec::new();
-    for (element, bound, min_rate) in [("q1", 1e-5, 2.0), ("q2", 1e-8, 3.0)] {
+    for (element, bound, min_rate) in [("q1", 1e-6, 2.0), ("q2", 1e-10, 3.0)] {
         let errors = volume_errors(geometry, exact, element, &levels);
-        let r = rate(&levels, &errors);
-        println!("{name} {element}: fitted rate {r:.2} over levels {levels:?}");
         for (&level, e) in levels.iter().zip(&errors) {
             if *e > bound {
                 failed.push(format!("{element} level {level}: {e:.3e} > {bound:.1e}"));
             }
         }
-        let finest = levels.len() - 1;
-        if levels[finest] >= 7 && errors[finest] > ROUND_OFF {
-            let last = (errors[finest - 1] / errors[finest]).log2();
-            println!("{name} {element}: rate {last:.2} between the two finest levels");
-            if last < min_rate {
-                failed.push(format!("{element}: asymptotic rate {last:.2} < {min_rate}"));
+        match rate(&levels, &errors) {
+            Some(r) => {
+                println!("{name} {element}: fitted rate {r:.2} over the levels above the floor");
+                if r < min_rate {
+                    failed.push(format!("{element}: fitted rate {r:.2} < {min_rate}"));
+                }
+            }
+            None => {
+                let from = levels.iter().zip(&errors).find(|(_, &e)| e <= RATE_FLOOR);
+                println!(
+                    "{name} {element}: below the floor from level {:?}",
+                    from.map(|f| f.0)
+                );
             }
         }
     }
@@ -127,6 +144,18 @@ fn bracket_volume_converges() {
         "bracket",
         BRACKET,
         52000.0 - 720.0 * std::f64::consts::PI,
+        3,
+    );
+}
+
+#[test]
+fn sphere_volume_converges() {
+    check(
+        "sphere",
+        r#"type = "sphere"
+center = [0, 0, 0]
+radius = 1"#,
+        4.0 / 3.0 * std::f64::consts::PI,
         3,
     );
 }

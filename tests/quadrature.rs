@@ -20,20 +20,19 @@ fn unit_sphere_errors(order: ElementOrder, level: u32) -> (f64, f64) {
     )
 }
 
-fn check_rates(order: ElementOrder, min_rate: f64) -> Vec<(f64, f64)> {
+/// The area's convergence rates between consecutive levels 3–6 (the volume's
+/// are in `tests/cut_volume.rs`: its rule takes more points where a height
+/// function's branch point is near, so its errors fall irregularly).
+fn check_area_rates(order: ElementOrder, min_rate: f64) -> Vec<(f64, f64)> {
     let errors: Vec<(f64, f64)> = (3..=6).map(|l| unit_sphere_errors(order, l)).collect();
     for (l, w) in errors.windows(2).enumerate() {
-        let rv = (w[0].0 / w[1].0).log2();
         let ra = (w[0].1 / w[1].1).log2();
         println!(
-            "{order:?} levels {}-{}: volume rate {rv:.2}, area rate {ra:.2}",
+            "{order:?} levels {}-{}: volume errors {:.2e}, {:.2e}, area rate {ra:.2}",
             l + 3,
-            l + 4
-        );
-        assert!(
-            rv >= min_rate,
-            "{order:?} volume rate {rv} at level {}",
-            l + 4
+            l + 4,
+            w[0].0,
+            w[1].0
         );
         assert!(
             ra >= min_rate,
@@ -45,13 +44,13 @@ fn check_rates(order: ElementOrder, min_rate: f64) -> Vec<(f64, f64)> {
 }
 
 #[test]
-fn sphere_volume_and_area_converge_q1() {
-    check_rates(ElementOrder::Q1, 2.0);
+fn sphere_area_converges_q1() {
+    check_area_rates(ElementOrder::Q1, 2.0);
 }
 
 #[test]
-fn sphere_volume_and_area_converge_q2() {
-    let errors = check_rates(ElementOrder::Q2, 3.0);
+fn sphere_area_converges_q2() {
+    let errors = check_area_rates(ElementOrder::Q2, 3.0);
     assert!(errors[2].0 < 1e-6, "level 5 volume error {}", errors[2].0);
 }
 

@@ -111,7 +111,9 @@ impl ContactCoupling {
                     friction: p.friction,
                     curved: spec.master_surface == MasterSurfaceKind::Curved,
                     search_radius: 0.5 * diagonal(s.solid).min(diagonal(m.solid)),
-                    sampler: spec.recovered_traction.then(|| StressSampler::new(s.cells)),
+                    sampler: spec
+                        .recovered_traction
+                        .then(|| StressSampler::new(s.grid, s.cells)),
                 }
             })
             .collect();

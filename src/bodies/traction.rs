@@ -2,10 +2,9 @@
 //! reference configuration) and from it the recovered normal traction
 //! `T̂_N = n1 · σ̂ n1` of contact (DESIGN §6).
 //!
-//! **Samples.** At each volume quadrature point of the body (the 2×2×2 Gauss
-//! points of an inside cell; in a cut cell at most 16 of its cut-cell volume
-//! points, evenly strided through the rule, as the linear recovery of
-//! [`crate::fem::recovery::sample_positions`] does) the Cauchy stress of the
+//! **Samples.** At the 2×2×2 Gauss points of an inside cell and at most 16
+//! points of a cut cell ([`Cells::fit_points`], as the linear recovery of
+//! [`crate::fem::recovery::sample_positions`] takes them) the Cauchy stress of the
 //! current state, `σ = P Fᵀ / J`, stored as Voigt `(xx, yy, zz, yz, xz, xy)`
 //! at the point's **reference** position `X`.
 //!
@@ -27,7 +26,7 @@ use crate::error::Result;
 use crate::fem::recovery::voigt_times;
 use crate::grid::Grid;
 use crate::hyper::material::PointState;
-use crate::hyper::problem::HyperProblem;
+use crate::hyper::problem::{quad_point, HyperProblem, QuadPoint};
 use crate::hyper::residual::deformation_gradient;
 use crate::recovery::{recover, PatchSamples, Recovered, Sample, SprOptions};
 
@@ -36,25 +35,31 @@ use crate::recovery::{recover, PatchSamples, Recovered, Sample, SprOptions};
 const GAUSS_POINTS: usize = 8;
 
 /// What the stress recovery of one body needs from its cell classification:
-/// the cell kinds and, per cut cell, the sampled volume points (index into
-/// the cell's rule and reference position).
+/// the cell kinds and, per cut cell, its sample points (reference position
+/// and the Q1 shape gradients there, [`Cells::fit_points`]).
 #[derive(Clone, Debug)]
 pub struct StressSampler {
     kinds: Vec<CellKind>,
-    cut_samples: Vec<Vec<(usize, [f64; 3])>>,
+    cut_samples: Vec<Vec<(QuadPoint, [f64; 3])>>,
 }
 
 impl StressSampler {
-    /// The sampler of a body classified as `cells` (Q1 cut rules).
-    pub fn new(cells: &Cells) -> StressSampler {
-        let cut_samples = (0..cells.cut.len())
-            .map(|i| {
-                let pts = cells.volume_points(i);
-                let stride = pts.len().div_ceil(2 * GAUSS_POINTS).max(1);
-                pts.iter()
-                    .enumerate()
-                    .step_by(stride)
-                    .map(|(k, q)| (k, q.x))
+    /// The sampler of a body on `grid` classified as `cells` (Q1 cut rules).
+    pub fn new(grid: &Grid, cells: &Cells) -> StressSampler {
+        let inv_h = 1.0 / grid.h;
+        let cut_samples = cells
+            .cut
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| {
+                let lo = grid.cell_box(c).lo;
+                cells
+                    .fit_points(i, 2 * GAUSS_POINTS)
+                    .into_iter()
+                    .map(|x| {
+                        let xi = [0, 1, 2].map(|a| (x[a] - lo[a]) * inv_h);
+                        (quad_point(xi, 0.0, inv_h), x)
+                    })
                     .collect()
             })
             .collect();
@@ -115,9 +120,8 @@ impl PatchSamples<6> for CauchySamples<'_> {
             return;
         };
         let ue = body.gather(k, self.u);
-        let points = body.points(k);
-        let mut push = |rule_index: usize, x: [f64; 3]| {
-            let f = deformation_gradient(&ue, &points[rule_index]);
+        let mut push = |point: &QuadPoint, x: [f64; 3]| {
+            let f = deformation_gradient(&ue, point);
             if let Some(s) = PointState::new(f) {
                 out.push((x, cauchy_voigt(&f, &body.material.stress(&s))));
             }
@@ -125,13 +129,13 @@ impl PatchSamples<6> for CauchySamples<'_> {
         match body.cut_index[k] {
             None => {
                 let (lo, h) = (body.grid.cell_box(cell).lo, body.grid.h);
-                for (q, xi) in self.gauss.iter().enumerate() {
-                    push(q, [0, 1, 2].map(|a| lo[a] + h * xi[a]));
+                for (point, xi) in body.points(k).iter().zip(&self.gauss) {
+                    push(point, [0, 1, 2].map(|a| lo[a] + h * xi[a]));
                 }
             }
             Some(i) => {
-                for &(q, x) in &self.sampler.cut_samples[i] {
-                    push(q, x);
+                for (point, x) in &self.sampler.cut_samples[i] {
+                    push(point, *x);
                 }
             }
         }
@@ -188,7 +192,7 @@ mod tests {
                 [d[0], d[1], d[2]]
             })
             .collect();
-        let sigma = StressSampler::new(&cells)
+        let sigma = StressSampler::new(&grid, &cells)
             .recover(&body, &u, &cells.cut)
             .unwrap();
         let j = f0.determinant();

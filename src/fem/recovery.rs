@@ -39,9 +39,7 @@ pub fn vertex_nodes_of(setup: &Setup, cells: &[usize]) -> Vec<usize> {
 
 /// The SPR sample points of a cell (stress and displacement recovery alike):
 /// the Gauss points `rule` of an inside cell; in a cut cell at most twice as
-/// many of its sample points ([`crate::cells::Cells::sample_points`], else its
-/// volume points), evenly strided through the sweep order of the
-/// rule, which is enough for a least-squares fit and keeps the cost
+/// many of its points ([`crate::cells::Cells::fit_points`]), which is enough for a least-squares fit and keeps the cost
 /// independent of the accuracy of the cut-cell rule.
 pub fn sample_positions(
     setup: &Setup,
@@ -63,15 +61,7 @@ pub fn sample_positions(
                 .cells
                 .cut_position(cell)
                 .expect("a cut cell is in the cut list");
-            let own = setup.cells.sample_points(i);
-            if own.is_empty() {
-                let pts = setup.cells.volume_points(i);
-                let stride = pts.len().div_ceil(2 * rule.len()).max(1);
-                out.extend(pts.iter().step_by(stride).map(|q| q.x));
-            } else {
-                let stride = own.len().div_ceil(2 * rule.len()).max(1);
-                out.extend(own.iter().step_by(stride));
-            }
+            out.extend(setup.cells.fit_points(i, 2 * rule.len()));
         }
         CellKind::Outside => {}
     }

@@ -359,7 +359,7 @@ fn check_parameters(material: &Material, beta: f64) -> Result<()> {
 }
 
 /// The point at reference coordinates `xi` with weight `w`.
-fn quad_point(xi: [f64; 3], w: f64, inv_h: f64) -> QuadPoint {
+pub(crate) fn quad_point(xi: [f64; 3], w: f64, inv_h: f64) -> QuadPoint {
     let mut grads = [[0.0; 3]; NODES];
     shape_gradients(ElementOrder::Q1, xi, &mut grads);
     QuadPoint {

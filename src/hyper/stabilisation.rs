@@ -107,9 +107,7 @@ impl STerm {
         let mut cut_samples = Vec::new();
         let mut cut_sample_start = vec![0];
         for (i, &c) in cells.cut.iter().enumerate() {
-            let pts = cells.volume_points(i);
-            let stride = pts.len().div_ceil(max_points).max(1);
-            cut_samples.extend(pts.iter().step_by(stride).map(|q| q.x));
+            cut_samples.extend(cells.fit_points(i, max_points));
             let lo = problem.grid.cell_box(c).lo;
             cut_samples.extend(
                 rule.iter()

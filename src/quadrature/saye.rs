@@ -26,6 +26,8 @@
 //! claimed by the box whose side of the face is inside Ω, so a face shared by two
 //! cells is counted once.
 
+use std::cell::Cell;
+
 use super::lines::{gauss_segment, split_line, sweep_line, Line};
 use crate::geometry::scalar::{Dual, Interval, Scalar};
 use crate::geometry::surface::Shape;
@@ -175,6 +177,27 @@ pub(super) struct Ctx<'a> {
     pub g: &'a Geometry,
     pub gauss_x: Vec<f64>,
     pub gauss_w: Vec<f64>,
+    /// Points per segment of the base rule.
+    q: usize,
+    /// Edge length of the cell (the box [`box_rule`] was called with).
+    cell: f64,
+    /// Set when a volume sweep took more points than `q`
+    /// ([`super::branch`]).
+    refined: Cell<bool>,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(g: &'a Geometry, q: usize, cell: f64) -> Ctx<'a> {
+        let (gauss_x, gauss_w) = super::gauss::gauss_legendre_unit(q);
+        Ctx {
+            g,
+            gauss_x,
+            gauss_w,
+            q,
+            cell,
+            refined: Cell::new(false),
+        }
+    }
 }
 
 /// Volume rule on `b ∩ Ω` and, when all three axes are free, surface rule on
@@ -188,23 +211,28 @@ pub fn box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
     if let Some(mesh) = g.mesh() {
         return super::polyhedral::mesh_box_rule(mesh, b, free, q);
     }
-    let (gauss_x, gauss_w) = super::gauss::gauss_legendre_unit(q);
-    let ctx = Ctx {
-        g,
-        gauss_x,
-        gauss_w,
-    };
+    let cell = free.iter().map(|&a| b.hi[a] - b.lo[a]).fold(0.0, f64::max);
+    let ctx = Ctx::new(g, q, cell);
     let mut rule = BoxRule::default();
     top(&ctx, b, free, 0, &mut rule);
+    if !ctx.refined.get() {
+        rule.samples.clear();
+    }
     rule
+}
+
+/// Emits the volume points of `b` by `ctx`'s tensor rule, also as samples.
+fn whole_box(ctx: &Ctx, b: &Aabb, free: &[usize], rule: &mut BoxRule) {
+    tensor(ctx, b, free, 1.0, &mut |x, w| {
+        rule.volume.push(VolumePoint { x, w });
+        rule.samples.push(x);
+    });
 }
 
 fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
     let phi = ctx.g.bounds(b);
     if phi.hi < 0.0 {
-        tensor(ctx, b, free, 1.0, &mut |x, w| {
-            rule.volume.push(VolumePoint { x, w })
-        });
+        whole_box(ctx, b, free, rule);
         return;
     }
     if phi.lo > 0.0 {
@@ -221,9 +249,7 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
         .collect();
     if fns.is_empty() {
         if ctx.g.inside(center(b)) {
-            tensor(ctx, b, free, 1.0, &mut |x, w| {
-                rule.volume.push(VolumePoint { x, w })
-            });
+            whole_box(ctx, b, free, rule);
         }
         return;
     }
@@ -242,13 +268,42 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
             // Last resort: one sweep along the best axis with scanning roots.
             let k = best_axis(&fns, free);
             let emit = vec![want_surface; fns.len()];
-            sweep_box(ctx, &fns, b, free, k, false, true, &emit, rule);
+            let start = rule.volume.len();
+            sweep_box(ctx, ctx, &fns, b, free, k, false, true, &emit, rule);
+            extend_samples(rule, start);
         }
         return;
     };
     for (sweep, (k, emit)) in plan.into_iter().enumerate() {
-        sweep_box(ctx, &fns, b, free, k, true, sweep == 0, &emit, rule);
+        let size = free.iter().map(|&a| b.hi[a] - b.lo[a]).fold(0.0, f64::max);
+        let n = if sweep == 0 && want_surface {
+            super::branch::lower_points(fns.iter().map(|f| &f.1), free, k, size, ctx.cell, ctx.q)
+        } else {
+            ctx.q
+        };
+        if n > ctx.q {
+            // The volume from the refined lower dimensions; the surface
+            // points and the samples from the base rule's sweep.
+            ctx.refined.set(true);
+            let fine = Ctx::new(ctx.g, n, ctx.cell);
+            let none = vec![false; fns.len()];
+            sweep_box(ctx, &fine, &fns, b, free, k, true, true, &none, rule);
+            let mut base = BoxRule::default();
+            sweep_box(ctx, ctx, &fns, b, free, k, true, true, &emit, &mut base);
+            rule.surface.extend(base.surface);
+            rule.samples.extend(base.volume.iter().map(|p| p.x));
+        } else {
+            let start = rule.volume.len();
+            sweep_box(ctx, ctx, &fns, b, free, k, true, sweep == 0, &emit, rule);
+            extend_samples(rule, start);
+        }
     }
+}
+
+/// Records the volume points from `start` on as samples.
+fn extend_samples(rule: &mut BoxRule, start: usize) {
+    let new: Vec<[f64; 3]> = rule.volume[start..].iter().map(|p| p.x).collect();
+    rule.samples.extend(new);
 }
 
 /// The sweeps that cover a box: the first gives the volume rule and the surface
@@ -290,10 +345,12 @@ fn sweep_plan(
     Some(plan)
 }
 
-/// One height-direction sweep of the box along `k`.
+/// One height-direction sweep of the box along `k`: the lines' Gauss rules
+/// from `ctx`, the lower dimensions' from `lower_ctx`.
 #[allow(clippy::too_many_arguments)]
 fn sweep_box(
     ctx: &Ctx,
+    lower_ctx: &Ctx,
     fns: &[(Restricted, Dual<Interval>)],
     b: &Aabb,
     free: &[usize],
@@ -311,7 +368,7 @@ fn sweep_box(
         let line = Line { k, x, w, monotone };
         sweep_line(ctx, &line_fns, b, &line, emit_volume, emit_surface, rule);
     };
-    lower(ctx, &faces, b, &lower_free, 0, false, &mut sink);
+    lower(lower_ctx, &faces, b, &lower_free, 0, false, &mut sink);
 }
 
 /// Integrates over the free axes of `b` a function that is smooth away from the
