@@ -27,8 +27,8 @@
 //! 1e-13–4e-13 relative (5e-9–2e-8 mm³) from level 4: not round-off (8
 //! points per segment everywhere, `[quadrature] points = 8`, gives 3.6e-14 and
 //! 4.5e-15 at levels 4 and 5) but a quadrature error of about ten cells where
-//! the cylinders meet the bracket's faces, split deeply (at level 5 they
-//! carry all of it); at that size it is no concern to the elements,
+//! the cylinders meet the bracket's faces (at level 5 they carry all of
+//! it); at that size it is no concern to the elements,
 //! and the rate is asked above [`RATE_FLOOR`] only.
 //!
 //! The test holds every level below `1e-6` (Q1 rules) and `1e-10` (Q2 rules)
