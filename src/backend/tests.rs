@@ -24,18 +24,7 @@ fn both() -> [CpuBackend; 2] {
 
 /// Compensated (Neumaier) sum of products: the reference for dot products.
 fn neumaier_dot(x: &[f64], y: &[f64]) -> f64 {
-    let (mut sum, mut comp) = (0.0f64, 0.0f64);
-    for (a, b) in x.iter().zip(y) {
-        let v = a * b;
-        let t = sum + v;
-        comp += if sum.abs() >= v.abs() {
-            (sum - t) + v
-        } else {
-            (v - t) + sum
-        };
-        sum = t;
-    }
-    sum + comp
+    crate::cells::compensated_sum(x.iter().zip(y).map(|(a, b)| a * b))
 }
 
 fn assert_bits_eq(a: &[f64], b: &[f64], what: &str) {
