@@ -1,7 +1,9 @@
 //! Quadrature: Gauss rules and cut-cell rules for implicitly defined domains.
 mod branch;
+mod crossings;
 pub mod gauss;
 mod lines;
 pub mod polyhedral;
+mod restricted;
 mod roots;
 pub mod saye;

@@ -28,8 +28,10 @@
 
 use std::cell::Cell;
 
+use super::crossings::crossings;
 use super::lines::{gauss_segment, split_line, sweep_line, Line};
-use crate::geometry::scalar::{Dual, Interval, Scalar};
+pub(super) use super::restricted::Restricted;
+use crate::geometry::scalar::{Dual, Interval};
 use crate::geometry::surface::Shape;
 use crate::geometry::{Aabb, Geometry};
 
@@ -65,112 +67,6 @@ const MAX_TOP_DEPTH: u32 = 3;
 const MAX_LOWER_DEPTH: u32 = 4;
 /// Smallest accepted [`quality`] before the depth limit (see [`height_axis`]).
 const MIN_QUALITY: f64 = 0.4;
-
-/// A leaf level set with some coordinates pinned (its restriction to a face),
-/// and optionally restricted to a plane leaf: `x_k` replaced by the plane's
-/// root along `k` (an *edge function*, whose zero set is the projection along
-/// `k` of the edge where the plane meets this leaf).
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Restricted {
-    pub leaf: usize,
-    pinned: [Option<f64>; 3],
-    /// `(k, plane leaf, 1 / ∂ψ_P/∂x_k)`.
-    on_plane: Option<(usize, usize, f64)>,
-}
-
-impl Restricted {
-    fn apply<T: Scalar>(&self, g: &Geometry, mut x: [T; 3]) -> [T; 3] {
-        for (xi, p) in x.iter_mut().zip(self.pinned) {
-            if let Some(v) = p {
-                *xi = T::cst(v);
-            }
-        }
-        if let Some((k, plane, inv)) = self.on_plane {
-            // ψ_P is linear: its root along k is x_k = −ψ_P(x with x_k = 0) / a_k.
-            let mut y = x;
-            y[k] = T::cst(0.0);
-            x[k] = g.leaves()[plane].eval(y).scale(-inv);
-        }
-        x
-    }
-
-    pub(super) fn value_grad(&self, g: &Geometry, x: [f64; 3]) -> (f64, [f64; 3]) {
-        let d = self.apply(
-            g,
-            [Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)],
-        );
-        let v = g.leaves()[self.leaf].eval(d);
-        (v.v, v.d)
-    }
-
-    /// The surface this function restricts: its leaf, and the plane leaf of an
-    /// edge function.
-    fn surface(&self) -> (usize, Option<usize>) {
-        (self.leaf, self.on_plane.map(|(_, p, _)| p))
-    }
-
-    /// The edge function of this leaf on the plane leaf `plane` along `k`,
-    /// when the plane is strictly monotone along `k` (`bd`: its bounds).
-    fn on_plane(&self, plane: usize, bd: &Dual<Interval>, k: usize) -> Option<Restricted> {
-        let a = bd.d[k];
-        if !a.strictly_signed() || self.on_plane.is_some() {
-            return None;
-        }
-        Some(Restricted {
-            on_plane: Some((k, plane, 1.0 / a.mid())),
-            ..*self
-        })
-    }
-
-    /// The box with the pinned axes collapsed onto their pins.
-    fn pinned_box(&self, b: &Aabb) -> Aabb {
-        let mut pb = *b;
-        for (i, p) in self.pinned.iter().enumerate() {
-            if let Some(v) = p {
-                pb.lo[i] = *v;
-                pb.hi[i] = *v;
-            }
-        }
-        pb
-    }
-
-    /// Interval bounds of ψ and ∇ψ over the box (pinned axes at their pins),
-    /// or `None` when ψ keeps one strict sign there (`keep_touching`: also
-    /// keep a ψ whose bounds only touch zero).
-    fn bounds_if_active(
-        &self,
-        g: &Geometry,
-        b: &Aabb,
-        keep_touching: bool,
-    ) -> Option<Dual<Interval>> {
-        let pb = self.pinned_box(b);
-        let leaf = &g.leaves()[self.leaf];
-        let active = |v: Interval| {
-            if keep_touching {
-                v.lo <= 0.0 && v.hi >= 0.0
-            } else {
-                v.straddles_zero()
-            }
-        };
-        if self.on_plane.is_some() {
-            let x = [0, 1, 2].map(|i| Dual::var(Interval::new(pb.lo[i], pb.hi[i]), i));
-            let bd = leaf.eval(self.apply(g, x));
-            return active(bd.v).then_some(bd);
-        }
-        // The natural extension is cheap and usually decides far-away leaves.
-        if !active(leaf.eval(pb.intervals())) {
-            return None;
-        }
-        let bd = leaf.bounds(&pb);
-        active(bd.v).then_some(bd)
-    }
-
-    fn pinned_at(&self, axis: usize, v: f64) -> Restricted {
-        let mut r = *self;
-        r.pinned[axis] = Some(v);
-        r
-    }
-}
 
 /// Shared state of one rule computation.
 pub(super) struct Ctx<'a> {
@@ -436,81 +332,6 @@ fn lower(
     let line: Vec<Restricted> = active.iter().map(|(r, _)| *r).collect();
     let mut inner = |x: [f64; 3], w: f64| split_line(ctx, &line, k, b, x, w, monotone, sink);
     lower(ctx, &faces, b, &lower_free, depth, false, &mut inner);
-}
-
-/// The `x_m` coordinates, strictly inside `b`, of the points where two of the
-/// curves `fns` (functions of `x_k` and `x_m` on a face) cross: Newton from a
-/// 3×3 grid of seeds, sorted and distinct.
-fn crossings(
-    g: &Geometry,
-    fns: &[(Restricted, Dual<Interval>)],
-    b: &Aabb,
-    k: usize,
-    m: usize,
-) -> Vec<f64> {
-    let size = (b.hi[k] - b.lo[k]).max(b.hi[m] - b.lo[m]);
-    let tol = 1e-9 * size;
-    let mut out: Vec<f64> = Vec::new();
-    for (i, (fa, _)) in fns.iter().enumerate() {
-        // Curves of one leaf (its restrictions to two faces) cross where a
-        // smooth surface leaves the box through an edge: no kink of the
-        // integrand worth a split, and the smooth case stays as it was.
-        for (fb, _) in fns[i + 1..]
-            .iter()
-            .filter(|(fb, _)| fb.surface() != fa.surface())
-        {
-            for seed in 0..9 {
-                // Seeds at a quarter, half and three quarters of each side.
-                let mut x = b.lo;
-                x[k] += 0.25 * (1 + seed % 3) as f64 * (b.hi[k] - b.lo[k]);
-                x[m] += 0.25 * (1 + seed / 3) as f64 * (b.hi[m] - b.lo[m]);
-                let Some(p) = newton_2d(g, fa, fb, x, k, m, size) else {
-                    continue;
-                };
-                let inside = p[k] > b.lo[k] - tol && p[k] < b.hi[k] + tol;
-                if inside
-                    && p[m] > b.lo[m] + tol
-                    && p[m] < b.hi[m] - tol
-                    && out.iter().all(|c| (c - p[m]).abs() > tol)
-                {
-                    out.push(p[m]);
-                }
-            }
-        }
-    }
-    out.sort_by(f64::total_cmp);
-    out
-}
-
-/// A common zero of `fa` and `fb` near `x` (Newton in `x_k`, `x_m`).
-fn newton_2d(
-    g: &Geometry,
-    fa: &Restricted,
-    fb: &Restricted,
-    mut x: [f64; 3],
-    k: usize,
-    m: usize,
-    size: f64,
-) -> Option<[f64; 3]> {
-    for _ in 0..30 {
-        let (va, da) = fa.value_grad(g, x);
-        let (vb, db) = fb.value_grad(g, x);
-        let det = da[k] * db[m] - da[m] * db[k];
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let dk = (va * db[m] - vb * da[m]) / det;
-        let dm = (da[k] * vb - db[k] * va) / det;
-        x[k] -= dk;
-        x[m] -= dm;
-        if !(dk.is_finite() && dm.is_finite()) || dk.abs().max(dm.abs()) > 4.0 * size {
-            return None;
-        }
-        if dk.abs().max(dm.abs()) <= 1e-14 * size {
-            return Some(x);
-        }
-    }
-    None
 }
 
 /// Tensor Gauss rule over the free axes of `b`.
