@@ -58,6 +58,7 @@ impl StressSampler {
                     .into_iter()
                     .map(|x| {
                         let xi = [0, 1, 2].map(|a| (x[a] - lo[a]) * inv_h);
+                        // A sample, not a quadrature point: no weight.
                         (quad_point(xi, 0.0, inv_h), x)
                     })
                     .collect()

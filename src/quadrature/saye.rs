@@ -111,18 +111,16 @@ pub fn box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
     let ctx = Ctx::new(g, q, cell);
     let mut rule = BoxRule::default();
     top(&ctx, b, free, 0, &mut rule);
-    if !ctx.refined.get() {
-        rule.samples.clear();
-    }
     rule
 }
 
-/// Emits the volume points of `b` by `ctx`'s tensor rule, also as samples.
+/// Emits the volume points of `b` by `ctx`'s tensor rule.
 fn whole_box(ctx: &Ctx, b: &Aabb, free: &[usize], rule: &mut BoxRule) {
+    let start = rule.volume.len();
     tensor(ctx, b, free, 1.0, &mut |x, w| {
-        rule.volume.push(VolumePoint { x, w });
-        rule.samples.push(x);
+        rule.volume.push(VolumePoint { x, w })
     });
+    extend_samples(ctx, rule, start);
 }
 
 fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
@@ -166,7 +164,7 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
             let emit = vec![want_surface; fns.len()];
             let start = rule.volume.len();
             sweep_box(ctx, ctx, &fns, b, free, k, false, true, &emit, rule);
-            extend_samples(rule, start);
+            extend_samples(ctx, rule, start);
         }
         return;
     };
@@ -179,8 +177,11 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
         };
         if n > ctx.q {
             // The volume from the refined lower dimensions; the surface
-            // points and the samples from the base rule's sweep.
-            ctx.refined.set(true);
+            // points and the samples from the base rule's sweep. The cell's
+            // volume points so far are the base rule's: they start the samples.
+            if !ctx.refined.replace(true) {
+                rule.samples = rule.volume.iter().map(|p| p.x).collect();
+            }
             let fine = Ctx::new(ctx.g, n, ctx.cell);
             let none = vec![false; fns.len()];
             sweep_box(ctx, &fine, &fns, b, free, k, true, true, &none, rule);
@@ -191,15 +192,20 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
         } else {
             let start = rule.volume.len();
             sweep_box(ctx, ctx, &fns, b, free, k, true, sweep == 0, &emit, rule);
-            extend_samples(rule, start);
+            extend_samples(ctx, rule, start);
         }
     }
 }
 
-/// Records the volume points from `start` on as samples.
-fn extend_samples(rule: &mut BoxRule, start: usize) {
-    let new: Vec<[f64; 3]> = rule.volume[start..].iter().map(|p| p.x).collect();
-    rule.samples.extend(new);
+/// Records the base rule's volume points from `start` on as samples, once the
+/// cell has a refined box (until then the volume points are the samples).
+fn extend_samples(ctx: &Ctx, rule: &mut BoxRule, start: usize) {
+    if ctx.refined.get() {
+        for i in start..rule.volume.len() {
+            let x = rule.volume[i].x;
+            rule.samples.push(x);
+        }
+    }
 }
 
 /// The sweeps that cover a box: the first gives the volume rule and the surface
