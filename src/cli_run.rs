@@ -345,6 +345,7 @@ pub fn run_case(
             return Err(e.into());
         }
     };
+    let t = Instant::now();
     if let Some(exact) = &setup.problem.exact {
         let (l, m) = (setup.problem.lambda, setup.problem.mu);
         let dofs = &setup.op.dofs;
@@ -370,6 +371,9 @@ pub fn run_case(
         }
     }
     report.reactions = reactions;
+    report
+        .timings
+        .insert("error_norms".into(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;

@@ -54,7 +54,8 @@ pub struct FixedPointReport {
     pub floored_diagonal_entries: usize,
     /// Seconds spent in the Krylov solves.
     pub krylov_seconds: f64,
-    /// Seconds spent computing the recovered right-hand side.
+    /// Seconds spent computing the recovered right-hand side (and, after the
+    /// loop, the recovered tractions of the reactions).
     pub recovery_seconds: f64,
 }
 

@@ -4,10 +4,12 @@
 //! points, `M_q` the diagonal mask of the components a point holds (a free
 //! component is traction free).
 
+use rayon::prelude::*;
+
 use super::dofs::DofMap;
 use super::problem::{Boundary, Problem};
 use crate::cells::{CellKind, Cells};
-use crate::element::{shape_values, tensor_gauss_rule};
+use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::grid::Grid;
 
 /// A boundary quadrature point on a Dirichlet part, with its cell.
@@ -71,6 +73,12 @@ pub fn add_point_load(
 
 /// `F_b + F_N + F_p`: the part of the right-hand side that does not change in
 /// the fixed-point loop.
+///
+/// The body load `F_b = Σ_c Σ_q w_q N_qᵀ b(x_q)` is the costly part (a
+/// second-order jet of the exact field per point where the load comes from
+/// one): its element vectors are computed in parallel ([`add_cell_loads`])
+/// and scattered in cell order, so the result does not depend on the thread
+/// count.
 pub fn fixed_rhs(
     grid: &Grid,
     cells: &Cells,
@@ -81,25 +89,13 @@ pub fn fixed_rhs(
 ) -> Vec<f64> {
     let mut rhs = vec![0.0; dofs.ndofs()];
     if problem.has_body_load() {
-        let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
-        let vol = grid.h.powi(3);
-        for (c, kind) in cells.kinds.iter().enumerate() {
-            if *kind != CellKind::Inside {
-                continue;
-            }
-            let lo = grid.cell_box(c).lo;
-            for (xi, w) in &rule {
-                let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-                let b = problem.body_load(x).map(|v| v * w * vol);
-                add_point_load(grid, dofs, c, x, b, &mut rhs);
-            }
-        }
-        for (i, &c) in cells.cut.iter().enumerate() {
+        add_inside_body_load(grid, cells, dofs, problem, &mut rhs);
+        add_cell_loads(grid, dofs, &cells.cut, &mut rhs, |i, c, fe| {
             for q in cells.volume_points(i) {
                 let b = problem.body_load(q.x).map(|v| v * q.w);
-                add_point_load(grid, dofs, c, q.x, b, &mut rhs);
+                add_element_point_load(grid, dofs.order, c, q.x, b, fe);
             }
-        }
+        });
     }
     for (i, &c) in cells.cut.iter().enumerate() {
         for q in cells.surface_points(i) {
@@ -114,6 +110,99 @@ pub fn fixed_rhs(
         add_point_load(grid, dofs, p.cell, p.x, p.g.map(|v| v * s), &mut rhs);
     }
     rhs
+}
+
+/// The body load of the inside cells on the tensor Gauss rule of one order
+/// above the element's, its shape values tabulated once for all cells.
+fn add_inside_body_load(
+    grid: &Grid,
+    cells: &Cells,
+    dofs: &DofMap,
+    problem: &Problem,
+    rhs: &mut [f64],
+) {
+    let npc = dofs.order.nodes_per_cell();
+    let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
+    let vol = grid.h.powi(3);
+    let shapes: Vec<[f64; 27]> = rule
+        .iter()
+        .map(|(xi, _)| {
+            let mut n = [0.0; 27];
+            shape_values(dofs.order, *xi, &mut n[..npc]);
+            n
+        })
+        .collect();
+    let inside: Vec<usize> = (0..cells.kinds.len())
+        .filter(|&c| cells.kinds[c] == CellKind::Inside)
+        .collect();
+    add_cell_loads(grid, dofs, &inside, rhs, |_, c, fe| {
+        let lo = grid.cell_box(c).lo;
+        for ((xi, w), n) in rule.iter().zip(&shapes) {
+            let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
+            let b = problem.body_load(x).map(|v| v * w * vol);
+            for a in 0..npc {
+                for d in 0..3 {
+                    fe[3 * a + d] += n[a] * b[d];
+                }
+            }
+        }
+    });
+}
+
+/// Cells scattered per block by [`add_cell_loads`]: a few MiB of element
+/// vectors held at a time.
+const LOAD_BLOCK: usize = 4096;
+
+/// Adds the element load vectors of the cells `list` to `rhs`. `element(i,
+/// c, fe)` accumulates cell `c = list[i]`'s vector into `fe` (node-major,
+/// `3 a + d`, zeroed before the call); the vectors of a block of cells are
+/// computed in parallel, then scattered in list order.
+fn add_cell_loads<F>(grid: &Grid, dofs: &DofMap, list: &[usize], rhs: &mut [f64], element: F)
+where
+    F: Fn(usize, usize, &mut [f64; 81]) + Sync,
+{
+    let npc = dofs.order.nodes_per_cell();
+    let mut block = vec![[0.0; 81]; LOAD_BLOCK.min(list.len())];
+    let mut nodes = [0usize; 27];
+    for (k, chunk) in list.chunks(LOAD_BLOCK).enumerate() {
+        block[..chunk.len()]
+            .par_iter_mut()
+            .zip(chunk.par_iter())
+            .enumerate()
+            .for_each(|(j, (fe, &c))| {
+                *fe = [0.0; 81];
+                element(k * LOAD_BLOCK + j, c, fe);
+            });
+        for (fe, &c) in block.iter().zip(chunk) {
+            dofs.cell_active_nodes(grid, c, &mut nodes[..npc]);
+            for a in 0..npc {
+                for d in 0..3 {
+                    rhs[3 * nodes[a] + d] += fe[3 * a + d];
+                }
+            }
+        }
+    }
+}
+
+/// Adds `N(x)ᵀ f` to the element vector `fe` of `cell` (node-major).
+fn add_element_point_load(
+    grid: &Grid,
+    order: ElementOrder,
+    cell: usize,
+    x: [f64; 3],
+    f: [f64; 3],
+    fe: &mut [f64; 81],
+) {
+    let npc = order.nodes_per_cell();
+    let mut n = [0.0; 27];
+    let x0 = grid.cell_box(cell).lo;
+    let xi = [0, 1, 2].map(|a| (x[a] - x0[a]) / grid.h);
+    shape_values(order, xi, &mut n[..npc]);
+    for a in 0..npc {
+        for d in 0..3 {
+            fe[3 * a + d] += n[a] * f[d];
+        }
+    }
 }
 
 /// `F_T = Σ_q w_q N_qᵀ t̂_q` for recovered tractions `t̂` at the Dirichlet

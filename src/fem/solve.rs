@@ -96,6 +96,7 @@ pub fn solve_with_progress(
         }
     };
     let _span = tracing::info_span!("recovery").entered();
+    let t = std::time::Instant::now();
     progress.event(&Event::Start {
         phase: Phase::Recovery,
         total: None,
@@ -111,6 +112,7 @@ pub fn solve_with_progress(
     progress.event(&Event::Finish {
         phase: Phase::Recovery,
     });
+    report.recovery_seconds += t.elapsed().as_secs_f64();
     let (t_hat, extra) = recovered?;
     let mut reactions = reactions(setup, &u, &t_hat);
     for (r, e) in reactions.iter_mut().zip(&extra) {
