@@ -70,7 +70,7 @@ use rayon::prelude::*;
 use super::dofs::DofMap;
 use super::moment_fit::{lagrange, lagrange_derivative, FitBasis};
 use super::problem::{Boundary, Problem};
-use super::rhs::{add_point_load, DirichletPoint};
+use super::rhs::{add_cell_loads, add_element_point_load, add_point_load, DirichletPoint};
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
 use crate::element::ElementOrder;
 use crate::error::Result;
@@ -210,13 +210,17 @@ impl FluxCorrection {
         problem: &Problem,
         rhs: &mut [f64],
     ) {
-        let mut tau = |x: [f64; 3]| Ok(problem.exact_stress(x).unwrap_or([[0.0; 3]; 3]));
-        for i in (0..cells.cut.len()).filter(|&i| self.exact_share[i] > 0.0) {
+        let exact: Vec<usize> = (0..cells.cut.len())
+            .filter(|&i| self.exact_share[i] > 0.0)
+            .collect();
+        let cell_of = |i: usize| cells.cut[i];
+        add_cell_loads(grid, dofs, &exact, &cell_of, rhs, |i, fe| {
             let c = cells.cut[i];
-            let mut sink = |x, f| add_point_load(grid, dofs, c, x, f, rhs);
+            let mut tau = |x: [f64; 3]| Ok(problem.exact_stress(x).unwrap_or([[0.0; 3]; 3]));
+            let mut sink = |x, f| add_element_point_load(grid, dofs.order, c, x, f, fe);
             self.for_each_load(grid, cells, i, self.exact_share[i], &mut tau, &mut sink)
-                .expect("the exact stress is infallible");
-        }
+        })
+        .expect("the exact stress is infallible");
         for &(i, tag, share) in &self.pressure_share {
             let c = cells.cut[i];
             let mut tau = |x: [f64; 3]| {
@@ -238,29 +242,15 @@ impl FluxCorrection {
         sigma: &Recovered<6>,
         rhs: &mut [f64],
     ) -> Result<()> {
-        // In parallel over the cells, a batch at a time so that the loads
-        // held before they are added stay a few MiB.
         let recovered: Vec<usize> = self.recovered_cells().collect();
-        for batch in recovered.chunks(LOAD_BATCH) {
-            let loads: Vec<Vec<PointLoad>> = batch
-                .par_iter()
-                .map(|&i| {
-                    let blend = sigma.cell_blend(cells.cut[i])?;
-                    let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
-                    let mut out = Vec::new();
-                    let mut sink = |x, f| out.push((x, f));
-                    let share = self.recovered_share[i];
-                    self.for_each_load(grid, cells, i, share, &mut tau, &mut sink)?;
-                    Ok(out)
-                })
-                .collect::<Result<_>>()?;
-            for (&i, cell_loads) in batch.iter().zip(loads) {
-                for (x, f) in cell_loads {
-                    add_point_load(grid, dofs, cells.cut[i], x, f, rhs);
-                }
-            }
-        }
-        Ok(())
+        let cell_of = |i: usize| cells.cut[i];
+        add_cell_loads(grid, dofs, &recovered, &cell_of, rhs, |i, fe| {
+            let c = cells.cut[i];
+            let blend = sigma.cell_blend(c)?;
+            let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
+            let mut sink = |x, f| add_element_point_load(grid, dofs.order, c, x, f, fe);
+            self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)
+        })
     }
 }
 
@@ -307,13 +297,6 @@ impl FluxCorrection {
             .collect())
     }
 }
-
-/// A point load `(x, f)` of a correction.
-type PointLoad = ([f64; 3], [f64; 3]);
-
-/// Cut cells whose recovered loads are computed together (at most 125 loads
-/// of 48 bytes each per cell).
-const LOAD_BATCH: usize = 1024;
 
 /// The symmetric matrix of a Voigt stress (xx, yy, zz, yz, xz, xy).
 fn voigt_matrix(s: &[f64; 6]) -> [[f64; 3]; 3] {

@@ -8,6 +8,8 @@
 //! scalar at 0, inverted, cuts the cut cells down to the body), and the cell
 //! class and volume fraction per cell.
 
+use rayon::prelude::*;
+
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -30,7 +32,7 @@ pub fn von_mises(s: &[f64; 6]) -> f64 {
 pub(crate) fn level_set(geometry: &Geometry, points: &[[f64; 3]]) -> DataArray {
     DataArray::scalars_f64(
         "level_set",
-        points.iter().map(|&x| geometry.phi(x)).collect(),
+        points.par_iter().map(|&x| geometry.phi(x)).collect(),
     )
 }
 
@@ -98,11 +100,11 @@ pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path
     let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &body))?;
     let stress: Vec<[f64; 6]> = mesh
         .node_cell
-        .iter()
+        .par_iter()
         .zip(&points)
         .map(|(&c, &x)| sigma.eval(c, x))
         .collect::<Result<_>>()?;
-    let mises: Vec<f64> = stress.iter().map(von_mises).collect();
+    let mises: Vec<f64> = stress.par_iter().map(von_mises).collect();
     let mut point_data = vec![
         DataArray::vectors("displacement", &displacement),
         DataArray::sym_tensors("stress", &stress),
@@ -110,7 +112,7 @@ pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path
         level_set(geometry, &points),
     ];
     if let Some(exact) = &setup.problem.exact {
-        let ue: Vec<[f64; 3]> = points.iter().map(|&x| exact.eval(x)).collect();
+        let ue: Vec<[f64; 3]> = points.par_iter().map(|&x| exact.eval(x)).collect();
         point_data.push(DataArray::vectors("exact_displacement", &ue));
     }
     let mut fraction = vec![1.0; body.len()];

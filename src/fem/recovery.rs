@@ -5,6 +5,8 @@
 //! patch's cells, Q2 the complete quadratic, 10 terms, to the 3×3×3 ones); the recovered traction `t̂ = σ̂ n` at the Dirichlet points, and the
 //! reactions `λ_q = t̂_q − (β/h)(u_h(x_q) − g_q)`.
 
+use rayon::prelude::*;
+
 use super::field::{stress_voigt, value_and_gradient};
 use super::rhs::DirichletPoint;
 use super::setup::Setup;
@@ -97,7 +99,7 @@ pub fn recovered_tractions(
     sigma: &Recovered<6>,
 ) -> Result<Vec<[f64; 3]>> {
     points
-        .iter()
+        .par_iter()
         .map(|p| {
             let s = sigma.eval(p.cell, p.x)?;
             let t = voigt_times(&s, p.n);

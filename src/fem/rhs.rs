@@ -10,6 +10,7 @@ use super::dofs::DofMap;
 use super::problem::{Boundary, Problem};
 use crate::cells::{CellKind, Cells};
 use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
+use crate::error::Result;
 use crate::grid::Grid;
 
 /// A boundary quadrature point on a Dirichlet part, with its cell.
@@ -90,12 +91,16 @@ pub fn fixed_rhs(
     let mut rhs = vec![0.0; dofs.ndofs()];
     if problem.has_body_load() {
         add_inside_body_load(grid, cells, dofs, problem, &mut rhs);
-        add_cell_loads(grid, dofs, &cells.cut, &mut rhs, |i, c, fe| {
+        let cut: Vec<usize> = (0..cells.cut.len()).collect();
+        let cell_of = |i: usize| cells.cut[i];
+        add_cell_loads(grid, dofs, &cut, &cell_of, &mut rhs, |i, fe| {
             for q in cells.volume_points(i) {
                 let b = problem.body_load(q.x).map(|v| v * q.w);
-                add_element_point_load(grid, dofs.order, c, q.x, b, fe);
+                add_element_point_load(grid, dofs.order, cells.cut[i], q.x, b, fe);
             }
-        });
+            Ok(())
+        })
+        .expect("a body load is infallible");
     }
     for (i, &c) in cells.cut.iter().enumerate() {
         for q in cells.surface_points(i) {
@@ -135,7 +140,8 @@ fn add_inside_body_load(
     let inside: Vec<usize> = (0..cells.kinds.len())
         .filter(|&c| cells.kinds[c] == CellKind::Inside)
         .collect();
-    add_cell_loads(grid, dofs, &inside, rhs, |_, c, fe| {
+    let cell_of = |c: usize| c;
+    add_cell_loads(grid, dofs, &inside, &cell_of, rhs, |c, fe| {
         let lo = grid.cell_box(c).lo;
         for ((xi, w), n) in rule.iter().zip(&shapes) {
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
@@ -146,35 +152,47 @@ fn add_inside_body_load(
                 }
             }
         }
-    });
+        Ok(())
+    })
+    .expect("a body load is infallible");
 }
 
 /// Cells scattered per block by [`add_cell_loads`]: a few MiB of element
 /// vectors held at a time.
 const LOAD_BLOCK: usize = 4096;
 
-/// Adds the element load vectors of the cells `list` to `rhs`. `element(i,
-/// c, fe)` accumulates cell `c = list[i]`'s vector into `fe` (node-major,
-/// `3 a + d`, zeroed before the call); the vectors of a block of cells are
-/// computed in parallel, then scattered in list order.
-fn add_cell_loads<F>(grid: &Grid, dofs: &DofMap, list: &[usize], rhs: &mut [f64], element: F)
+/// One cell's load vector, node-major (`3 a + d`), room for a Q2 cell.
+pub type ElementLoad = [f64; 81];
+
+/// Adds the element load vectors of `items` to `rhs`: `element(item, fe)`
+/// accumulates the vector of the cell `cell_of(item)` into `fe` (zeroed
+/// before the call). The vectors of a block of items are computed in
+/// parallel, then scattered in item order, so that the sum does not depend
+/// on the thread count. The first error of a block is returned.
+pub fn add_cell_loads<F>(
+    grid: &Grid,
+    dofs: &DofMap,
+    items: &[usize],
+    cell_of: &(dyn Fn(usize) -> usize + Sync),
+    rhs: &mut [f64],
+    element: F,
+) -> Result<()>
 where
-    F: Fn(usize, usize, &mut [f64; 81]) + Sync,
+    F: Fn(usize, &mut ElementLoad) -> Result<()> + Sync,
 {
     let npc = dofs.order.nodes_per_cell();
-    let mut block = vec![[0.0; 81]; LOAD_BLOCK.min(list.len())];
+    let mut block = vec![[0.0; 81]; LOAD_BLOCK.min(items.len())];
     let mut nodes = [0usize; 27];
-    for (k, chunk) in list.chunks(LOAD_BLOCK).enumerate() {
+    for chunk in items.chunks(LOAD_BLOCK) {
         block[..chunk.len()]
             .par_iter_mut()
             .zip(chunk.par_iter())
-            .enumerate()
-            .for_each(|(j, (fe, &c))| {
+            .try_for_each(|(fe, &item)| {
                 *fe = [0.0; 81];
-                element(k * LOAD_BLOCK + j, c, fe);
-            });
-        for (fe, &c) in block.iter().zip(chunk) {
-            dofs.cell_active_nodes(grid, c, &mut nodes[..npc]);
+                element(item, fe)
+            })?;
+        for (fe, &item) in block.iter().zip(chunk) {
+            dofs.cell_active_nodes(grid, cell_of(item), &mut nodes[..npc]);
             for a in 0..npc {
                 for d in 0..3 {
                     rhs[3 * nodes[a] + d] += fe[3 * a + d];
@@ -182,16 +200,17 @@ where
             }
         }
     }
+    Ok(())
 }
 
 /// Adds `N(x)ᵀ f` to the element vector `fe` of `cell` (node-major).
-fn add_element_point_load(
+pub fn add_element_point_load(
     grid: &Grid,
     order: ElementOrder,
     cell: usize,
     x: [f64; 3],
     f: [f64; 3],
-    fe: &mut [f64; 81],
+    fe: &mut ElementLoad,
 ) {
     let npc = order.nodes_per_cell();
     let mut n = [0.0; 27];

@@ -5,6 +5,8 @@
 
 use std::fmt::Write;
 
+use rayon::prelude::*;
+
 use super::{DataArray, DataValues, VtuEncoding, VtuMesh};
 
 /// The whole `.vtu` document.
@@ -238,9 +240,23 @@ fn escape(text: &str) -> String {
 const BASE64_ALPHABET: &[u8; 64] =
     b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
 
-/// Standard base64 (RFC 4648, with `=` padding).
+/// Bytes per block of [`base64_encode`]: a multiple of 3, so that the blocks'
+/// codes concatenate to the code of the whole.
+const BASE64_BLOCK: usize = 3 << 16;
+
+/// Standard base64 (RFC 4648, with `=` padding), encoded in parallel blocks.
 pub(super) fn base64_encode(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    let blocks: Vec<Vec<u8>> = bytes.par_chunks(BASE64_BLOCK).map(base64_block).collect();
+    let mut out = Vec::with_capacity(bytes.len().div_ceil(3) * 4);
+    for b in blocks {
+        out.extend_from_slice(&b);
+    }
+    String::from_utf8(out).expect("base64 is ASCII")
+}
+
+/// The base64 code of `bytes`, padded when its length is not a multiple of 3.
+fn base64_block(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {
         let b = [
             chunk[0],
@@ -250,9 +266,9 @@ pub(super) fn base64_encode(bytes: &[u8]) -> String {
         let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
         for k in 0..4 {
             if k <= chunk.len() {
-                out.push(BASE64_ALPHABET[(n >> (18 - 6 * k)) as usize & 63] as char);
+                out.push(BASE64_ALPHABET[(n >> (18 - 6 * k)) as usize & 63]);
             } else {
-                out.push('=');
+                out.push(b'=');
             }
         }
     }
@@ -278,6 +294,15 @@ mod tests {
             assert_eq!(base64_encode(input.as_bytes()), expected, "{input:?}");
         }
         assert_eq!(base64_encode(&[0xfb, 0xff, 0xbf]), "+/+/");
+    }
+
+    #[test]
+    fn base64_blocks_concatenate_to_the_code_of_the_whole() {
+        for len in [BASE64_BLOCK, 2 * BASE64_BLOCK + 1, 3 * BASE64_BLOCK + 2] {
+            let bytes: Vec<u8> = (0..len).map(|i| (i * 7 + i / 251) as u8).collect();
+            let whole = String::from_utf8(base64_block(&bytes)).unwrap();
+            assert_eq!(base64_encode(&bytes), whole, "{len} bytes");
+        }
     }
 
     #[test]
