@@ -4,8 +4,8 @@
 //! against assembly plus sparse Cholesky (faer's
 //! supernodal factor, geometric nested-dissection ordering, [`super::ordering`]),
 //! each timed from scratch with its own peak resident memory. The direct
-//! solve is skipped, with the reason printed, when its factor would take more
-//! than half the available memory.
+//! solve is skipped, with the reason printed, when its assembly or its factor
+//! would take more than half the available memory.
 
 use std::time::Instant;
 
@@ -150,14 +150,24 @@ fn krylov_row(
 /// Assembles `A`, factors it and solves `A u = F`; returns `u` and the
 /// number of entries of the factor.
 fn cholesky_solve(setup: &Setup, threads: usize) -> Result<(Vec<f64>, usize)> {
-    let t = Instant::now();
-    let a = setup.op.assemble();
-    let assembled = t.elapsed().as_secs_f64();
     let max_bytes = (available_memory_bytes() / 2) as usize;
     let failed = |reason: String| Error::Bench {
         what: "sparse Cholesky of the assembled operator".into(),
         reason,
     };
+    // Checked before assembling: the assembly alone can exceed the memory
+    // (level 8 of the sphere: 27 M rows, up to 70 GB).
+    let csr = assembly_bytes(setup);
+    if csr > max_bytes {
+        return Err(failed(format!(
+            "assembling the matrix needs up to {:.1} GB, over the limit of {:.1} GB",
+            csr as f64 / 1e9,
+            max_bytes as f64 / 1e9
+        )));
+    }
+    let t = Instant::now();
+    let a = setup.op.assemble();
+    let assembled = t.elapsed().as_secs_f64();
     let (forward, inverse) = nested_dissection(&setup.op);
     let ordering = SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, a.nrows()));
     let factor =
@@ -171,6 +181,15 @@ fn cholesky_solve(setup: &Setup, threads: usize) -> Result<(Vec<f64>, usize)> {
         t.elapsed().as_secs_f64() - factored
     );
     Ok((u, factor.len()))
+}
+
+/// An upper bound of the bytes held while assembling the operator: each of
+/// its rows has at most `3 (2p + 1)³` entries (the nodes of the cells around
+/// a node), each 16 bytes (value and row index), held twice (the per-node
+/// rows and the column-major matrix built from them).
+fn assembly_bytes(setup: &Setup) -> usize {
+    let span = 2 * setup.op.dofs.order.degree() + 1;
+    2 * 16 * 3 * span.pow(3) * setup.op.nrows()
 }
 
 /// `MemAvailable` of `/proc/meminfo` (the machine's memory where unknown).

@@ -43,6 +43,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use crate::cells::CellKind;
 use crate::contact::marching;
 use crate::contact::surface::{polarity_on_boundary, Polarity};
@@ -88,7 +90,10 @@ impl BoundaryMesh {
                 out
             }
         };
-        let hosts: Vec<Option<usize>> = points.iter().map(|&x| host_cell(grid, kinds, x)).collect();
+        let hosts: Vec<Option<usize>> = points
+            .par_iter()
+            .map(|&x| host_cell(grid, kinds, x))
+            .collect();
         // Keep the triangles whose vertices all have a host; renumber.
         let mut out = BoundaryMesh::default();
         let mut new_index = vec![u32::MAX; points.len()];

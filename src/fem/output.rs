@@ -8,10 +8,9 @@
 //! scalar at 0, inverted, cuts the cut cells down to the body), and the cell
 //! class and volume fraction per cell.
 
-use rayon::prelude::*;
-
-use std::collections::HashMap;
 use std::path::Path;
+
+use rayon::prelude::*;
 
 use super::recovery::{recover_stress, vertex_nodes_of};
 use super::setup::Setup;
@@ -48,18 +47,21 @@ pub(crate) struct BodyMesh {
 /// The [`BodyMesh`] of the cells `body` of `grid` for elements of `order`.
 pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> BodyMesh {
     let npe = order.nodes_per_cell();
-    let mut point_of: HashMap<usize, usize> = HashMap::with_capacity(npe * body.len());
+    // The point of each grid node, `usize::MAX` until it is met: one word per
+    // grid node, as the dof map's own node table.
+    let mut point_of = vec![usize::MAX; grid.num_nodes(order)];
     let (mut nodes, mut node_cell) = (Vec::new(), Vec::new());
     let mut local = vec![0usize; npe];
     let mut cells = Vec::with_capacity(body.len());
     for &c in body {
         grid.cell_nodes(order, c, &mut local);
         for n in local.iter_mut() {
-            *n = *point_of.entry(*n).or_insert_with(|| {
+            if point_of[*n] == usize::MAX {
+                point_of[*n] = nodes.len();
                 nodes.push(*n);
                 node_cell.push(c);
-                nodes.len() - 1
-            });
+            }
+            *n = point_of[*n];
         }
         cells.push(match order {
             ElementOrder::Q1 => VtuCell::hex8_from_lexicographic(std::array::from_fn(|i| local[i])),

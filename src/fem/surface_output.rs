@@ -22,6 +22,8 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use super::boundary_mesh::BoundaryMesh;
 use super::field::value_and_gradient;
 use super::output::von_mises;
@@ -52,19 +54,24 @@ impl SurfaceFields {
         hosts.sort_unstable();
         hosts.dedup();
         let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts))?;
-        let n = mesh.points.len();
-        let mut displacement = Vec::with_capacity(n);
-        let mut stress = Vec::with_capacity(n);
-        for (&x, &cell) in mesh.points.iter().zip(&mesh.host) {
-            displacement.push(value_and_gradient(grid, dofs, u, cell, x).0);
-            stress.push(sigma.eval(cell, x)?);
-        }
-        let von_mises = stress.iter().map(von_mises).collect();
+        let displacement = mesh
+            .points
+            .par_iter()
+            .zip(&mesh.host)
+            .map(|(&x, &cell)| value_and_gradient(grid, dofs, u, cell, x).0)
+            .collect();
+        let stress: Vec<[f64; 6]> = mesh
+            .points
+            .par_iter()
+            .zip(&mesh.host)
+            .map(|(&x, &cell)| sigma.eval(cell, x))
+            .collect::<Result<_>>()?;
+        let von_mises = stress.par_iter().map(von_mises).collect();
         let exact = setup
             .problem
             .exact
             .as_ref()
-            .map(|e| mesh.points.iter().map(|&x| e.eval(x)).collect());
+            .map(|e| mesh.points.par_iter().map(|&x| e.eval(x)).collect());
         Ok(SurfaceFields {
             displacement,
             stress,
