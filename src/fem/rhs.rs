@@ -168,7 +168,8 @@ pub type ElementLoad = [f64; 81];
 /// accumulates the vector of the cell `cell_of(item)` into `fe` (zeroed
 /// before the call). The vectors of a block of items are computed in
 /// parallel, then scattered in item order, so that the sum does not depend
-/// on the thread count. The first error of a block is returned.
+/// on the thread count. An error of an element stops the sum and is returned
+/// (`rhs` is then partly summed).
 pub fn add_cell_loads<F>(
     grid: &Grid,
     dofs: &DofMap,
