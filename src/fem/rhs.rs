@@ -60,16 +60,23 @@ pub fn add_point_load(
 ) {
     let npc = dofs.order.nodes_per_cell();
     let mut nodes = [0usize; 27];
-    let mut n = [0.0; 27];
     dofs.cell_active_nodes(grid, cell, &mut nodes[..npc]);
-    let x0 = grid.cell_box(cell).lo;
-    let xi = [0, 1, 2].map(|a| (x[a] - x0[a]) / grid.h);
-    shape_values(dofs.order, xi, &mut n[..npc]);
+    let n = shape_values_at(grid, dofs.order, cell, x);
     for a in 0..npc {
         for c in 0..3 {
             rhs[3 * nodes[a] + c] += n[a] * f[c];
         }
     }
+}
+
+/// The shape values of `cell` at the point `x` (the first `nodes_per_cell`
+/// entries).
+fn shape_values_at(grid: &Grid, order: ElementOrder, cell: usize, x: [f64; 3]) -> [f64; 27] {
+    let mut n = [0.0; 27];
+    let x0 = grid.cell_box(cell).lo;
+    let xi = [0, 1, 2].map(|a| (x[a] - x0[a]) / grid.h);
+    shape_values(order, xi, &mut n[..order.nodes_per_cell()]);
+    n
 }
 
 /// `F_b + F_N + F_p`: the part of the right-hand side that does not change in
@@ -213,12 +220,8 @@ pub fn add_element_point_load(
     f: [f64; 3],
     fe: &mut ElementLoad,
 ) {
-    let npc = order.nodes_per_cell();
-    let mut n = [0.0; 27];
-    let x0 = grid.cell_box(cell).lo;
-    let xi = [0, 1, 2].map(|a| (x[a] - x0[a]) / grid.h);
-    shape_values(order, xi, &mut n[..npc]);
-    for a in 0..npc {
+    let n = shape_values_at(grid, order, cell, x);
+    for a in 0..order.nodes_per_cell() {
         for d in 0..3 {
             fe[3 * a + d] += n[a] * f[d];
         }

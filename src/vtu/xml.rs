@@ -244,35 +244,39 @@ const BASE64_ALPHABET: &[u8; 64] =
 /// codes concatenate to the code of the whole.
 const BASE64_BLOCK: usize = 3 << 16;
 
-/// Standard base64 (RFC 4648, with `=` padding), encoded in parallel blocks.
+/// Standard base64 (RFC 4648, with `=` padding), encoded in parallel blocks
+/// straight into the output.
 pub(super) fn base64_encode(bytes: &[u8]) -> String {
-    let blocks: Vec<Vec<u8>> = bytes.par_chunks(BASE64_BLOCK).map(base64_block).collect();
-    let mut out = Vec::with_capacity(bytes.len().div_ceil(3) * 4);
-    for b in blocks {
-        out.extend_from_slice(&b);
-    }
+    let mut out = vec![0u8; base64_len(bytes.len())];
+    out.par_chunks_mut(base64_len(BASE64_BLOCK))
+        .zip(bytes.par_chunks(BASE64_BLOCK))
+        .for_each(|(code, block)| base64_block(block, code));
     String::from_utf8(out).expect("base64 is ASCII")
 }
 
-/// The base64 code of `bytes`, padded when its length is not a multiple of 3.
-fn base64_block(bytes: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
+/// The length of the base64 code of `n` bytes.
+fn base64_len(n: usize) -> usize {
+    n.div_ceil(3) * 4
+}
+
+/// Writes the base64 code of `bytes` into `out` (`base64_len(bytes.len())`
+/// long), padded when the length of `bytes` is not a multiple of 3.
+fn base64_block(bytes: &[u8], out: &mut [u8]) {
+    for (chunk, code) in bytes.chunks(3).zip(out.chunks_mut(4)) {
         let b = [
             chunk[0],
             *chunk.get(1).unwrap_or(&0),
             *chunk.get(2).unwrap_or(&0),
         ];
         let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(BASE64_ALPHABET[(n >> (18 - 6 * k)) as usize & 63]);
+        for (k, c) in code.iter_mut().enumerate() {
+            *c = if k <= chunk.len() {
+                BASE64_ALPHABET[(n >> (18 - 6 * k)) as usize & 63]
             } else {
-                out.push(b'=');
-            }
+                b'='
+            };
         }
     }
-    out
 }
 
 #[cfg(test)]
@@ -300,7 +304,9 @@ mod tests {
     fn base64_blocks_concatenate_to_the_code_of_the_whole() {
         for len in [BASE64_BLOCK, 2 * BASE64_BLOCK + 1, 3 * BASE64_BLOCK + 2] {
             let bytes: Vec<u8> = (0..len).map(|i| (i * 7 + i / 251) as u8).collect();
-            let whole = String::from_utf8(base64_block(&bytes)).unwrap();
+            let mut code = vec![0u8; base64_len(len)];
+            base64_block(&bytes, &mut code);
+            let whole = String::from_utf8(code).unwrap();
             assert_eq!(base64_encode(&bytes), whole, "{len} bytes");
         }
     }
