@@ -36,6 +36,7 @@
 //! energy product and the coarse solve is exact, so `M⁻¹` is symmetric
 //! positive definite: it preconditions CG, and CGS and BiCGStab too.
 
+pub mod blocks;
 pub mod cycle;
 pub mod smoother;
 #[cfg(test)]

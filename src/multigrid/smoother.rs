@@ -1,39 +1,44 @@
 //! The smoother of every level but the coarsest: Chebyshev iteration over the
-//! Jacobi-preconditioned operator `D⁻¹A` (`D = diag A`, floored as the Jacobi
-//! preconditioner floors it, [`crate::solver::floor_diagonal`]).
+//! preconditioned operator `B⁻¹A`, `B` Jacobi inside the body and block
+//! Jacobi on the cut band ([`super::blocks`]; `B = D = diag A`, floored as
+//! the Jacobi preconditioner floors it, [`crate::solver::floor_diagonal`],
+//! where there are no cut cells).
 //!
 //! # The polynomial
-//! With the eigenvalues of `D⁻¹A` taken in `[a, b]`, `θ = (b + a)/2`,
+//! With the eigenvalues of `B⁻¹A` taken in `[a, b]`, `θ = (b + a)/2`,
 //! `δ = (b − a)/2`, `σ = θ/δ`, one smoothing step of degree `k` from `x`
-//! (Saad, *Iterative Methods*, Alg. 12.1 with the preconditioner `D⁻¹`) is
+//! (Saad, *Iterative Methods*, Alg. 12.1 with the preconditioner `B⁻¹`) is
 //!
 //! ```text
-//! r = b − A x;  d = D⁻¹ r / θ;  x = x + d;  ρ = 1/σ
+//! r = b − A x;  d = B⁻¹ r / θ;  x = x + d;  ρ = 1/σ
 //! repeat k − 1 times:
 //!     r = r − A d;  ρ' = 1/(2σ − ρ)
-//!     d = ρ'ρ d + (2ρ'/δ) D⁻¹ r;  x = x + d;  ρ = ρ'
+//!     d = ρ'ρ d + (2ρ'/δ) B⁻¹ r;  x = x + d;  ρ = ρ'
 //! ```
-//! so that the error goes to `E e`, `E = T_k((θ − D⁻¹A)/δ) / T_k(σ)`: small
+//! so that the error goes to `E e`, `E = T_k((θ − B⁻¹A)/δ) / T_k(σ)`: small
 //! over `[a, b]` (the high frequencies the coarse grid cannot see), at most 1
-//! over `(0, b]`. `E = I − N A` with `N = q(D⁻¹A) D⁻¹ = D^{-1/2} q(S) D^{-1/2}`
-//! symmetric (`S = D^{-1/2} A D^{-1/2}`), so the step is self-adjoint in the
-//! energy product and the same step before and after the coarse correction
-//! makes a symmetric V-cycle.
+//! over `(0, b]`. `E = I − N A` with `N = q(B⁻¹A) B⁻¹` symmetric (`B`
+//! symmetric positive definite), so the step is self-adjoint in the energy
+//! product and the same step before and after the coarse correction makes a
+//! symmetric V-cycle.
 //!
 //! # The interval
 //! `b = 1.2 λ̃` where `λ̃` is the largest Ritz value of [`LANCZOS_STEPS`]
-//! Lanczos steps on `S` (a lower bound of `λ_max`, the margin covers the
-//! gap), and `a = b / SMOOTHING_RANGE`, as deal.II's `PreconditionChebyshev`
-//! (step-37) does. With `b ≥ λ_max`, `|E| ≤ 1` on the whole spectrum: the
-//! smoother never amplifies an error component.
+//! Lanczos steps on `B⁻¹A` in the `B` inner product (a lower bound of
+//! `λ_max`, the margin covers the gap), and `a = b / SMOOTHING_RANGE`, as
+//! deal.II's `PreconditionChebyshev` (step-37) does. With `b ≥ λ_max`,
+//! `|E| ≤ 1` on the whole spectrum: the smoother never amplifies an error
+//! component.
 //!
 //! The vector kernels are explicit loops over fixed chunks, as the CPU
 //! backend's are, so that WGSL kernels can mirror them.
 
 use rayon::prelude::*;
 
+use super::blocks::BlockJacobi;
 use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
+use crate::fem::operator::ElasticOperator;
 use crate::solver::{floor_diagonal, tridiagonal_eigenvalue};
 
 /// Default degree `k` of the Chebyshev polynomial (applies of `A` per smoothing step,
@@ -54,19 +59,21 @@ const CHUNK: usize = 8192;
 
 /// The Chebyshev smoother of one level.
 pub struct Chebyshev {
-    inv_diag: Vec<f64>,
+    pre: BlockJacobi,
     /// Degree `k` of the polynomial.
     degree: usize,
-    /// The interval `[a, b]` of `D⁻¹A` it damps.
+    /// The interval `[a, b]` of `B⁻¹A` it damps.
     pub lo: f64,
     pub hi: f64,
     /// Jacobi diagonal entries at round-off level that were floored.
     pub floored: usize,
 }
 
-/// The smoother's scratch vectors on one level: residual, update and `A d`.
+/// The smoother's scratch vectors on one level: residual, `B⁻¹` of it,
+/// update and `A d`.
 pub struct Work {
     r: Vec<f64>,
+    z: Vec<f64>,
     d: Vec<f64>,
     ad: Vec<f64>,
 }
@@ -75,6 +82,7 @@ impl Work {
     pub fn new(n: usize) -> Work {
         Work {
             r: vec![0.0; n],
+            z: vec![0.0; n],
             d: vec![0.0; n],
             ad: vec![0.0; n],
         }
@@ -87,10 +95,11 @@ impl Work {
 }
 
 impl Chebyshev {
-    /// The smoother of `op`: its floored, inverted diagonal and the interval
-    /// from a Lanczos estimate (module doc). A diagonal entry that is not
-    /// finite or is negative beyond the floor is a breakdown.
-    pub fn new(op: &dyn LinearOperator, degree: usize) -> Result<Chebyshev> {
+    /// The smoother of `op`: its block Jacobi preconditioner over the
+    /// floored diagonal and the interval from a Lanczos estimate (module
+    /// doc). A diagonal entry that is not finite or is negative beyond the
+    /// floor is a breakdown.
+    pub fn new(op: &ElasticOperator, degree: usize) -> Result<Chebyshev> {
         assert!(degree >= 1, "Chebyshev smoother of degree 0");
         let mut d = op.diagonal();
         let floored = floor_diagonal(&mut d, true).map_err(|(i, v)| Error::Breakdown {
@@ -99,17 +108,18 @@ impl Chebyshev {
             what: format!("smoother: diagonal entry {i} of a level operator is {v:e}"),
         })?;
         let inv_diag: Vec<f64> = d.iter().map(|v| 1.0 / v).collect();
-        let lambda = largest_eigenvalue(op, &inv_diag, LANCZOS_STEPS);
+        let pre = BlockJacobi::new(op, &inv_diag);
+        let lambda = largest_eigenvalue(op, &pre, LANCZOS_STEPS);
         if !(lambda.is_finite() && lambda > 0.0) {
             return Err(Error::Breakdown {
                 method: "multigrid".into(),
                 iterations: 0,
-                what: format!("smoother: the Lanczos estimate of λ_max(D⁻¹A) is {lambda:e}"),
+                what: format!("smoother: the Lanczos estimate of λ_max(B⁻¹A) is {lambda:e}"),
             });
         }
         let hi = EIGENVALUE_MARGIN * lambda;
         Ok(Chebyshev {
-            inv_diag,
+            pre,
             degree,
             lo: hi / SMOOTHING_RANGE,
             hi,
@@ -138,14 +148,16 @@ impl Chebyshev {
             self.residual(op, b, x, w);
         }
         w.d.fill(0.0);
-        chebyshev_update(0.0, 1.0 / theta, &self.inv_diag, &w.r, &mut w.d, x);
+        self.pre.apply(&w.r, &mut w.z);
+        chebyshev_update(0.0, 1.0 / theta, &w.z, &mut w.d, x);
         let mut rho = 1.0 / sigma;
         for _ in 1..self.degree {
             op.apply(&w.d, &mut w.ad);
             sub_assign(&mut w.r, &w.ad);
             let rho_next = 1.0 / (2.0 * sigma - rho);
             let (a, c) = (rho_next * rho, 2.0 * rho_next / delta);
-            chebyshev_update(a, c, &self.inv_diag, &w.r, &mut w.d, x);
+            self.pre.apply(&w.r, &mut w.z);
+            chebyshev_update(a, c, &w.z, &mut w.d, x);
             rho = rho_next;
         }
     }
@@ -157,15 +169,15 @@ impl Chebyshev {
     }
 }
 
-/// `d = a d + c D⁻¹ r`, then `x = x + d`, entry by entry.
-fn chebyshev_update(a: f64, c: f64, inv_diag: &[f64], r: &[f64], d: &mut [f64], x: &mut [f64]) {
+/// `d = a d + c z` (`z = B⁻¹ r`), then `x = x + d`, entry by entry.
+fn chebyshev_update(a: f64, c: f64, z: &[f64], d: &mut [f64], x: &mut [f64]) {
     d.par_chunks_mut(CHUNK)
         .zip(x.par_chunks_mut(CHUNK))
         .enumerate()
         .for_each(|(t, (dc, xc))| {
             let base = t * CHUNK;
             for i in 0..dc.len() {
-                let di = a * dc[i] + c * inv_diag[base + i] * r[base + i];
+                let di = a * dc[i] + c * z[base + i];
                 dc[i] = di;
                 xc[i] += di;
             }
@@ -192,61 +204,69 @@ fn rsub_assign(r: &mut [f64], b: &[f64]) {
     });
 }
 
-/// The largest Ritz value of `steps` Lanczos steps on
-/// `S = D^{-1/2} A D^{-1/2}` (`inv_diag = D⁻¹`) from a fixed start vector,
-/// without reorthogonalisation (the extreme Ritz value converges first):
+/// The largest Ritz value of `steps` Lanczos steps on `B⁻¹A` in the `B`
+/// inner product (`pre = B⁻¹`) from a fixed start vector, without
+/// reorthogonalisation (the extreme Ritz value converges first). With the
+/// Lanczos vectors `q_k` and `p_k = B q_k`:
 ///
 /// ```text
-/// q₀ = v/‖v‖;  β₀ = 0
-/// w = S q_k − β_k q_{k−1};  α_k = w·q_k;  w = w − α_k q_k;  β_{k+1} = ‖w‖
+/// z = B⁻¹ v;  β = √(v·z);  q₀ = z/β;  p₀ = v/β;  β₀ = 0
+/// w = A q_k − β_k p_{k−1};  α_k = w·q_k;  w = w − α_k p_k
+/// z = B⁻¹ w;  β_{k+1} = √(w·z);  q_{k+1} = z/β_{k+1};  p_{k+1} = w/β_{k+1}
 /// ```
 /// and the top eigenvalue of the tridiagonal `(α, β)`
 /// ([`tridiagonal_eigenvalue`]). Not `condition::lanczos`: that one keeps the
 /// whole basis (full reorthogonalisation, Ritz vectors) for κ; a smoother
 /// bound needs only the top Ritz value, so the three-term recurrence holds
-/// three vectors instead of `steps` at every level of the hierarchy.
-pub fn largest_eigenvalue(op: &dyn LinearOperator, inv_diag: &[f64], steps: usize) -> f64 {
-    let n = inv_diag.len();
-    let scale: Vec<f64> = inv_diag.iter().map(|v| v.sqrt()).collect();
+/// a few vectors instead of `steps` at every level of the hierarchy.
+fn largest_eigenvalue(op: &dyn LinearOperator, pre: &BlockJacobi, steps: usize) -> f64 {
+    let n = op.nrows();
     // A fixed start with every entry non-zero and no grid-aligned pattern.
-    let mut q: Vec<f64> = (0..n)
+    let mut p: Vec<f64> = (0..n)
         .map(|i| 1.0 + 0.5 * ((i as f64 + 1.0) * 0.618_033_988_749_895).fract())
         .collect();
-    normalise(&mut q);
-    let (mut q_prev, mut t, mut w) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut q = vec![0.0; n];
+    pre.apply(&p, &mut q);
+    let norm = dot(&p, &q).sqrt();
+    scale(&mut p, 1.0 / norm);
+    scale(&mut q, 1.0 / norm);
+    let (mut p_prev, mut w, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let (mut diag, mut off2) = (Vec::new(), Vec::new());
     let mut beta = 0.0;
     for _ in 0..steps.min(n) {
+        op.apply(&q, &mut w);
         for i in 0..n {
-            t[i] = scale[i] * q[i];
+            w[i] -= beta * p_prev[i];
         }
-        op.apply(&t, &mut w);
+        let alpha = dot(&w, &q);
         for i in 0..n {
-            w[i] = scale[i] * w[i] - beta * q_prev[i];
-        }
-        let alpha: f64 = w.iter().zip(&q).map(|(a, b)| a * b).sum();
-        for i in 0..n {
-            w[i] -= alpha * q[i];
+            w[i] -= alpha * p[i];
         }
         diag.push(alpha);
-        beta = w.iter().map(|v| v * v).sum::<f64>().sqrt();
+        pre.apply(&w, &mut z);
+        beta = dot(&w, &z).max(0.0).sqrt();
         if beta.is_nan() || beta <= 1e-12 * alpha.abs() {
             break;
         }
         off2.push(beta * beta);
-        std::mem::swap(&mut q_prev, &mut q);
+        std::mem::swap(&mut p_prev, &mut p);
         for i in 0..n {
-            q[i] = w[i] / beta;
+            p[i] = w[i] / beta;
+            q[i] = z[i] / beta;
         }
     }
     off2.truncate(diag.len() - 1);
     tridiagonal_eigenvalue(&diag, &off2, diag.len() - 1)
 }
 
-/// `v = v / ‖v‖`.
-fn normalise(v: &mut [f64]) {
-    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+/// `a · b`.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `v = s v`.
+fn scale(v: &mut [f64], s: f64) {
     for x in v.iter_mut() {
-        *x /= norm;
+        *x *= s;
     }
 }

@@ -9,7 +9,7 @@ use crate::fem::setup::Setup;
 use crate::solver::{solve, solve_preconditioned, KrylovMethod, KrylovOptions, Preconditioner};
 
 /// The paper's sphere (Problem 1) in `element` with S-term weight `k2`.
-fn sphere(element: &str, k2: f64) -> Case {
+pub(crate) fn sphere(element: &str, k2: f64) -> Case {
     let text = format!(
         "element = \"{element}\"\n\
          [geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
@@ -168,18 +168,23 @@ fn multigrid_cg_solves_the_same_system_as_jacobi_cg() {
 }
 
 /// The first solve of the fixed-point loop (`A u = F` to 1e-8 from zero) by
-/// CG + multigrid takes at most 20 iterations at levels 3 to 5, with and
-/// without the S-term, through the case's `[solver]` table and the CPU
-/// solver of the run, with the default hierarchy settings (the coarsest
-/// level small for the test: 300 dofs).
+/// CG + multigrid takes at most 20 iterations at levels 3 to 5 in Q1, and
+/// at most 30 at levels 3 and 4 in Q2 (issue 17; 45 and 51 with a pointwise
+/// smoother on the cut band), with and without the S-term, through the
+/// case's `[solver]` table and the CPU solver of the run, with the default
+/// hierarchy settings (the coarsest level small for the test: 300 dofs).
 #[test]
 fn first_solve_iterations_are_bounded_over_the_levels() {
     use crate::fem::linear::{CpuSolver, LinearSolver};
-    for k2 in [0.0, 0.01] {
-        let mut case = sphere("q1", k2);
+    let runs = [("q1", 3..=5, 20), ("q2", 3..=4, 30)];
+    for (k2, (element, levels, bound)) in [0.0, 0.01]
+        .into_iter()
+        .flat_map(|k2| runs.clone().map(|r| (k2, r)))
+    {
+        let mut case = sphere(element, k2);
         case.spec.solver.method = KrylovMethod::Cg;
         case.spec.solver.preconditioner = Preconditioner::Multigrid;
-        for level in 3..=5 {
+        for level in levels {
             let mut setup = Setup::new(&case, Some(level)).unwrap();
             setup.multigrid = Some(hierarchy(&case, &setup, &SMALL));
             let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
@@ -190,8 +195,8 @@ fn first_solve_iterations_are_bounded_over_the_levels() {
             let levels = setup.multigrid.as_ref().map_or(0, Hierarchy::num_levels);
             assert!(levels >= 3, "level {level}: {levels} multigrid levels");
             assert!(
-                stats.iterations <= 20,
-                "k2 {k2}, level {level}: {} iterations",
+                stats.iterations <= bound,
+                "{element}, k2 {k2}, level {level}: {} iterations",
                 stats.iterations
             );
         }
