@@ -45,10 +45,10 @@ use crate::solver::{floor_diagonal, tridiagonal_eigenvalue};
 /// counting the residual of a non-zero start).
 pub const DEGREE: usize = 4;
 
-/// `b / a`: the part of the spectrum of `D⁻¹A` the smoother damps.
+/// `b / a`: the part of the spectrum of `B⁻¹A` the smoother damps.
 pub const SMOOTHING_RANGE: f64 = 15.0;
 
-/// Lanczos steps for the estimate of `λ_max(D⁻¹A)`.
+/// Lanczos steps for the estimate of `λ_max(B⁻¹A)`.
 pub const LANCZOS_STEPS: usize = 12;
 
 /// Safety factor on the largest Ritz value.
