@@ -231,7 +231,7 @@ impl Hierarchy {
         let (coarsest, smoothed) = levels.split_last().expect("level 0 exists");
         let smoothers = smoothed
             .iter()
-            .map(|op| Chebyshev::new(*op, opts.degree))
+            .map(|op| Chebyshev::new(op, opts.degree))
             .collect::<Result<Vec<_>>>()?;
         let (direct, shift) = coarse_factor(coarsest)?;
         let h = Hierarchy {
