@@ -157,7 +157,7 @@ enum Command {
         /// Output folder (default: out/bench).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Element orders to run, e.g. q1,q2 (default q1).
+        /// Element orders to run, e.g. q1,q2 (default q1): q1 runs cases/sphere.toml, q2 cases/sphere_q2.toml.
         #[arg(long = "element", value_delimiter = ',', value_parser = parse_element)]
         elements: Vec<ElementOrder>,
     },
@@ -343,8 +343,11 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
 
 fn bench(opts: cgfem_gpu::bench::BenchOptions, out: Option<PathBuf>) -> anyhow::Result<()> {
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join("bench"));
-    let case = Case::from_str("cases/sphere.toml", SPHERE_CASE)?;
-    let rows = cgfem_gpu::bench::run(&case, &opts, |r| {
+    let case_of = |element| match element {
+        ElementOrder::Q1 => Case::from_str("cases/sphere.toml", SPHERE_CASE),
+        ElementOrder::Q2 => Case::from_str("cases/sphere_q2.toml", SPHERE_Q2_CASE),
+    };
+    let rows = cgfem_gpu::bench::run(case_of, &opts, |r| {
         println!(
             "  {} {} {} level {} threads {}: {:.2} Mdofs/s",
             r.what,

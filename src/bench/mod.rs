@@ -104,8 +104,15 @@ pub struct BenchOptions {
 /// Iterations timed per Krylov method (beyond the 2 subtracted).
 const ITERATIONS: usize = 10;
 
-/// Runs the benchmarks on `case`, calling `progress` with each row.
-pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> Result<Vec<Row>> {
+/// Runs the benchmarks on `case_of(element)` for each element order of
+/// `opts` (the paper's sphere: `cases/sphere.toml` for Q1,
+/// `cases/sphere_q2.toml` for Q2, whose CG and S-term threshold Q2 needs),
+/// calling `progress` with each row.
+pub fn run(
+    case_of: impl Fn(ElementOrder) -> Result<Case>,
+    opts: &BenchOptions,
+    mut progress: impl FnMut(&Row),
+) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
     let mut emit = |row: Row| {
         progress(&row);
@@ -139,8 +146,7 @@ pub fn run(case: &Case, opts: &BenchOptions, mut progress: impl FnMut(&Row)) -> 
     levels.sort_unstable();
     levels.dedup();
     for &element in &opts.elements {
-        let mut case = case.clone();
-        case.spec.element = element;
+        let case = case_of(element)?;
         let mut emit = |mut row: Row| {
             row.element = element_name(element).into();
             emit(row);
