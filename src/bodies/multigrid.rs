@@ -6,7 +6,9 @@
 //! at the reference configuration (its material's `E`, `ν`; the case's
 //! `k1`, `k2`, `A`) on its own grid and cut cells, and the same operator
 //! rediscretised on the 2×2×2 coarsenings of the grid with their own cut-cell
-//! rules: a linear case's [`Hierarchy`], built once per run. The body's
+//! rules, the S-term the Galerkin product of the finest level's
+//! ([`crate::multigrid::galerkin_s`]): a linear case's [`Hierarchy`], built
+//! once per run. The body's
 //! Dirichlet parts hold the components they hold, inside their regions. A
 //! plane-strain body's caps hold `u_z` by the same penalty: on the finest
 //! level the caps are the slab's two node planes, where `u_z` is held
@@ -34,13 +36,16 @@ use std::time::Instant;
 use super::setup::BodiesSetup;
 use crate::backend::CpuBackend;
 use crate::case::bodies::{BodiesCase, PLANE_STRAIN_CAP};
+use crate::case::physics::StabilisationSpec;
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::fem::operator::{ElasticOperator, OperatorParams};
 use crate::fem::setup::LevelOperator;
+use crate::fem::stabilisation::pathological_cells;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::multigrid::galerkin_s::FineSTerm;
 use crate::multigrid::{Hierarchy, Multigrid, MultigridOptions};
 use crate::solver::ApplyInverse;
 
@@ -63,7 +68,15 @@ impl BodiesMultigrid {
         let t = Instant::now();
         let mut levels = Vec::with_capacity(setup.bodies.len());
         for (i, body) in setup.bodies.iter().enumerate() {
-            let fine = body_operator(case, i, &body.solid, &body.grid, &body.cells);
+            let fine = body_operator(case, i, &body.solid, &body.grid, &body.cells, true);
+            let st = &case.spec.stabilisation;
+            let omega_star = pathological_cells(&body.cells, st.threshold(ElementOrder::Q1));
+            let young = case.bodies[i].spec.material.young;
+            let s_term = FineSTerm {
+                grid: &body.grid,
+                cells: &omega_star,
+                factor: st.k2 * young / (body.grid.h * body.grid.h),
+            };
             let hierarchy = Hierarchy::build(&fine, opts, |last| {
                 let Some(grid) = last.grid.coarsened() else {
                     return Ok(None);
@@ -74,7 +87,9 @@ impl BodiesMultigrid {
                         key: format!("body[{i}].geometry"),
                         reason: format!("multigrid level {}: {e}", grid.level),
                     })?;
-                Ok(Some(body_operator(case, i, &body.solid, &grid, &cells)))
+                let mut op = body_operator(case, i, &body.solid, &grid, &cells, false);
+                s_term.add_to(&mut op);
+                Ok(Some(op))
             })?;
             levels.push((fine, hierarchy));
         }
@@ -108,6 +123,7 @@ fn body_operator(
     solid: &Geometry,
     grid: &Grid,
     cells: &Cells,
+    s_term: bool,
 ) -> ElasticOperator {
     let spec = &case.bodies[i].spec;
     let parts: Vec<_> = spec
@@ -133,8 +149,15 @@ fn body_operator(
         beta: case.spec.stabilisation.k1 * spec.material.young,
         dirichlet: &held,
     };
-    let st = &case.spec.stabilisation;
-    LevelOperator::with_params(grid, cells, ElementOrder::Q1, &params, st).op
+    let st = StabilisationSpec {
+        k2: if s_term {
+            case.spec.stabilisation.k2
+        } else {
+            0.0
+        },
+        ..case.spec.stabilisation.clone()
+    };
+    LevelOperator::with_params(grid, cells, ElementOrder::Q1, &params, &st).op
 }
 
 /// The block-diagonal preconditioner of the module doc.

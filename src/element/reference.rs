@@ -117,14 +117,25 @@ pub fn reference_stiffness(order: ElementOrder, young: f64, poisson: f64) -> DMa
 /// the full Gauss rule. A cube cell of size `h` has mass `h³ · M_ref`. It is
 /// the tensor product of the 1D mass matrices, and its entries sum to 1.
 pub fn reference_mass(order: ElementOrder) -> DMatrix<f64> {
+    reference_box_mass(order, [0.0; 3], [1.0; 3])
+}
+
+/// The scalar mass of the cell's shape functions over the box `[lo, hi] ⊂
+/// [0,1]³` of reference coordinates, `∫_box N_a N_b dξ`: the full Gauss rule
+/// mapped onto the box, exact (the products are of degree `2p` per axis).
+/// Its entries sum to the box's volume.
+pub fn reference_box_mass(order: ElementOrder, lo: [f64; 3], hi: [f64; 3]) -> DMatrix<f64> {
     let n = order.nodes_per_cell();
     let mut m = DMatrix::zeros(n, n);
     let mut values = [0.0; MAX_NODES];
+    let size = [0, 1, 2].map(|a| hi[a] - lo[a]);
+    let volume = size[0] * size[1] * size[2];
     for (xi, w) in tensor_gauss_rule(order.gauss_points_per_axis()) {
-        shape_values(order, xi, &mut values[..n]);
+        let x = [0, 1, 2].map(|a| lo[a] + size[a] * xi[a]);
+        shape_values(order, x, &mut values[..n]);
         for j in 0..n {
             for i in 0..n {
-                m[(i, j)] += w * values[i] * values[j];
+                m[(i, j)] += w * volume * values[i] * values[j];
             }
         }
     }

@@ -232,6 +232,29 @@ impl ElasticOperator {
         }
     }
 
+    /// Adds `factor · h³ M_box` to a cut Q1 cell's matrix, `M_box` the vector
+    /// mass of its shape functions over the reference box `[lo, hi] ⊂ [0,1]³`:
+    /// a multigrid level's share of a finer level's S-term
+    /// ([`crate::multigrid::galerkin_s`]). Returns `false`, adding nothing,
+    /// where the cell is not cut or the operator is not Q1.
+    pub fn add_cut_cell_box_mass(
+        &mut self,
+        cell: usize,
+        factor: f64,
+        lo: [f64; 3],
+        hi: [f64; 3],
+    ) -> bool {
+        let s = self.slot[cell];
+        let h3 = self.grid.h.powi(3);
+        match &mut self.cut {
+            CutData::Forms(forms) if s != OUTSIDE && s != INSIDE => {
+                forms.add_box_mass(s as usize, factor * h3, lo, hi);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Dofs per cell, `3 · nodes_per_cell` (the side of every cell matrix).
     pub fn dofs_per_cell(&self) -> usize {
         self.ne

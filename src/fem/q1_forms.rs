@@ -37,7 +37,7 @@ use rayon::prelude::*;
 use super::fast_apply::fma_available;
 use super::moment_fit::{CutWeights, FitBasis};
 use super::stencil::{madd, prefetch};
-use crate::element::reference::reference_mass;
+use crate::element::reference::{reference_box_mass, reference_mass};
 use crate::element::ElementOrder;
 
 /// Cells per batch (SIMD lanes).
@@ -188,6 +188,19 @@ impl Q1Forms {
     pub fn add_cell_mass(&mut self, s: usize, factor_h3: f64) {
         for (k, m) in self.mass_ref.iter().enumerate() {
             self.data[(s / LANES) * FORM_LEN + MASS + k][s % LANES] += factor_h3 * m;
+        }
+    }
+
+    /// Adds `factor_h3 M_box` to cell `s`'s mass, `M_box` the scalar mass of
+    /// the cell's shape functions over the reference box `[lo, hi]`
+    /// ([`reference_box_mass`]).
+    pub fn add_box_mass(&mut self, s: usize, factor_h3: f64, lo: [f64; 3], hi: [f64; 3]) {
+        let m = reference_box_mass(ElementOrder::Q1, lo, hi);
+        for a in 0..8 {
+            for b in a..8 {
+                self.data[(s / LANES) * FORM_LEN + MASS + sym(8, a, b)][s % LANES] +=
+                    factor_h3 * m[(a, b)];
+            }
         }
     }
 

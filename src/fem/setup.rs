@@ -44,13 +44,43 @@ impl LevelOperator {
         cells: &Cells,
         order: ElementOrder,
     ) -> LevelOperator {
+        let k2 = case.spec.stabilisation.k2;
+        LevelOperator::with_k2(case, problem, grid, cells, order, k2)
+    }
+
+    /// [`LevelOperator::new`] without the S-term of its own pathological
+    /// cells: a multigrid level, which takes the S-term of the solve's level
+    /// instead ([`crate::multigrid::galerkin_s`]).
+    pub fn without_s_term(
+        case: &Case,
+        problem: &Problem,
+        grid: &Grid,
+        cells: &Cells,
+        order: ElementOrder,
+    ) -> LevelOperator {
+        LevelOperator::with_k2(case, problem, grid, cells, order, 0.0)
+    }
+
+    /// [`LevelOperator::new`] with the S-term's weight `k2`.
+    fn with_k2(
+        case: &Case,
+        problem: &Problem,
+        grid: &Grid,
+        cells: &Cells,
+        order: ElementOrder,
+        k2: f64,
+    ) -> LevelOperator {
         let params = OperatorParams {
             young: problem.young,
             poisson: problem.poisson,
             beta: case.spec.stabilisation.k1 * problem.young,
             dirichlet: &|tag, x| problem.dirichlet_mask(tag, x),
         };
-        LevelOperator::with_params(grid, cells, order, &params, &case.spec.stabilisation)
+        let st = StabilisationSpec {
+            k2,
+            ..case.spec.stabilisation.clone()
+        };
+        LevelOperator::with_params(grid, cells, order, &params, &st)
     }
 
     /// [`LevelOperator::new`] from the operator's parameters and the
