@@ -195,7 +195,7 @@ pub fn run_case(
     device: &Device,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
-    let case = Case::from_file_with(path, set)?;
+    let mut case = Case::from_file_with(path, set)?;
     if let Some(mesh) = case.geometry.mesh() {
         eprintln!(
             "note: {}: mesh: {}",
@@ -208,6 +208,13 @@ pub fn run_case(
     } else {
         open_device(device)?
     };
+    let solver = &mut case.spec.solver;
+    if solver.preconditioner == Preconditioner::Auto {
+        solver.preconditioner = match gpu {
+            Some(_) => Preconditioner::Jacobi,
+            None => Preconditioner::Multigrid,
+        };
+    }
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let dir = outputs
         .dir

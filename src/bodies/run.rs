@@ -82,7 +82,7 @@ pub fn run_setup(
         })?;
     }
     let multigrid = match setup.newton.krylov.preconditioner {
-        Preconditioner::Multigrid => Some(BodiesMultigrid::new(
+        Preconditioner::Multigrid | Preconditioner::Auto => Some(BodiesMultigrid::new(
             case,
             &setup,
             &MultigridOptions::default(),

@@ -26,7 +26,7 @@
 //!
 //! [solver]
 //! method = "cg"             # cg | cgs | bicgstab
-//! preconditioner = "jacobi" # jacobi | none
+//! preconditioner = "auto"   # auto (multigrid on the CPU, jacobi on a GPU) | multigrid | jacobi | none
 //! outer = "fgmres"          # fgmres | picard (the paper's fixed point)
 //! inner_rel_tol = 1e-3      # fgmres: tolerance of each inner solve with A
 //! rel_tol = 1e-8            # picard: Krylov tolerance of the first solve (τ0)
@@ -232,7 +232,7 @@ impl Default for SolverSpec {
     fn default() -> Self {
         SolverSpec {
             method: KrylovMethod::Cg,
-            preconditioner: Preconditioner::Jacobi,
+            preconditioner: Preconditioner::Auto,
             outer: OuterMethod::Fgmres,
             inner_rel_tol: 1e-3,
             rel_tol: 1e-8,

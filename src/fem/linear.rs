@@ -59,7 +59,7 @@ impl LinearSolver for CpuSolver<'_> {
     ) -> Result<KrylovStats> {
         let rhs = rhs.to_vec();
         match (&self.multigrid, opts.preconditioner) {
-            (Some(mg), Preconditioner::Multigrid) => {
+            (Some(mg), Preconditioner::Multigrid | Preconditioner::Auto) => {
                 solve_preconditioned(&self.be, self.op, mg, &rhs, u, opts)
             }
             _ => solve(&self.be, self.op, Some(&self.diag), &rhs, u, opts),

@@ -209,7 +209,7 @@ impl Setup {
             "assembled the operator and right-hand side"
         );
         let multigrid = match case.spec.solver.preconditioner {
-            Preconditioner::Multigrid => {
+            Preconditioner::Multigrid | Preconditioner::Auto => {
                 let h = Hierarchy::new(case, &problem, &cells, &op, &MultigridOptions::default())?;
                 timings.push(("multigrid".to_string(), h.seconds));
                 Some(h)

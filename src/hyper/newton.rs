@@ -167,7 +167,9 @@ impl TangentSolver for CpuTangentSolver<'_> {
         opts: &KrylovOptions,
     ) -> Result<KrylovStats> {
         let rhs = rhs.to_vec();
-        if let (Some(mg), Preconditioner::Multigrid) = (self.multigrid, opts.preconditioner) {
+        if let (Some(mg), Preconditioner::Multigrid | Preconditioner::Auto) =
+            (self.multigrid, opts.preconditioner)
+        {
             return solve_preconditioned(&self.be, tangent, mg, &rhs, du, opts);
         }
         let diag = (opts.preconditioner == Preconditioner::Jacobi).then(|| tangent.diagonal());

@@ -91,6 +91,10 @@ pub enum Preconditioner {
     /// `M⁻¹` = one geometric multigrid V-cycle on the case's nested grids
     /// ([`crate::multigrid`]; CPU backend only).
     Multigrid,
+    /// Multigrid where the solve runs on the CPU, Jacobi on a GPU (the
+    /// default of single-body cases): the runner resolves it once the
+    /// backend is known; a solve given no hierarchy takes Jacobi.
+    Auto,
 }
 
 impl Preconditioner {
@@ -100,6 +104,7 @@ impl Preconditioner {
             Preconditioner::None => "none",
             Preconditioner::Jacobi => "jacobi",
             Preconditioner::Multigrid => "multigrid",
+            Preconditioner::Auto => "auto",
         }
     }
 }

@@ -83,9 +83,10 @@ impl<'p, B: Backend> Precond<'p, B> {
     /// The preconditioner asked for in `opts`. For Jacobi, `diag` (or, when
     /// `None`, [`Backend::diagonal`] of `op`) is downloaded once, checked
     /// (finite; for CG, which needs `M` SPD, not negative beyond the floor),
-    /// floored (module doc), inverted and uploaded. Multigrid cannot be built
-    /// from the operator alone: [`Error::InvalidSolverOptions`] (build it
-    /// with [`crate::multigrid`] and pass it to [`Precond::external`]).
+    /// floored (module doc), inverted and uploaded; `auto` given no hierarchy
+    /// is Jacobi. Multigrid cannot be built from the operator alone:
+    /// [`Error::InvalidSolverOptions`] (build it with [`crate::multigrid`]
+    /// and pass it to [`Precond::external`]).
     pub(crate) fn new(
         be: &B,
         op: &B::Operator<'_>,
@@ -94,7 +95,7 @@ impl<'p, B: Backend> Precond<'p, B> {
     ) -> Result<Self> {
         match opts.preconditioner {
             Preconditioner::None => return Ok(Precond::external_or_none(None)),
-            Preconditioner::Jacobi => {}
+            Preconditioner::Jacobi | Preconditioner::Auto => {}
             Preconditioner::Multigrid => {
                 return Err(Error::InvalidSolverOptions {
                     what: "preconditioner".into(),
