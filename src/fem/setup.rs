@@ -48,21 +48,10 @@ impl LevelOperator {
         LevelOperator::with_k2(case, problem, grid, cells, order, k2)
     }
 
-    /// [`LevelOperator::new`] without the S-term of its own pathological
-    /// cells: a multigrid level, which takes the S-term of the solve's level
-    /// instead ([`crate::multigrid::galerkin_s`]).
-    pub fn without_s_term(
-        case: &Case,
-        problem: &Problem,
-        grid: &Grid,
-        cells: &Cells,
-        order: ElementOrder,
-    ) -> LevelOperator {
-        LevelOperator::with_k2(case, problem, grid, cells, order, 0.0)
-    }
-
-    /// [`LevelOperator::new`] with the S-term's weight `k2`.
-    fn with_k2(
+    /// [`LevelOperator::new`] with the S-term's weight `k2`; `0` for a
+    /// multigrid level, which takes the S-term of the solve's level instead
+    /// ([`crate::multigrid::galerkin_s`]).
+    pub fn with_k2(
         case: &Case,
         problem: &Problem,
         grid: &Grid,

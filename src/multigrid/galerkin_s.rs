@@ -106,19 +106,20 @@ mod tests {
             factor: setup.s_factor,
         };
         let plain_fine =
-            LevelOperator::without_s_term(&case, problem, grid, cells, ElementOrder::Q1).op;
+            LevelOperator::with_k2(&case, problem, grid, cells, ElementOrder::Q1, 0.0).op;
 
         let mut coarse_grid = grid.clone();
         let mut chain: Vec<ElasticOperator> = vec![setup.op.clone()];
         for _ in 0..2 {
             coarse_grid = coarse_grid.coarsened().unwrap();
             let coarse_cells = case.classify(&coarse_grid).unwrap();
-            let plain = LevelOperator::without_s_term(
+            let plain = LevelOperator::with_k2(
                 &case,
                 problem,
                 &coarse_grid,
                 &coarse_cells,
                 ElementOrder::Q1,
+                0.0,
             )
             .op;
             let mut with_s = plain.clone();

@@ -206,7 +206,7 @@ impl Hierarchy {
         };
         let level = |grid: &Grid, cells: &Cells| {
             let mut op =
-                LevelOperator::without_s_term(case, problem, grid, cells, ElementOrder::Q1).op;
+                LevelOperator::with_k2(case, problem, grid, cells, ElementOrder::Q1, 0.0).op;
             let missed = s_term.add_to(&mut op);
             if missed > 0 {
                 tracing::info!(
