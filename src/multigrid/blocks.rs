@@ -44,11 +44,16 @@ struct Block {
     inverse: Vec<f64>,
 }
 
-/// `B⁻¹` of the module doc.
+/// `B⁻¹` of the module doc, its blocks stored back to back.
 pub struct BlockJacobi {
     /// `D⁻¹` on the unknowns outside every block, 0 on the blocks'.
     point: Vec<f64>,
-    blocks: Vec<Block>,
+    /// The blocks' unknowns: block `k` holds `dofs[starts[k]..starts[k + 1]]`.
+    dofs: Vec<usize>,
+    starts: Vec<usize>,
+    /// The blocks' inverses, row-major, block `k`'s from `inverse_starts[k]`.
+    inverses: Vec<f64>,
+    inverse_starts: Vec<usize>,
 }
 
 impl BlockJacobi {
@@ -60,19 +65,36 @@ impl BlockJacobi {
             .par_iter()
             .filter_map(|nodes| block_of(op, nodes))
             .collect();
-        let mut point = inv_diag.to_vec();
-        for b in &blocks {
+        let mut pre = BlockJacobi {
+            point: inv_diag.to_vec(),
+            dofs: Vec::new(),
+            starts: vec![0],
+            inverses: Vec::new(),
+            inverse_starts: vec![0],
+        };
+        for b in blocks {
             for &i in &b.dofs {
-                point[i] = 0.0;
+                pre.point[i] = 0.0;
             }
+            pre.dofs.extend(&b.dofs);
+            pre.starts.push(pre.dofs.len());
+            pre.inverses.extend(&b.inverse);
+            pre.inverse_starts.push(pre.inverses.len());
         }
-        BlockJacobi { point, blocks }
+        pre
     }
 
     /// Number of blocks and the unknowns they hold.
     pub fn block_sizes(&self) -> (usize, usize) {
-        let dofs = self.blocks.iter().map(|b| b.dofs.len()).sum();
-        (self.blocks.len(), dofs)
+        (self.starts.len() - 1, self.dofs.len())
+    }
+
+    /// The unknowns of block `k` and its inverse.
+    fn block(&self, k: usize) -> (&[usize], &[f64]) {
+        (
+            &self.dofs[self.starts[k]..self.starts[k + 1]],
+            &self.inverses[self.inverse_starts[k]..self.inverse_starts[k + 1]],
+        )
     }
 
     /// `z = B⁻¹ r`.
@@ -83,23 +105,19 @@ impl BlockJacobi {
                 zc[i] = self.point[base + i] * r[base + i];
             }
         });
-        let solved: Vec<Vec<f64>> = self
-            .blocks
-            .par_iter()
-            .map(|b| {
-                let m = b.dofs.len();
-                (0..m)
-                    .map(|i| {
-                        let row = &b.inverse[i * m..(i + 1) * m];
-                        row.iter().zip(&b.dofs).map(|(a, &j)| a * r[j]).sum()
-                    })
-                    .collect()
+        let solved: Vec<f64> = (0..self.starts.len() - 1)
+            .into_par_iter()
+            .flat_map_iter(|k| {
+                let (dofs, inverse) = self.block(k);
+                let m = dofs.len();
+                (0..m).map(move |i| {
+                    let row = &inverse[i * m..(i + 1) * m];
+                    row.iter().zip(dofs).map(|(a, &j)| a * r[j]).sum::<f64>()
+                })
             })
             .collect();
-        for (b, v) in self.blocks.iter().zip(solved) {
-            for (&i, x) in b.dofs.iter().zip(v) {
-                z[i] = x;
-            }
+        for (&i, x) in self.dofs.iter().zip(solved) {
+            z[i] = x;
         }
     }
 }
@@ -211,17 +229,18 @@ mod tests {
         let mut z = vec![0.0; n];
         pre.apply(&r, &mut z);
         let mut in_block = vec![false; n];
-        for b in &pre.blocks {
-            for &i in &b.dofs {
+        for k in 0..count {
+            let (dofs, _) = pre.block(k);
+            for &i in dofs {
                 in_block[i] = true;
             }
-            for &i in &b.dofs {
+            for &i in dofs {
                 let rows = a.row_idx_of_col_raw(i);
                 let vals = a.val_of_col(i);
                 let az: f64 = rows
                     .iter()
                     .zip(vals)
-                    .filter(|(j, _)| b.dofs.contains(j))
+                    .filter(|(j, _)| dofs.contains(j))
                     .map(|(&j, v)| v * z[j])
                     .sum();
                 assert!(
