@@ -183,6 +183,9 @@ pub struct LevelSummary {
     pub dofs: usize,
     /// The Chebyshev interval `[a, b]` of `B⁻¹A` (`None` on the coarsest).
     pub interval: Option<(f64, f64)>,
+    /// The smoother's cut-band blocks and the unknowns they hold (`None` on
+    /// the coarsest).
+    pub blocks: Option<(usize, usize)>,
 }
 
 impl Hierarchy {
@@ -269,6 +272,7 @@ impl Hierarchy {
                 order = ?s.order,
                 dofs = s.dofs,
                 interval = ?s.interval,
+                blocks = ?s.blocks,
                 "multigrid level"
             );
         }
@@ -312,6 +316,7 @@ impl Hierarchy {
                     order: op.dofs.order,
                     dofs: op.nrows(),
                     interval: self.smoothers.get(i).map(|s| (s.lo, s.hi)),
+                    blocks: self.smoothers.get(i).map(Chebyshev::block_sizes),
                 }
             })
             .collect()

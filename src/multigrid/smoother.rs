@@ -127,6 +127,11 @@ impl Chebyshev {
         })
     }
 
+    /// The cut-band blocks of its preconditioner and the unknowns they hold.
+    pub fn block_sizes(&self) -> (usize, usize) {
+        self.pre.block_sizes()
+    }
+
     /// One smoothing step of degree `k` on `A x = b` (module doc),
     /// from `x = 0` when `zero_start` (saving the residual's apply), else
     /// from the `x` given.
