@@ -61,9 +61,10 @@ impl BlockJacobi {
     /// inverted, `inv_diag`.
     pub fn new(op: &ElasticOperator, inv_diag: &[f64]) -> BlockJacobi {
         let claims = claim_nodes(op);
-        let blocks: Vec<Block> = claims
-            .par_iter()
-            .filter_map(|nodes| block_of(op, nodes))
+        let blocks: Vec<Block> = block_matrices(op, &claims)
+            .into_par_iter()
+            .zip(&claims)
+            .filter_map(|(a, nodes)| inverted(a, nodes))
             .collect();
         let mut pre = BlockJacobi {
             point: inv_diag.to_vec(),
@@ -143,47 +144,103 @@ fn claim_nodes(op: &ElasticOperator) -> Vec<Vec<usize>> {
     out
 }
 
-/// The block of the active nodes `nodes`: `R_b A R_bᵀ` summed over the cells
-/// around them, inverted; `None` where its Cholesky factorisation fails.
-fn block_of(op: &ElasticOperator, nodes: &[usize]) -> Option<Block> {
-    let m = 3 * nodes.len();
-    let local = |active: usize| nodes.iter().position(|&a| a == active);
+/// Cells whose contributions are gathered in parallel before they are summed
+/// into the blocks: bounds the memory of the contributions in flight.
+const CELLS_PER_PASS: usize = 512;
+
+/// `R_b A R_bᵀ` of every block `b` of `claims`, summed over the cells around
+/// its nodes. Each cell's matrix is built once (a cut cell's is rebuilt
+/// from its weights), its contributions to the blocks gathered in parallel
+/// and summed in cell order.
+fn block_matrices(op: &ElasticOperator, claims: &[Vec<usize>]) -> Vec<DMatrix<f64>> {
+    let mut owner = vec![None; op.dofs.num_active()];
+    for (b, nodes) in claims.iter().enumerate() {
+        for (l, &a) in nodes.iter().enumerate() {
+            owner[a] = Some((b, l));
+        }
+    }
     let mut cells = Vec::new();
     let mut around = Vec::with_capacity(8);
-    for &a in nodes {
-        node_cells(
-            &op.grid,
-            op.dofs.order,
-            op.dofs.active_to_node[a] as usize,
-            &mut around,
-        );
+    for &a in claims.iter().flatten() {
+        let node = op.dofs.active_to_node[a] as usize;
+        node_cells(&op.grid, op.dofs.order, node, &mut around);
         cells.extend(around.iter().map(|&(c, _)| c));
     }
     cells.sort_unstable();
     cells.dedup();
-    let ne = op.dofs_per_cell();
-    let mut cell_nodes = vec![0usize; ne / 3];
-    let mut a = DMatrix::<f64>::zeros(m, m);
-    for &cell in &cells {
-        let Some(k) = op.cell_matrix(cell) else {
-            continue;
-        };
-        op.dofs.cell_active_nodes(&op.grid, cell, &mut cell_nodes);
-        let map: Vec<(usize, usize)> = cell_nodes
-            .iter()
-            .enumerate()
-            .filter_map(|(l, &an)| local(an).map(|b| (l, b)))
+    let mut blocks: Vec<DMatrix<f64>> = claims
+        .iter()
+        .map(|nodes| DMatrix::zeros(3 * nodes.len(), 3 * nodes.len()))
+        .collect();
+    for pass in cells.chunks(CELLS_PER_PASS) {
+        let parts: Vec<Vec<Contribution>> = pass
+            .par_iter()
+            .map(|&cell| contributions(op, &owner, cell))
             .collect();
-        for &(li, bi) in &map {
-            for &(lj, bj) in &map {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        a[(3 * bi + i, 3 * bj + j)] += k[(3 * li + i) * ne + 3 * lj + j];
+        for (b, locals, values) in parts.into_iter().flatten() {
+            let g = 3 * locals.len();
+            for (p, &bp) in locals.iter().enumerate() {
+                for (q, &bq) in locals.iter().enumerate() {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            blocks[b][(3 * bp + i, 3 * bq + j)] +=
+                                values[(3 * p + i) * g + 3 * q + j];
+                        }
                     }
                 }
             }
         }
     }
+    blocks
+}
+
+/// A cell's part of one block: the block, the block-local indices of the
+/// cell's nodes in it, and their `3g × 3g` submatrix of the cell's matrix.
+type Contribution = (usize, Vec<usize>, Vec<f64>);
+
+/// The contributions of `cell` to the blocks that own its nodes (`owner`:
+/// block and local index per active node).
+fn contributions(
+    op: &ElasticOperator,
+    owner: &[Option<(usize, usize)>],
+    cell: usize,
+) -> Vec<Contribution> {
+    let Some(k) = op.cell_matrix(cell) else {
+        return Vec::new();
+    };
+    let ne = op.dofs_per_cell();
+    let mut nodes = vec![0usize; ne / 3];
+    op.dofs.cell_active_nodes(&op.grid, cell, &mut nodes);
+    // (block, local in block, local in cell), grouped by block.
+    let mut owned: Vec<(usize, usize, usize)> = nodes
+        .iter()
+        .enumerate()
+        .filter_map(|(l, &a)| owner[a].map(|(b, bl)| (b, bl, l)))
+        .collect();
+    owned.sort_unstable();
+    owned
+        .chunk_by(|x, y| x.0 == y.0)
+        .map(|group| {
+            let g = 3 * group.len();
+            let mut values = vec![0.0; g * g];
+            for (p, &(_, _, lp)) in group.iter().enumerate() {
+                for (q, &(_, _, lq)) in group.iter().enumerate() {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            values[(3 * p + i) * g + 3 * q + j] = k[(3 * lp + i) * ne + 3 * lq + j];
+                        }
+                    }
+                }
+            }
+            (group[0].0, group.iter().map(|x| x.1).collect(), values)
+        })
+        .collect()
+}
+
+/// The block of the active nodes `nodes` with matrix `a`, inverted; `None`
+/// where its Cholesky factorisation fails.
+fn inverted(a: DMatrix<f64>, nodes: &[usize]) -> Option<Block> {
+    let m = a.nrows();
     let inverse = a.cholesky()?.inverse();
     let dofs = nodes
         .iter()
