@@ -7,9 +7,8 @@ use cgfem_gpu::case::physics::OuterMethod;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{recovered_load, solve};
+use cgfem_gpu::fem::solve::{solve, RecoveredLoad};
 
 fn case(name: &str) -> Case {
     let path = format!("{}/cases/{name}.toml", env!("CARGO_MANIFEST_DIR"));
@@ -25,7 +24,6 @@ fn norm(a: &[f64]) -> f64 {
 fn affine_constant(name: &str, level: u32) -> f64 {
     let case = case(name);
     let setup = Setup::new(&case, Some(level)).unwrap();
-    let nodes = traction_patch_nodes(&setup);
     let n = setup.fixed_rhs.len();
     let u: Vec<f64> = (0..n)
         .map(|i| ((i * 7919) % 101) as f64 / 50.0 - 1.0)
@@ -35,7 +33,8 @@ fn affine_constant(name: &str, level: u32) -> f64 {
         .collect();
     let a = 2.5;
     let w: Vec<f64> = u.iter().zip(&v).map(|(x, y)| a * x + y).collect();
-    let r = |x: &[f64]| recovered_load(&setup, &nodes, x).unwrap();
+    let load = RecoveredLoad::new(&setup);
+    let r = |x: &[f64]| load.at(x).unwrap();
     let (r0, ru, rv, rw) = (r(&vec![0.0; n]), r(&u), r(&v), r(&w));
     let defect: Vec<f64> = (0..n)
         .map(|i| (rw[i] - r0[i]) - a * (ru[i] - r0[i]) - (rv[i] - r0[i]))

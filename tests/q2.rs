@@ -9,7 +9,7 @@ use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{recovered_load, solve};
+use cgfem_gpu::fem::solve::{solve, RecoveredLoad};
 
 /// Solves `case` at `level`: the errors of `u_h` and of the nodal
 /// interpolant, the fixed-point report and the number of pathological cells.
@@ -67,7 +67,7 @@ fixed_point_tol = 1e-11
 /// `F(U) = F_b + F_p + F_T(t̂(U)) + F_S(S(U))`, the right-hand side of the
 /// fixed-point loop at `U` (DESIGN §3.3).
 fn fixed_point_rhs(setup: &Setup, u: &[f64]) -> Vec<f64> {
-    let load = recovered_load(setup, &traction_patch_nodes(setup), u).unwrap();
+    let load = RecoveredLoad::new(setup).at(u).unwrap();
     setup
         .fixed_rhs
         .iter()

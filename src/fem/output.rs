@@ -99,7 +99,7 @@ pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path
             [u[3 * a], u[3 * a + 1], u[3 * a + 2]]
         })
         .collect();
-    let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &body))?;
+    let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &body), None)?;
     let stress: Vec<[f64; 6]> = mesh
         .node_cell
         .par_iter()

@@ -13,7 +13,7 @@ use super::setup::Setup;
 use crate::cells::CellKind;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
-use crate::recovery::{recover, Recovered, SprOptions};
+use crate::recovery::{recover_from_rings, Recovered, SprOptions};
 
 /// The Q1 vertex nodes of the cells holding Dirichlet points and of the cells
 /// whose flux correction uses the recovered stress (the patches the traction
@@ -69,8 +69,15 @@ pub fn sample_positions(
     }
 }
 
-/// SPR of the stress of `u` on the patches of `nodes`.
-pub fn recover_stress(setup: &Setup, u: &[f64], nodes: &[usize]) -> Result<Recovered<6>> {
+/// SPR of the stress of `u` on the patches of `nodes`, each patch's fit
+/// starting at its ring in `rings` when given (see
+/// [`crate::recovery::recover_from_rings`]).
+pub fn recover_stress(
+    setup: &Setup,
+    u: &[f64],
+    nodes: &[usize],
+    rings: Option<&[usize]>,
+) -> Result<Recovered<6>> {
     let grid = &setup.grid;
     let dofs = &setup.op.dofs;
     let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
@@ -83,13 +90,14 @@ pub fn recover_stress(setup: &Setup, u: &[f64], nodes: &[usize]) -> Result<Recov
             (x, stress_voigt(&g, lambda, mu))
         }));
     };
-    recover(
+    recover_from_rings(
         grid,
         &setup.cells.kinds,
         nodes,
         dofs.order.degree(),
         &samples,
         &SprOptions::default(),
+        rings,
     )
 }
 

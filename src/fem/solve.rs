@@ -6,11 +6,14 @@
 use super::fixed_point::{fixed_point_with_progress, FixedPointOptions, FixedPointReport};
 use super::linear::{CpuSolver, LinearSolver};
 use super::outer_krylov::fgmres_fixed_point;
+use std::sync::OnceLock;
+
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::rhs::traction_rhs;
 use super::setup::Setup;
 use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
+use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::KrylovOptions;
@@ -25,8 +28,8 @@ pub struct Solution {
     pub reactions: Vec<[f64; 3]>,
 }
 
-/// The loop settings of a case's `[solver]` table.
-pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
+/// The loop settings of a case's `[solver]` table for elements of `order`.
+pub fn fixed_point_options(spec: &SolverSpec, order: ElementOrder) -> FixedPointOptions {
     FixedPointOptions {
         krylov: KrylovOptions {
             method: spec.method,
@@ -37,7 +40,7 @@ pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
         min_rel_tol: spec.min_rel_tol,
         tol: spec.fixed_point_tol(),
         max_iterations: spec.max_fixed_point,
-        inner_rel_tol: spec.inner_rel_tol,
+        inner_rel_tol: spec.inner_rel_tol(order),
     }
 }
 
@@ -67,10 +70,10 @@ pub fn solve_with_progress(
     progress: &dyn Progress,
 ) -> Result<Solution> {
     let _span = tracing::info_span!("solve", dofs = setup.fixed_rhs.len()).entered();
-    let nodes = traction_patch_nodes(setup);
+    let load = RecoveredLoad::new(setup);
     let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
-    let mut traction_load = |u: &[f64]| recovered_load(setup, &nodes, u);
-    let opts = fixed_point_options(spec);
+    let mut traction_load = |u: &[f64]| load.at(u);
+    let opts = fixed_point_options(spec, setup.op.dofs.order);
     let u = if setup.dirichlet.is_empty() && !stabilised {
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(setup, solver, &opts, report, progress)?
@@ -101,7 +104,13 @@ pub fn solve_with_progress(
         phase: Phase::Recovery,
         total: None,
     });
-    let recovered = recover_stress(setup, &u, &nodes).and_then(|sigma| {
+    let recovered = recover_stress(
+        setup,
+        &u,
+        &load.nodes,
+        load.stress_rings.get().map(Vec::as_slice),
+    )
+    .and_then(|sigma| {
         let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
         let extra =
             setup
@@ -131,32 +140,70 @@ pub fn solve_with_progress(
     })
 }
 
-/// The part of the right-hand side recovered from `u`: the traction
-/// `F_T(u)` of the Dirichlet points with its flux correction and, when the
-/// S-term is on, `F_S(u)`. `nodes` are the [`traction_patch_nodes`]. The
-/// system of the fixed point is `A U = fixed_rhs + recovered_load(U)`.
-pub fn recovered_load(setup: &Setup, nodes: &[usize], u: &[f64]) -> Result<Vec<f64>> {
-    let sigma = recover_stress(setup, u, nodes)?;
-    let t = recovered_tractions(&setup.dirichlet, &sigma)?;
-    let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
-    setup
-        .flux
-        .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
-    if setup.s_factor > 0.0 && !setup.omega_star.is_empty() {
-        let s = recover_displacement(setup, u, &setup.omega_star)?;
-        let fs = s_rhs(
+/// The part of the right-hand side recovered from a displacement: the
+/// traction `F_T(u)` of the Dirichlet points with its flux correction and,
+/// when the S-term is on, `F_S(u)`. The system of the fixed point is
+/// `A U = fixed_rhs + RecoveredLoad::at(U)`.
+///
+/// The first evaluation remembers each patch's accepted ring (of the stress
+/// and of the displacement recovery), and the later ones start their fits
+/// there ([`crate::recovery::recover_from_rings`]): the same coefficients
+/// without refitting the rings that were rejected.
+pub struct RecoveredLoad<'a> {
+    setup: &'a Setup,
+    /// The [`traction_patch_nodes`].
+    nodes: Vec<usize>,
+    stress_rings: OnceLock<Vec<usize>>,
+    displacement_rings: OnceLock<Vec<usize>>,
+}
+
+impl<'a> RecoveredLoad<'a> {
+    pub fn new(setup: &'a Setup) -> Self {
+        RecoveredLoad {
             setup,
-            &setup.omega_star,
-            u,
-            &s,
-            setup.s_factor,
-            setup.s_balanced,
-        )?;
-        for (a, b) in f.iter_mut().zip(&fs) {
-            *a += b;
+            nodes: traction_patch_nodes(setup),
+            stress_rings: OnceLock::new(),
+            displacement_rings: OnceLock::new(),
         }
     }
-    Ok(f)
+
+    /// `F_T(u) (+ F_S(u))`.
+    pub fn at(&self, u: &[f64]) -> Result<Vec<f64>> {
+        let setup = self.setup;
+        let sigma = recover_stress(
+            setup,
+            u,
+            &self.nodes,
+            self.stress_rings.get().map(Vec::as_slice),
+        )?;
+        let _ = self.stress_rings.set(sigma.rings());
+        let t = recovered_tractions(&setup.dirichlet, &sigma)?;
+        let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
+        setup
+            .flux
+            .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
+        if setup.s_factor > 0.0 && !setup.omega_star.is_empty() {
+            let s = recover_displacement(
+                setup,
+                u,
+                &setup.omega_star,
+                self.displacement_rings.get().map(Vec::as_slice),
+            )?;
+            let _ = self.displacement_rings.set(s.rings());
+            let fs = s_rhs(
+                setup,
+                &setup.omega_star,
+                u,
+                &s,
+                setup.s_factor,
+                setup.s_balanced,
+            )?;
+            for (a, b) in f.iter_mut().zip(&fs) {
+                *a += b;
+            }
+        }
+        Ok(f)
+    }
 }
 
 /// A single Krylov solve of `A U = F` (no Dirichlet points).

@@ -36,7 +36,8 @@ use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::quadrature::saye::SurfacePoint;
 use crate::recovery::{
-    recover, LinearConstraints, Monomials, Patch, PatchSamples, Recovered, Sample, SprOptions,
+    recover_from_rings, LinearConstraints, Monomials, Patch, PatchSamples, Recovered, Sample,
+    SprOptions,
 };
 
 /// Pathological cells: cut cells with `0 < A_c < a`, ascending.
@@ -194,16 +195,21 @@ fn second_derivative_at_origin(e: [usize; 3], k: usize, l: usize) -> f64 {
 }
 
 /// The displacement recovery `S` of `u_h` on the patches of the vertex nodes
-/// of Ω*.
+/// of Ω*, each patch's fit starting at its ring in `rings` when given (see
+/// [`crate::recovery::recover_from_rings`]).
 pub fn recover_displacement(
     setup: &Setup,
     u: &[f64],
     omega_star: &[usize],
+    rings: Option<&[usize]>,
 ) -> Result<Recovered<3>> {
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
-    recover_displacement_of(setup, omega_star, |cell, x| {
-        value_and_gradient(grid, dofs, u, cell, x).0
-    })
+    recover_displacement_of(
+        setup,
+        omega_star,
+        |cell, x| value_and_gradient(grid, dofs, u, cell, x).0,
+        rings,
+    )
 }
 
 /// The displacement recovery `S` of any field sampled as `value(cell, x)` at
@@ -213,6 +219,7 @@ pub fn recover_displacement_of<F>(
     setup: &Setup,
     omega_star: &[usize],
     value: F,
+    rings: Option<&[usize]>,
 ) -> Result<Recovered<3>>
 where
     F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
@@ -224,13 +231,14 @@ where
         rule: tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis()),
     };
     let degree = setup.op.dofs.order.degree() + 1;
-    recover(
+    recover_from_rings(
         &setup.grid,
         &setup.cells.kinds,
         &nodes,
         degree,
         &samples,
         &SprOptions::default(),
+        rings,
     )
 }
 

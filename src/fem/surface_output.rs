@@ -53,7 +53,7 @@ impl SurfaceFields {
         let mut hosts = mesh.host.clone();
         hosts.sort_unstable();
         hosts.dedup();
-        let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts))?;
+        let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts), None)?;
         let displacement = mesh
             .points
             .par_iter()

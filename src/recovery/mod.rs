@@ -41,7 +41,8 @@ use nalgebra::DMatrix;
 
 pub use fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
 pub use spr::{
-    recover, CellBlend, Patch, PatchInfo, PatchSamples, Recovered, RecoveryStats, SprOptions,
+    recover, recover_from_rings, CellBlend, Patch, PatchInfo, PatchSamples, Recovered,
+    RecoveryStats, SprOptions,
 };
 
 /// A sample: a point (physical, or scaled for [`fit_polynomial`]) and the `NC`

@@ -138,10 +138,39 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     samples: &S,
     opts: &SprOptions,
 ) -> Result<Recovered<NC>> {
+    recover_from_rings(grid, kinds, nodes, degree, samples, opts, None)
+}
+
+/// [`recover`], with each patch's first fitted ring taken from `rings` (one
+/// per node of the ascending, distinct `nodes`, as [`Recovered::rings`] of an
+/// earlier recovery of the same nodes, samples positions and constraints
+/// returns them); `None` starts every patch at ring 1.
+///
+/// A fit's acceptance depends on the sample positions and the constraint
+/// matrix only, never on the values, so a later recovery of another field on
+/// the same patches skips the rings that were rejected before and gives
+/// bit-identical coefficients (the rejected fits are most of the set-up's
+/// cost on the cut band: about half of the displacement patches of the
+/// S-term are enlarged).
+///
+/// # Panics
+/// As [`recover`]; and when `rings` does not have one entry per distinct node.
+pub fn recover_from_rings<const NC: usize, S: PatchSamples<NC>>(
+    grid: &Grid,
+    kinds: &[CellKind],
+    nodes: &[usize],
+    degree: usize,
+    samples: &S,
+    opts: &SprOptions,
+    rings: Option<&[usize]>,
+) -> Result<Recovered<NC>> {
     assert_eq!(kinds.len(), grid.num_cells(), "one kind per cell");
     let mut nodes = nodes.to_vec();
     nodes.sort_unstable();
     nodes.dedup();
+    if let Some(r) = rings {
+        assert_eq!(r.len(), nodes.len(), "one first ring per distinct node");
+    }
     let num_nodes = grid.num_nodes(ElementOrder::Q1);
     if let Some(&node) = nodes.iter().find(|&&n| n >= num_nodes) {
         return Err(Error::Recovery {
@@ -159,9 +188,13 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     };
     let fits: Vec<Result<(Vec<f64>, PatchInfo)>> = nodes
         .par_iter()
+        .enumerate()
         .map_init(
             || (Vec::new(), SampleCache::new()),
-            |(buf, cache), &node| ctx.fit_node(node, buf, cache),
+            |(buf, cache), (slot, &node)| {
+                let first_ring = rings.map_or(1, |r| r[slot]);
+                ctx.fit_node(node, first_ring, buf, cache)
+            },
         )
         .collect();
     let mut coeffs = Vec::with_capacity(nodes.len() * NC * basis.len());
@@ -190,11 +223,13 @@ struct Context<'a, S> {
 }
 
 impl<S> Context<'_, S> {
-    /// Fits `node`'s patch, enlarging it up to the ring limit; `buf` is scratch,
-    /// `cache` the worker's memo of cell samples.
+    /// Fits `node`'s patch from ring `first_ring` (the cells of the rings
+    /// inside it included), enlarging it up to the ring limit; `buf` is
+    /// scratch, `cache` the worker's memo of cell samples.
     fn fit_node<const NC: usize>(
         &self,
         node: usize,
+        first_ring: usize,
         buf: &mut Vec<Sample<NC>>,
         cache: &mut SampleCache<NC>,
     ) -> Result<(Vec<f64>, PatchInfo)>
@@ -206,6 +241,7 @@ impl<S> Context<'_, S> {
         let mut cells = Vec::new();
         buf.clear();
         let mut failure = None;
+        let first_ring = first_ring.min(self.opts.max_rings.max(1));
         for ring in 1..=self.opts.max_rings.max(1) {
             let first = cells.len();
             ring_cells(self.grid, self.kinds, vertex, ring, &mut cells);
@@ -216,6 +252,9 @@ impl<S> Context<'_, S> {
                         .iter()
                         .map(|&(x, v)| (scaled(center, self.grid.h, x), v)),
                 );
+            }
+            if ring < first_ring {
+                continue;
             }
             let patch = Patch {
                 node,
@@ -307,6 +346,12 @@ impl<const NC: usize> Recovered<NC> {
         let len = NC * self.basis.len();
         let s = self.slot(node)?;
         Ok(&self.coeffs[s * len..(s + 1) * len])
+    }
+
+    /// The accepted ring of each patch, in the order of [`Recovered::nodes`]
+    /// (the hint of [`recover_from_rings`]).
+    pub fn rings(&self) -> Vec<usize> {
+        self.info.iter().map(|i| i.ring).collect()
     }
 
     /// Counts of rings and samples over the patches.

@@ -6,9 +6,8 @@
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::fem::field::{error_norms, interpolate};
-use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::recovered_load;
+use cgfem_gpu::fem::solve::RecoveredLoad;
 
 /// Tight solves, so that what is left is the discretisation's: the outer
 /// FGMRES to a residual of 1e-14 (at 1e-13 the rotated bracket kept 2e-10 of
@@ -29,8 +28,7 @@ max_fixed_point = 500
 pub fn interpolant_residual(setup: &Setup) -> f64 {
     let exact = setup.problem.exact.as_ref().unwrap();
     let ui = interpolate(&setup.grid, &setup.op.dofs, exact);
-    let nodes = traction_patch_nodes(setup);
-    let mut f = recovered_load(setup, &nodes, &ui).unwrap();
+    let mut f = RecoveredLoad::new(setup).at(&ui).unwrap();
     for (a, b) in f.iter_mut().zip(&setup.fixed_rhs) {
         *a += b;
     }
