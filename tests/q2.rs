@@ -7,7 +7,6 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::field::{error_norms, interpolate, ErrorNorms};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::output::write_solution;
-use cgfem_gpu::fem::recovery::traction_patch_nodes;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::{solve, RecoveredLoad};
 
