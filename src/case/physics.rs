@@ -28,7 +28,7 @@
 //! method = "cg"             # cg | cgs | bicgstab
 //! preconditioner = "auto"   # auto (multigrid on the CPU, jacobi on a GPU) | multigrid | jacobi | none
 //! outer = "fgmres"          # fgmres | picard (the paper's fixed point)
-//! inner_rel_tol = 1e-3      # fgmres: tolerance of each inner solve with A (default 1e-3 for Q1, 0.1 for Q2)
+//! inner_rel_tol = 1e-3      # fgmres: tolerance of each inner solve with A
 //! rel_tol = 1e-8            # picard: Krylov tolerance of the first solve (τ0)
 //! min_rel_tol = 1e-12       # picard: floor of the adaptive Krylov tolerance (τ_min)
 //! max_iterations = 20000    # per Krylov solve
@@ -202,9 +202,8 @@ pub struct SolverSpec {
     pub preconditioner: Preconditioner,
     /// How the recovered terms are solved for.
     pub outer: OuterMethod,
-    /// `fgmres`: relative tolerance of each inner solve with `A`; `None`:
-    /// [`SolverSpec::inner_rel_tol`]'s default for the element.
-    pub inner_rel_tol: Option<f64>,
+    /// `fgmres`: relative tolerance of each inner solve with `A`.
+    pub inner_rel_tol: f64,
     pub rel_tol: f64,
     pub min_rel_tol: f64,
     pub max_iterations: usize,
@@ -229,30 +228,13 @@ impl SolverSpec {
     }
 }
 
-impl SolverSpec {
-    /// The outer FGMRES's inner tolerance: as given, else 1e-3 for Q1 and 0.1
-    /// for Q2. Each outer iteration costs one recovery and one inner solve; a
-    /// looser inner solve means more outer iterations. A Q1 recovery costs
-    /// about 8 multigrid CG iterations (sphere, level 6), so Q1 gains by few
-    /// outer iterations (0.1 was 15% slower end to end); a Q2 recovery costs
-    /// about 1.5 (level 5), so Q2 gains by cheap inner solves (0.1 was 19%
-    /// faster at level 5 with multigrid and 13% at level 4 with Jacobi).
-    /// `docs/multigrid.md`, "The fixed-point loop's Krylov iterations".
-    pub fn inner_rel_tol(&self, order: ElementOrder) -> f64 {
-        self.inner_rel_tol.unwrap_or(match order {
-            ElementOrder::Q1 => 1e-3,
-            ElementOrder::Q2 => 0.1,
-        })
-    }
-}
-
 impl Default for SolverSpec {
     fn default() -> Self {
         SolverSpec {
             method: KrylovMethod::Cg,
             preconditioner: Preconditioner::Auto,
             outer: OuterMethod::Fgmres,
-            inner_rel_tol: None,
+            inner_rel_tol: 1e-3,
             rel_tol: 1e-8,
             min_rel_tol: 1e-12,
             max_iterations: 20_000,

@@ -13,7 +13,6 @@ use super::rhs::traction_rhs;
 use super::setup::Setup;
 use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
-use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::KrylovOptions;
@@ -28,8 +27,8 @@ pub struct Solution {
     pub reactions: Vec<[f64; 3]>,
 }
 
-/// The loop settings of a case's `[solver]` table for elements of `order`.
-pub fn fixed_point_options(spec: &SolverSpec, order: ElementOrder) -> FixedPointOptions {
+/// The loop settings of a case's `[solver]` table.
+pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
     FixedPointOptions {
         krylov: KrylovOptions {
             method: spec.method,
@@ -40,7 +39,7 @@ pub fn fixed_point_options(spec: &SolverSpec, order: ElementOrder) -> FixedPoint
         min_rel_tol: spec.min_rel_tol,
         tol: spec.fixed_point_tol(),
         max_iterations: spec.max_fixed_point,
-        inner_rel_tol: spec.inner_rel_tol(order),
+        inner_rel_tol: spec.inner_rel_tol,
     }
 }
 
@@ -73,7 +72,7 @@ pub fn solve_with_progress(
     let load = RecoveredLoad::new(setup);
     let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
     let mut traction_load = |u: &[f64]| load.at(u);
-    let opts = fixed_point_options(spec, setup.op.dofs.order);
+    let opts = fixed_point_options(spec);
     let u = if setup.dirichlet.is_empty() && !stabilised {
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(setup, solver, &opts, report, progress)?

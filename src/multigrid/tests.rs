@@ -187,9 +187,7 @@ fn first_solve_iterations_are_bounded_over_the_levels() {
         for level in levels {
             let mut setup = Setup::new(&case, Some(level)).unwrap();
             setup.multigrid = Some(hierarchy(&case, &setup, &SMALL));
-            let opts =
-                crate::fem::solve::fixed_point_options(&case.spec.solver, setup.op.dofs.order)
-                    .krylov;
+            let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
             let mut u = vec![0.0; setup.op.nrows()];
             let stats = CpuSolver::for_setup(&setup)
                 .solve(&setup.fixed_rhs, &mut u, &opts)

@@ -82,7 +82,12 @@ pub(super) fn sweep_line(
         p[k] = t;
         p
     };
-    let tol = 1e-14 * (hi - lo);
+    // Positions closer than `tol` are one. Relative to the box, but never
+    // below a few ulps of the coordinate: far from the origin (x/h above
+    // about 64) `t ± 1e-14 (hi − lo)` rounds back to `t`, the probes below
+    // and above a root land in the same segment, and its surface point was
+    // dropped (a quarter of the bracket's bolt holes at level 7).
+    let tol = (1e-14 * (hi - lo)).max(4.0 * f64::EPSILON * lo.abs().max(hi.abs()));
     // Segment ends: distinct root positions strictly inside, plus the box ends.
     let mut ends = vec![lo];
     for &(t, _) in &roots {

@@ -141,8 +141,7 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
         return Ok(out);
     }
     if cfg.first_solve_only {
-        let opts =
-            crate::fem::solve::fixed_point_options(&case.spec.solver, setup.op.dofs.order).krylov;
+        let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
         let mut u = vec![0.0; setup.fixed_rhs.len()];
         match CpuSolver::for_setup(&setup).solve(&setup.fixed_rhs, &mut u, &opts) {
             Ok(stats) => {
