@@ -142,16 +142,15 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
 }
 
 /// [`recover`], with each patch's first fitted ring taken from `rings` (one
-/// per node of the ascending, distinct `nodes`, as [`Recovered::rings`] of an
-/// earlier recovery of the same nodes, samples positions and constraints
-/// returns them); `None` starts every patch at ring 1.
+/// per node of the ascending, distinct `nodes`, as [`Recovered::rings`]
+/// returns them after an earlier recovery with the same nodes, sample
+/// positions and constraints); `None` starts every patch at ring 1.
 ///
 /// A fit's acceptance depends on the sample positions and the constraint
 /// matrix only, never on the values, so a later recovery of another field on
-/// the same patches skips the rings that were rejected before and gives
-/// bit-identical coefficients (the rejected fits are most of the set-up's
-/// cost on the cut band: about half of the displacement patches of the
-/// S-term are enlarged).
+/// the same patches skips the fits that were rejected before and gives
+/// bit-identical coefficients (about half of the S-term's displacement
+/// patches on the sphere are enlarged).
 ///
 /// # Panics
 /// As [`recover`]; and when `rings` does not have one entry per distinct node.
