@@ -277,3 +277,39 @@ fn rules_are_invariant_under_large_translations() {
         );
     }
 }
+
+/// The bracket of `cases/bracket.toml` at level 7 (h = 0.625 mm, the far
+/// bolt hole 112 cells from the origin): every boundary part has its exact
+/// area. Before the line sweep's fix a quarter of the bolt holes (564.4
+/// against 754.0 mm²) and the whole `xmax` face of the base were missing.
+#[test]
+fn the_level_7_bracket_keeps_every_boundary_part() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/bracket.toml");
+    let case = cgfem_gpu::case::Case::from_file_with(&path, &[]).unwrap();
+    let grid = case.grid(Some(7)).unwrap();
+    let cells = case.classify(&grid).unwrap();
+    let g = &case.geometry;
+    let area = |name: &str| -> f64 {
+        let tag = g.tag_id(name).unwrap();
+        (0..cells.cut.len())
+            .flat_map(|i| cells.surface_points(i))
+            .filter(|p| p.tag == tag)
+            .map(|p| p.w)
+            .sum()
+    };
+    let holes = 2.0 * 2.0 * PI * 6.0 * 10.0;
+    let got = area("bolt_holes");
+    assert!(
+        (got - holes).abs() <= 1e-5 * holes,
+        "bolt holes {got} mm² against {holes}"
+    );
+    // x = 80 (the base, 40 × 10) and x = 10 (the upright above the base,
+    // 40 × 50); x = 0 (both, 40 × 60).
+    let xmin = area("xmin");
+    let xmax = area("xmax");
+    assert!(
+        (xmax - 400.0 - 2000.0).abs() <= 1e-9 * 2400.0,
+        "xmax {xmax}"
+    );
+    assert!((xmin - 2400.0).abs() <= 1e-9 * 2400.0, "xmin {xmin}");
+}
