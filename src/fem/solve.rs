@@ -3,11 +3,11 @@
 //! displacement on the pathological cells; then the recovered tractions at the
 //! converged solution and the reactions.
 
+use std::sync::OnceLock;
+
 use super::fixed_point::{fixed_point_with_progress, FixedPointOptions, FixedPointReport};
 use super::linear::{CpuSolver, LinearSolver};
 use super::outer_krylov::fgmres_fixed_point;
-use std::sync::OnceLock;
-
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::rhs::traction_rhs;
 use super::setup::Setup;
