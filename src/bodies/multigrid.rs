@@ -68,8 +68,8 @@ impl BodiesMultigrid {
         let t = Instant::now();
         let mut levels = Vec::with_capacity(setup.bodies.len());
         for (i, body) in setup.bodies.iter().enumerate() {
-            let fine = body_operator(case, i, &body.solid, &body.grid, &body.cells, true);
             let st = &case.spec.stabilisation;
+            let fine = body_operator(case, i, &body.solid, &body.grid, &body.cells, st.k2);
             let omega_star = pathological_cells(&body.cells, st.threshold(ElementOrder::Q1));
             let young = case.bodies[i].spec.material.young;
             let s_term = FineSTerm {
@@ -87,7 +87,7 @@ impl BodiesMultigrid {
                         key: format!("body[{i}].geometry"),
                         reason: format!("multigrid level {}: {e}", grid.level),
                     })?;
-                let mut op = body_operator(case, i, &body.solid, &grid, &cells, false);
+                let mut op = body_operator(case, i, &body.solid, &grid, &cells, 0.0);
                 s_term.add_to(&mut op);
                 Ok(Some(op))
             })?;
@@ -116,14 +116,15 @@ impl BodiesMultigrid {
 }
 
 /// Body `i`'s linear-elastic operator on `grid` classified as `cells`
-/// (module doc).
+/// (module doc), with the S-term's weight `k2` (0 on a coarse level, which
+/// takes the finest level's S-term instead).
 fn body_operator(
     case: &BodiesCase,
     i: usize,
     solid: &Geometry,
     grid: &Grid,
     cells: &Cells,
-    s_term: bool,
+    k2: f64,
 ) -> ElasticOperator {
     let spec = &case.bodies[i].spec;
     let parts: Vec<_> = spec
@@ -150,11 +151,7 @@ fn body_operator(
         dirichlet: &held,
     };
     let st = StabilisationSpec {
-        k2: if s_term {
-            case.spec.stabilisation.k2
-        } else {
-            0.0
-        },
+        k2,
         ..case.spec.stabilisation.clone()
     };
     LevelOperator::with_params(grid, cells, ElementOrder::Q1, &params, &st).op

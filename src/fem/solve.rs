@@ -175,7 +175,7 @@ impl<'a> RecoveredLoad<'a> {
             &self.nodes,
             self.stress_rings.get().map(Vec::as_slice),
         )?;
-        let _ = self.stress_rings.set(sigma.rings());
+        self.stress_rings.get_or_init(|| sigma.rings());
         let t = recovered_tractions(&setup.dirichlet, &sigma)?;
         let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
         setup
@@ -188,7 +188,7 @@ impl<'a> RecoveredLoad<'a> {
                 &setup.omega_star,
                 self.displacement_rings.get().map(Vec::as_slice),
             )?;
-            let _ = self.displacement_rings.set(s.rings());
+            self.displacement_rings.get_or_init(|| s.rings());
             let fs = s_rhs(
                 setup,
                 &setup.omega_star,

@@ -10,10 +10,12 @@
 //! inside it, an eighth of the coarse cell or less, so the rediscretised
 //! S-term makes it twice as stiff or more as the fine operator does, and the
 //! coarse correction undershoots on exactly the modes the S-term is there
-//! for. Measured on the bracket of `cases/` at level 7 (CG + multigrid, first
-//! solve): 38 iterations with the rediscretised S-term, 27 with the S-term
-//! off on every level, 30 and 28 with the coarse S-term weakened by 2 and 4
-//! per level, and 49 and 61 with it strengthened the same way.
+//! for. Measured on the bracket of `cases/` (CG + multigrid, first solve):
+//! 17, 17, 23 iterations at levels 5–7 with the rediscretised S-term, 13,
+//! 12, 13 with this one. (Found at level 7 on a grid whose cut-cell rules
+//! had lost boundary points, since fixed: 38 rediscretised, 27 with the
+//! S-term off on every level, 30 and 28 with the coarse S-term weakened by
+//! 2 and 4 per level, 49 and 61 with it strengthened the same way.)
 //!
 //! # What
 //! The coarse functions are trilinear and are reproduced by the prolongation

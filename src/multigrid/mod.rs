@@ -21,7 +21,8 @@
 //! The S-term is the exception: each coarse level takes the Galerkin
 //! product of the solve's S-term ([`galerkin_s`]), not one on its own
 //! pathological cells, which made coarse sliver modes too stiff (the
-//! bracket at level 7: 38 iterations rediscretised, 27 Galerkin).
+//! bracket at levels 5–7: 17, 17, 23 iterations rediscretised, 13, 12, 13
+//! Galerkin).
 //! Galerkin products `Pᵀ A P` of the whole operator on the cut band were not
 //! needed: measured on the sphere (docs/multigrid.md), the rediscretised
 //! Q1 hierarchy keeps the CG iteration count of the first solve at 9–10
