@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the table of docs/outer-iteration.md: every shipped single-body
+# Regenerates the table of docs/outer-iteration.md: every shipped linear-path
 # case at the given levels, solved with the paper's fixed point
 # (outer = "picard") and the outer FGMRES (outer = "fgmres", the default),
 # everything else as the case file says. Needs `cargo build --release`.
@@ -24,7 +24,7 @@ import json, sys
 path, case, level, outer = sys.argv[1:]
 r = json.load(open(path))
 k, fp, t = r["krylov"], r["fixed_point"], r["timings"]
-e = (r.get("error") or {}).get("energy_relative")
+e = (r["bodies"][0].get("error") or {}).get("energy_relative")
 first = k["iterations_per_solve"][0] if outer == "picard" else "–"
 err = f"{e:.10e}" if e is not None else "–"
 status = "" if r["status"] == "ok" else f" ({r['status']})"

@@ -2,13 +2,15 @@
 //! written without solving, so that a part and its boundary parts can be
 //! checked in ParaView before a long run.
 //!
-//! Into the output folder go `cells.vtu` (the grid cells that meet the body,
-//! as hexahedra, with `cell_class` 1 inside / 2 cut and `volume_fraction`),
-//! `boundary.vtp` (the boundary quadrature points with their `tag` id, unit
-//! outward `normal` and `weight`; the ids index `boundary_tags` of the
-//! report) and `report.json` (the geometric part of a run's report: grid,
-//! cell counts, volume and area per boundary part, and for an STL part the
-//! mesh diagnostics). Nothing is written when classifying fails.
+//! Into the output folder go, per body, `cells.vtu` (the grid cells that meet
+//! the body, as hexahedra, with `cell_class` 1 inside / 2 cut and
+//! `volume_fraction`) and `boundary.vtp` (the boundary quadrature points with
+//! their `tag` id, unit outward `normal` and `weight`; the ids index the
+//! body's `boundary_tags` in the report), named `<body>.cells.vtu` and
+//! `<body>.boundary.vtp` when the case has several bodies; and `report.json`
+//! (the geometric part of a run's report: per body its grid, cell counts,
+//! volume and area per boundary part, and for an STL part the mesh
+//! diagnostics). Nothing is written when classifying fails.
 
 use std::path::Path;
 
@@ -16,11 +18,13 @@ use serde::Serialize;
 
 use crate::case::Case;
 use crate::cells::CellKind;
+use crate::cells::Cells;
 use crate::error::{Error, Result};
 use crate::fem::output::body_mesh;
+use crate::grid::Grid;
 use crate::output::write_atomic;
 use crate::progress::Progress;
-use crate::report::Report;
+use crate::report::{BodyReport, Report};
 use crate::vtu::{write_vtp_points, write_vtu, DataArray, VtuEncoding, VtuMesh};
 
 /// `report.json` of the `geometry` command.
@@ -28,34 +32,68 @@ use crate::vtu::{write_vtp_points, write_vtu, DataArray, VtuEncoding, VtuMesh};
 pub struct GeometryReport {
     #[serde(flatten)]
     pub report: Report,
-    /// Tag names by id, as `boundary.vtp`'s `tag` numbers them.
-    pub boundary_tags: Vec<String>,
+    /// Per body, its tag names by id, as its `boundary.vtp`'s `tag`
+    /// numbers them.
+    pub boundary_tags: std::collections::BTreeMap<String, Vec<String>>,
 }
 
-/// Classifies `case` at `level` (default: the case's) and writes the three
-/// files into `dir` (created if needed).
+/// Classifies every body of `case` at `level` (default: the case's) and
+/// writes the files into `dir` (created if needed).
 pub fn write_geometry(
     case: &Case,
     level: Option<u32>,
     dir: &Path,
     progress: &dyn Progress,
 ) -> Result<GeometryReport> {
-    let grid = case.grid(level)?;
-    let cells = case.classify_with_progress(&grid, progress)?;
-    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let order = case.spec.element;
-    let report = GeometryReport {
-        report: Report::geometry(&name, &case.file, order, &case.geometry, &grid, &cells),
-        boundary_tags: case.geometry.tag_names().to_vec(),
+    let grids = case.grids(level)?;
+    let mut classified = Vec::with_capacity(grids.len());
+    for (i, grid) in grids.into_iter().enumerate() {
+        let solid = case.solid(i, &grid)?;
+        let cells = case.classify_body(i, &grid, &solid, progress)?;
+        classified.push((solid, grid, cells));
+    }
+    let mut report = GeometryReport {
+        report: Report::new(case),
+        boundary_tags: Default::default(),
     };
     std::fs::create_dir_all(dir).map_err(|e| Error::Io {
         path: dir.display().to_string(),
         reason: e.to_string(),
     })?;
+    for (body, (solid, grid, cells)) in case.bodies.iter().zip(&classified) {
+        let name = &body.spec.name;
+        report.report.push_body(BodyReport::new(
+            name,
+            body.model,
+            body.spec.element,
+            solid,
+            grid,
+            cells,
+            body.spec.plane_strain,
+        ));
+        report
+            .boundary_tags
+            .insert(name.clone(), solid.tag_names().to_vec());
+        let prefix = match case.bodies.len() {
+            1 => String::new(),
+            _ => format!("{name}."),
+        };
+        write_body_files(dir, &prefix, grid, cells)?;
+    }
+    let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Io {
+        path: dir.join("report.json").display().to_string(),
+        reason: e.to_string(),
+    })?;
+    write_atomic(&dir.join("report.json"), json.as_bytes())?;
+    Ok(report)
+}
+
+/// Writes `<prefix>cells.vtu` and `<prefix>boundary.vtp` of one body.
+fn write_body_files(dir: &Path, prefix: &str, grid: &Grid, cells: &Cells) -> Result<()> {
     let body: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| cells.kinds[c] != CellKind::Outside)
         .collect();
-    let mesh = body_mesh(&grid, crate::element::ElementOrder::Q1, &body);
+    let mesh = body_mesh(grid, crate::element::ElementOrder::Q1, &body);
     let mut fraction = vec![1.0; body.len()];
     for (i, &c) in cells.cut.iter().enumerate() {
         if let Ok(k) = body.binary_search(&c) {
@@ -72,7 +110,7 @@ pub fn write_geometry(
         cells: mesh.cells,
     };
     write_vtu(
-        &dir.join("cells.vtu"),
+        &dir.join(format!("{prefix}cells.vtu")),
         &vtu,
         &[],
         &[
@@ -84,7 +122,7 @@ pub fn write_geometry(
     let points: Vec<[f64; 3]> = cells.surface.iter().map(|p| p.x).collect();
     let normals: Vec<[f64; 3]> = cells.surface.iter().map(|p| p.n).collect();
     write_vtp_points(
-        &dir.join("boundary.vtp"),
+        &dir.join(format!("{prefix}boundary.vtp")),
         &points,
         &[
             DataArray::scalars_i32(
@@ -96,10 +134,5 @@ pub fn write_geometry(
         ],
         VtuEncoding::Binary,
     )?;
-    let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Io {
-        path: dir.join("report.json").display().to_string(),
-        reason: e.to_string(),
-    })?;
-    write_atomic(&dir.join("report.json"), json.as_bytes())?;
-    Ok(report)
+    Ok(())
 }

@@ -3,7 +3,6 @@
 //! report is still written, marked failed), 1 internal error, 130 interrupted
 //! by Ctrl-C (the report is still written, marked interrupted).
 
-mod cli_bodies;
 mod cli_progress;
 mod cli_run;
 
@@ -12,7 +11,6 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
@@ -191,33 +189,30 @@ fn main() -> ExitCode {
 fn geometry(args: &CaseArgs, progress: &Terminal) -> anyhow::Result<()> {
     let (level, out) = (args.level, args.out.clone());
     let case = cgfem_gpu::case::Case::from_file_with(&args.case, &args.set)?;
-    if let Some(mesh) = case.geometry.mesh() {
-        eprintln!(
-            "note: {}: mesh: {}",
-            case.file,
-            mesh.diagnostics().summary()
-        );
-    }
+    cli_run::mesh_notes(&case);
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name).join("geometry"));
     let written = cgfem_gpu::inspect::write_geometry(&case, level, &dir, progress);
     progress.finish();
-    let r = written?.report;
-    println!(
-        "case {name} ({}): level {}, h = {:.4e}, {} inside, {} cut cells ({} merged)",
-        case.file, r.level, r.h, r.cells.inside, r.cells.cut, r.cells.merged
-    );
-    println!(
-        "  volume {:.10e}, boundary area {:.10e}",
-        r.domain.volume, r.domain.boundary_area
-    );
-    for (tag, area) in &r.domain.boundary_area_by_tag {
-        println!("  boundary part '{tag}': area {area:.6e}");
+    let written = written?;
+    for r in &written.report.bodies {
+        println!(
+            "case {name} ({}), body '{}': level {}, h = {:.4e}, {} inside, {} cut cells ({} merged)",
+            case.file, r.name, r.level, r.h, r.cells.inside, r.cells.cut, r.cells.merged
+        );
+        println!(
+            "  volume {:.10e}, boundary area {:.10e}",
+            r.domain.volume, r.domain.boundary_area
+        );
+        for (tag, area) in &r.domain.boundary_area_by_tag {
+            println!("  boundary part '{tag}': area {area:.6e}");
+        }
     }
-    println!(
-        "  wrote {}/cells.vtu, boundary.vtp and report.json",
-        dir.display()
-    );
+    let files = match case.bodies.len() {
+        1 => "cells.vtu, boundary.vtp".to_string(),
+        _ => "<body>.cells.vtu, <body>.boundary.vtp".to_string(),
+    };
+    println!("  wrote {}/{files} and report.json", dir.display());
     Ok(())
 }
 
@@ -244,15 +239,6 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             };
             progress.catch_ctrl_c()?;
             let outputs = Outputs { dir: out, plots };
-            let text = std::fs::read_to_string(&case).unwrap_or_default();
-            if cgfem_gpu::case::bodies::is_bodies_case(&text) {
-                if condition {
-                    println!("note: multi-body cases run without --condition");
-                }
-                return cli_bodies::run_bodies_case(
-                    &case, level, &set, &outputs, &device, progress,
-                );
-            }
             run_case(&case, level, &set, &outputs, condition, &device, progress)
         }
         Command::Geometry { case } => geometry(&case, progress),
@@ -467,7 +453,7 @@ fn reproduce(
         );
     }
     if what == "table2" || what == "all" {
-        let case = BodiesCase::from_str_with("cases/annuli_contact.toml", ANNULI_CASE, &[])?;
+        let case = Case::from_str_with("cases/annuli_contact.toml", ANNULI_CASE, &[])?;
         let solvers: Vec<_> = table2
             .iter()
             .flat_map(|p| [KrylovMethod::Cgs, KrylovMethod::BiCgStab].map(|m| (m, *p)))

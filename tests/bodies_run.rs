@@ -9,7 +9,7 @@ use std::process::{Command, Output};
 use std::sync::Arc;
 
 use cgfem_gpu::bodies::run::run;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::geometry::{Aabb, Geometry};
@@ -47,7 +47,7 @@ rel_tol = 1e-12
 name = "left"
 geometry = { type = "cuboid", min = [0, 0, 0], max = [2, 1, 1] }
 grid = { level = 2 }
-material = { young = 1000.0, poisson = 0.3 }
+material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }
 dirichlet.xmin = { value = ["0", "free", "free"] }
 dirichlet.ymin = { value = ["free", "0", "free"] }
 dirichlet.zmin = { value = ["free", "free", "0"] }
@@ -203,7 +203,7 @@ fn alone(
 
 #[test]
 fn each_body_equals_its_solve_alone() {
-    let case = BodiesCase::from_str_with("two.toml", &case_text("0.5"), &[]).unwrap();
+    let case = Case::from_str_with("two.toml", &case_text("0.5"), &[]).unwrap();
     let outcome = run(&case, Some(2), None, &Silent).unwrap();
     outcome.result.unwrap();
     let lower_half: Region = Arc::new(|x| x[1] <= 0.5);
@@ -334,7 +334,7 @@ name = "slab"
 plane_strain = true
 geometry = { type = "cuboid", min = [0, 0, -1], max = [2, 1, 1] }
 grid = { level = 3 }
-material = { young = 1000.0, poisson = 0.3 }
+material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }
 dirichlet.xmin = { value = ["0", "free", "free"] }
 dirichlet.ymin = { value = ["free", "0", "free"] }
 dirichlet.xmax = { value = ["0.4", "free", "free"] }
@@ -359,7 +359,7 @@ fn plane_strain_lateral_stretch(m: &Material, l1: f64) -> f64 {
 #[test]
 fn a_plane_strain_slab_is_one_cell_thick_with_uz_held() {
     use cgfem_gpu::hyper::residual::point_fields;
-    let case = BodiesCase::from_str_with("slab.toml", SLAB, &[]).unwrap();
+    let case = Case::from_str_with("slab.toml", SLAB, &[]).unwrap();
     for level in [2, 3] {
         let grid = &case.grids(Some(level)).unwrap()[0];
         let h = 2.0 / (1 << level) as f64;

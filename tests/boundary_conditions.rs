@@ -7,7 +7,6 @@
 //! rollers and pressure agree at small strain.
 
 use cgfem_gpu::bodies::run::run;
-use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
@@ -213,7 +212,7 @@ dirichlet.zmin = {{ value = ["free", "free", "0"] }}
 #[test]
 fn a_linear_and_a_neo_hookean_body_agree_at_small_strain() {
     let solve = |model: &str| {
-        let case = BodiesCase::from_str_with("shell.toml", &shell_body(model), &[]).unwrap();
+        let case = Case::from_str_with("shell.toml", &shell_body(model), &[]).unwrap();
         let outcome = run(&case, None, None, &Silent).unwrap();
         outcome.result.unwrap();
         outcome.solution
@@ -252,7 +251,7 @@ dirichlet.xmin = {{ value = ["0", "0", "0"] }}
 
 /// The x-reaction of the clamped face per converged step.
 fn clamp_reactions(text: &str) -> Vec<f64> {
-    let case = BodiesCase::from_str_with("bar.toml", text, &[]).unwrap();
+    let case = Case::from_str_with("bar.toml", text, &[]).unwrap();
     let outcome = run(&case, None, None, &Silent).unwrap();
     outcome.result.unwrap();
     let rows = outcome.report.reactions.iter().filter(|r| r.part == "xmin");

@@ -39,16 +39,12 @@ fn every_case_runs() {
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
         assert_eq!(report["status"], "ok", "{}", path.display());
-        match report["bodies"].as_array() {
-            Some(bodies) => {
-                assert!(out.join("solution.pvd").exists(), "{}", path.display());
-                assert!(bodies.iter().all(|b| b["level"] == 2), "{}", path.display());
-            }
-            None => {
-                for file in ["solution.vtu", "surface.vtp", "solution.pvd"] {
-                    assert!(out.join(file).exists(), "{}: {file}", path.display());
-                }
-                assert_eq!(report["level"], 2, "{}", path.display());
+        let bodies = report["bodies"].as_array().unwrap();
+        assert!(bodies.iter().all(|b| b["level"] == 2), "{}", path.display());
+        assert!(out.join("solution.pvd").exists(), "{}", path.display());
+        if report["path"] == "linear" {
+            for file in ["solution.vtu", "surface.vtp"] {
+                assert!(out.join(file).exists(), "{}: {file}", path.display());
             }
         }
         std::fs::remove_dir_all(&out).unwrap();

@@ -54,16 +54,23 @@ fn a_good_case_writes_its_report() {
     assert_eq!(code, 0, "{err}");
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(report["level"], 3);
-    assert_eq!(report["element"], "q1");
+    assert_eq!(report["bodies"][0]["level"], 3);
+    assert_eq!(report["bodies"][0]["element"], "q1");
     assert_eq!(report["status"], "ok");
     assert_eq!(report["krylov"]["method"], "cg");
     assert!(report["fixed_point"]["converged"].as_bool().unwrap());
-    let e = report["error"]["energy_relative"].as_f64().unwrap();
+    let e = report["bodies"][0]["error"]["energy_relative"]
+        .as_f64()
+        .unwrap();
     assert!(e > 0.05 && e < 0.3, "energy error {e}");
     // The reaction balances the body load: ∫∂Ω λ = −∫Ω b = (10000, −25000, 0) V / 13.
     let v = 4.0 / 3.0 * std::f64::consts::PI;
-    let rx = report["reactions"]["surface"][0].as_f64().unwrap();
+    let row = &report["reactions"][0];
+    assert_eq!(
+        (&row["body"], &row["part"], &row["step"]),
+        (&"body".into(), &"surface".into(), &1.into())
+    );
+    let rx = row["force"][0].as_f64().unwrap();
     assert!(
         (rx - 10000.0 * v / 13.0).abs() < 0.02 * 10000.0 * v / 13.0,
         "reaction {rx}"
@@ -71,9 +78,9 @@ fn a_good_case_writes_its_report() {
     let vtu = std::fs::read_to_string(out.join("solution.vtu")).unwrap();
     assert!(vtu.contains("Name=\"displacement\"") && vtu.contains("Name=\"von_mises\""));
     assert!(vtu.trim_end().ends_with("</VTKFile>"));
-    let v = report["domain"]["volume"].as_f64().unwrap();
+    let v = report["bodies"][0]["domain"]["volume"].as_f64().unwrap();
     assert!((v - 4.0 / 3.0 * std::f64::consts::PI).abs() < 1e-4);
-    let c = &report["cells"];
+    let c = &report["bodies"][0]["cells"];
     let total =
         c["inside"].as_u64().unwrap() + c["cut"].as_u64().unwrap() + c["outside"].as_u64().unwrap();
     assert_eq!(total, 8 * 8 * 8);

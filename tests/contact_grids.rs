@@ -14,7 +14,7 @@
 //! of random offsets (level 4), `CGFEM_CONTACT_SEED=s` their seed (19).
 
 use cgfem_gpu::bodies::run::run;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::progress::Silent;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -23,7 +23,7 @@ const CASE: &str = include_str!("../cases/annuli_contact.toml");
 const OFFSET: &str = "offset = [0.31, 0.17, 0]";
 
 /// The case with body `k`'s grid offset `offsets[k]` (in cells, x and y).
-fn with_offsets(offsets: [[f64; 2]; 2]) -> BodiesCase {
+fn with_offsets(offsets: [[f64; 2]; 2]) -> Case {
     assert_eq!(CASE.matches(OFFSET).count(), 2, "the case's two offsets");
     let mut text = String::new();
     for (k, part) in CASE.split(OFFSET).enumerate() {
@@ -32,31 +32,38 @@ fn with_offsets(offsets: [[f64; 2]; 2]) -> BodiesCase {
             text.push_str(&format!("offset = [{x}, {y}, 0]"));
         }
     }
-    BodiesCase::from_str_with("cases/annuli_contact.toml", &text, &[]).unwrap()
+    Case::from_str_with("cases/annuli_contact.toml", &text, &[]).unwrap()
 }
 
 /// Runs `case` at `level`; asserts it reached the full load with the rings
 /// in contact and returns the Newton iterations of the converged steps and
 /// the number of step cuts.
-fn converges(case: &BodiesCase, level: u32, label: &str) -> (Vec<usize>, usize) {
+fn converges(case: &Case, level: u32, label: &str) -> (Vec<usize>, usize) {
     let out = run(case, Some(level), None, &Silent).unwrap();
     if let Err(e) = &out.result {
         panic!("{label}: {e}");
     }
     let report = &out.report;
-    assert_eq!(report.load_factor, 1.0, "{label}");
+    assert_eq!(report.load.as_ref().unwrap().load_factor, 1.0, "{label}");
     let last = report.contact.last().unwrap();
     assert!(
         last.normal_force > 0.0,
         "{label}: the rings touch at the end"
     );
     let newton = report
-        .load_steps
+        .load_steps()
         .iter()
         .filter(|s| s.converged)
         .map(|s| s.newton.iterations)
         .collect();
-    let failed: Vec<_> = report.load_steps.iter().filter(|s| !s.converged).collect();
+    let failed: Vec<_> = report
+        .load
+        .as_ref()
+        .unwrap()
+        .load_steps
+        .iter()
+        .filter(|s| !s.converged)
+        .collect();
     for s in &failed {
         let residuals = &s.newton.residual_history;
         eprintln!(

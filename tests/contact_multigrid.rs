@@ -5,17 +5,17 @@
 //! with at least 5× fewer accumulated Krylov iterations.
 
 use cgfem_gpu::bodies::run::run;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::progress::Silent;
-use cgfem_gpu::report::BodiesReport;
+use cgfem_gpu::report::Report;
 
 const CASE: &str = include_str!("../cases/annuli_contact.toml");
 
 /// The annuli at level 4 with `preconditioner`: the report and the
 /// accumulated Krylov iterations.
-fn annuli(preconditioner: &str) -> (BodiesReport, usize) {
+fn annuli(preconditioner: &str) -> (Report, usize) {
     let set = [format!("solver.preconditioner=\"{preconditioner}\"")];
-    let case = BodiesCase::from_str_with("cases/annuli_contact.toml", CASE, &set).unwrap();
+    let case = Case::from_str_with("cases/annuli_contact.toml", CASE, &set).unwrap();
     let out = run(&case, Some(4), None, &Silent).unwrap();
     if let Err(e) = &out.result {
         panic!("{preconditioner}: {e}");
@@ -57,9 +57,8 @@ fn multigrid_gives_jacobis_answer_with_5x_fewer_iterations() {
             );
         }
     }
-    let newton = |r: &BodiesReport| -> Vec<usize> {
-        r.load_steps.iter().map(|s| s.newton.iterations).collect()
-    };
+    let newton =
+        |r: &Report| -> Vec<usize> { r.load_steps().iter().map(|s| s.newton.iterations).collect() };
     assert_eq!(newton(&jacobi), newton(&multigrid));
     assert!(
         5 * multigrid_its <= jacobi_its,

@@ -6,13 +6,13 @@
 use std::path::Path;
 
 use cgfem_gpu::bodies::run::{run, RunOutcome};
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::hyper::newton::NonlinearProblem;
 use cgfem_gpu::progress::Silent;
 
 fn annuli_at_level_3() -> RunOutcome {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/annuli_contact.toml");
-    let case = BodiesCase::from_file_with(&file, &[]).unwrap();
+    let case = Case::from_file_with(&file, &[]).unwrap();
     run(&case, Some(3), None, &Silent).unwrap()
 }
 
@@ -25,12 +25,12 @@ fn the_annuli_converge_quadratically_and_their_tangent_is_exact() {
     let out = annuli_at_level_3();
     out.result.as_ref().unwrap();
     let report = &out.report;
-    assert_eq!(report.converged_steps, 5);
+    assert_eq!(report.load.as_ref().unwrap().converged_steps, 5);
     // Every step converged at the first attempt, and its last corrections
     // shrink quadratically: δ_n ≤ C δ_{n−1}² with a modest C, and an
     // estimated order close to 2 (measured: q = 1.77–1.99, C = 65–99).
-    assert_eq!(report.load_steps.len(), 5);
-    for row in &report.load_steps {
+    assert_eq!(report.load.as_ref().unwrap().load_steps.len(), 5);
+    for row in &report.load.as_ref().unwrap().load_steps {
         assert!(row.converged && row.cuts == 0, "step {}", row.step);
         let newton = &row.newton;
         let (q, c) = (newton.convergence_order, newton.quadratic_constant);

@@ -51,10 +51,12 @@ fn the_stabilised_method_is_the_default_and_k2_zero_switches_it_off() {
     assert_eq!(code, 0, "{err}");
     assert_eq!(r["stabilisation"]["k2"], 0.01);
     assert_eq!(r["stabilisation"]["A"], 0.05);
-    let pathological = r["cells"]["pathological"].as_u64().unwrap();
+    let pathological = r["bodies"][0]["cells"]["pathological"].as_u64().unwrap();
     assert!(pathological > 0, "no cell below 5% at level 3");
     assert_eq!(r["krylov"]["floored_diagonal_entries"], 0);
-    let e = r["interpolant_error"]["energy_relative"].as_f64().unwrap();
+    let e = r["bodies"][0]["interpolant_error"]["energy_relative"]
+        .as_f64()
+        .unwrap();
     assert!(e > 0.0 && e.is_finite());
     assert!(r.get("interpolant_error_note").is_none());
     // Without the S-term: the same Ω* is counted, k2 = 0 is reported.
@@ -65,7 +67,10 @@ fn the_stabilised_method_is_the_default_and_k2_zero_switches_it_off() {
     );
     assert_eq!(code, 0, "{err}");
     assert_eq!(r["stabilisation"]["k2"], 0.0);
-    assert_eq!(r["cells"]["pathological"].as_u64().unwrap(), pathological);
+    assert_eq!(
+        r["bodies"][0]["cells"]["pathological"].as_u64().unwrap(),
+        pathological
+    );
     // Q2: A = 20%.
     let (code, _, err, r) = run(
         "q2",
@@ -186,16 +191,16 @@ fn the_interpolant_error_is_null_where_the_exact_field_is_singular() {
     ] {
         let (code, out, err, r) = run(name, &shell(center, bx), &[]);
         assert_eq!(code, 0, "{name}: {err}");
-        let report = r.as_object().unwrap();
-        assert!(report.contains_key("interpolant_error"), "{name}");
-        assert!(r["interpolant_error"].is_null(), "{name}: {r}");
-        let note = r["interpolant_error_note"].as_str().unwrap();
+        let body = r["bodies"][0].as_object().unwrap();
+        assert!(body.contains_key("interpolant_error"), "{name}");
+        assert!(r["bodies"][0]["interpolant_error"].is_null(), "{name}: {r}");
+        let note = r["bodies"][0]["interpolant_error_note"].as_str().unwrap();
         assert!(
             note.contains("singular at the active node"),
             "{name}: {note}"
         );
         // The solution's own error is measured on the body: finite.
-        let e = r["error"]["energy_relative"].as_f64().unwrap();
+        let e = r["bodies"][0]["error"]["energy_relative"].as_f64().unwrap();
         assert!(e.is_finite() && e > 0.0, "{name}: {e}");
         // No number for the interpolant in the summary, the reason instead.
         assert!(!out.contains("; interpolant "), "{name}: {out}");

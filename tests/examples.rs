@@ -93,6 +93,13 @@ fn num(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }
 
+/// The force of the reaction row of boundary part `part`.
+fn reaction<'a>(r: &'a Value, part: &str) -> &'a Value {
+    let rows = r["reactions"].as_array().unwrap();
+    let row = rows.iter().find(|row| row["part"] == part);
+    &row.unwrap_or_else(|| panic!("no reaction on '{part}': {rows:?}"))["force"]
+}
+
 fn vec3(v: &Value) -> [f64; 3] {
     [0, 1, 2].map(|i| num(&v[i]))
 }
@@ -102,8 +109,8 @@ fn rates(name: &str, levels: &[u32]) -> (Vec<f64>, Vec<f64>) {
     let mut errors = Vec::new();
     for &l in levels {
         let r = run(name, l);
-        let e = num(&r["error"]["energy_relative"]);
-        let ei = num(&r["interpolant_error"]["energy_relative"]);
+        let e = num(&r["bodies"][0]["error"]["energy_relative"]);
+        let ei = num(&r["bodies"][0]["interpolant_error"]["energy_relative"]);
         // The solution is about as good as the nodal interpolant.
         assert!(
             e < 1.1 * ei,
@@ -121,16 +128,16 @@ fn bracket_reactions_balance_the_load() {
     let r = run("bracket", 4);
     // Traction (10, 0, 0) MPa on the 10 mm × 40 mm top face of the upright;
     // no body load: the bolts must take −∫ t dA = (−4000, 0, 0) N.
-    let area = num(&r["domain"]["boundary_area_by_tag"]["load"]);
+    let area = num(&r["bodies"][0]["domain"]["boundary_area_by_tag"]["load"]);
     assert!((area - 400.0).abs() < 1e-6 * 400.0, "load face area {area}");
     let applied = 10.0 * area;
-    let reaction = vec3(&r["reactions"]["bolt_holes"]);
+    let reaction = vec3(reaction(&r, "bolt_holes"));
     assert!(
         (reaction[0] + applied).abs() < 1e-5 * applied,
         "reaction {reaction:?} against the applied {applied}"
     );
     assert!(reaction[1].abs() < 1e-5 * applied && reaction[2].abs() < 1e-5 * applied);
-    assert!(num(&r["cells"]["cut"]) > 0.0);
+    assert!(num(&r["bodies"][0]["cells"]["cut"]) > 0.0);
 }
 
 /// The STL examples: the part's volume and area by the cut-cell rules equal
@@ -143,8 +150,14 @@ fn stl_parts_measure_exactly_and_balance_their_loads() {
         ("plate_holes", 5, "pulled", [0.0, 50.0, 0.0], "bolted"),
     ] {
         let r = run(name, level);
-        let (vol, mesh_vol) = (num(&r["domain"]["volume"]), num(&r["mesh"]["volume"]));
-        let (area, mesh_area) = (num(&r["domain"]["boundary_area"]), num(&r["mesh"]["area"]));
+        let (vol, mesh_vol) = (
+            num(&r["bodies"][0]["domain"]["volume"]),
+            num(&r["bodies"][0]["mesh"]["volume"]),
+        );
+        let (area, mesh_area) = (
+            num(&r["bodies"][0]["domain"]["boundary_area"]),
+            num(&r["bodies"][0]["mesh"]["area"]),
+        );
         assert!(
             (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
             "{name}: volume {vol} vs {mesh_vol}"
@@ -153,8 +166,8 @@ fn stl_parts_measure_exactly_and_balance_their_loads() {
             (area - mesh_area).abs() < 1e-12 * mesh_area,
             "{name}: area {area} vs {mesh_area}"
         );
-        let a = num(&r["domain"]["boundary_area_by_tag"][loaded]);
-        let reaction = vec3(&r["reactions"][clamped]);
+        let a = num(&r["bodies"][0]["domain"]["boundary_area_by_tag"][loaded]);
+        let reaction = vec3(reaction(&r, clamped));
         let applied = t.map(|c| c * a);
         let scale = applied.iter().map(|c| c * c).sum::<f64>().sqrt();
         for i in 0..3 {
@@ -181,7 +194,7 @@ fn shell_octant_with_rollers_converges_to_lame() {
     let r = run("shell_pressure", 3);
     let load = 100.0 * std::f64::consts::PI * 0.25 / 4.0;
     for (axis, tag) in ["xmin", "ymin", "zmin"].iter().enumerate() {
-        let reaction = vec3(&r["reactions"][tag]);
+        let reaction = vec3(reaction(&r, tag));
         assert!(
             (reaction[axis] + load).abs() < 1e-2 * load,
             "{tag}: reaction {reaction:?} against {load}"

@@ -171,7 +171,7 @@ fn defects(element: &str, name: &str, geometry: &str, level: u32, seed: u64) -> 
                     continue;
                 }
                 let sign = if side == 1 { 1.0 } else { -1.0 };
-                for pt in face_rule(&case.geometry, grid, c, axis, side, q) {
+                for pt in face_rule(&case.body().geometry, grid, c, axis, side, q) {
                     let (val, _) = v_at(pt.x);
                     let t = tau(xi(pt.x));
                     faces += sign * pt.w * (0..3).map(|a| val[a] * t[a][axis]).sum::<f64>();

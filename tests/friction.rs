@@ -14,7 +14,7 @@
 //! The Cattaneo–Mindlin partial slip of a sphere is in `tests/mindlin.rs`.
 
 use cgfem_gpu::bodies::run::run;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::progress::Silent;
 
 const MU: f64 = 0.3;
@@ -31,10 +31,10 @@ struct Step {
 
 fn steps() -> Vec<Step> {
     let text = include_str!("../cases/friction_block.toml");
-    let case = BodiesCase::from_str_with("cases/friction_block.toml", text, &[]).unwrap();
+    let case = Case::from_str_with("cases/friction_block.toml", text, &[]).unwrap();
     let out = run(&case, None, None, &Silent).unwrap();
     out.result.as_ref().unwrap();
-    assert_eq!(out.report.converged_steps, 16);
+    assert_eq!(out.report.load.as_ref().unwrap().converged_steps, 16);
     out.report
         .contact
         .iter()

@@ -5,7 +5,7 @@
 //! passes, unless `CI=true`.
 
 use cgfem_gpu::bodies::run::run_on;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
 use cgfem_gpu::progress::Silent;
 
@@ -25,7 +25,7 @@ rel_tol = 1e-12
 name = "left"
 geometry = { type = "cuboid", min = [0.05, 0.05, 0.05], max = [1.95, 0.95, 0.95] }
 grid = { level = 3, box_min = [0, 0, 0], box_max = [2, 1, 1] }
-material = { young = 1000.0, poisson = 0.3 }
+material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }
 dirichlet.xmin = { value = ["0", "0", "0"] }
 dirichlet.xmax = { value = ["0.4", "0.1", "free"] }
 [[body]]
@@ -41,7 +41,7 @@ fn inside_cell_tangents_on_the_device_give_the_cpu_solution() {
     let Some(ctx) = context_or_skip(PrecisionChoice::F64) else {
         return;
     };
-    let case = BodiesCase::from_str_with("two_boxes_gpu.toml", TWO, &[]).unwrap();
+    let case = Case::from_str_with("two_boxes_gpu.toml", TWO, &[]).unwrap();
     let cpu = run_on(&case, None, None, None, &Silent).unwrap();
     let gpu = run_on(&case, None, None, Some(ctx), &Silent).unwrap();
     cpu.result.unwrap();

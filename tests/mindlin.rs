@@ -10,7 +10,7 @@
 //! `CGFEM_MINDLIN_LEVEL=4` runs the case's own level (about 5 minutes).
 
 use cgfem_gpu::bodies::run::run;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::progress::Silent;
 
 const MU: f64 = 0.3;
@@ -24,10 +24,10 @@ fn radius(half_area: f64) -> f64 {
 fn the_stick_radius_follows_mindlin() {
     let level = std::env::var("CGFEM_MINDLIN_LEVEL").map_or(3, |l| l.parse().unwrap());
     let text = include_str!("../cases/mindlin.toml");
-    let case = BodiesCase::from_str_with("cases/mindlin.toml", text, &[]).unwrap();
+    let case = Case::from_str_with("cases/mindlin.toml", text, &[]).unwrap();
     let out = run(&case, Some(level), None, &Silent).unwrap();
     out.result.as_ref().unwrap();
-    assert_eq!(out.report.converged_steps, 10);
+    assert_eq!(out.report.load.as_ref().unwrap().converged_steps, 10);
     let rows = &out.report.contact;
     // Pressed (load factors up to 0.3, steps 1–3), then sheared.
     let pressed = rows[2].normal_force;

@@ -146,7 +146,7 @@ fn q2_solution_vtu_has_triquadratic_hexahedra() {
     let exact = setup.problem.exact.as_ref().unwrap();
     let u = interpolate(&setup.grid, &setup.op.dofs, exact);
     let path = std::env::temp_dir().join(format!("cgfem-q2-{}.vtu", std::process::id()));
-    write_solution(&setup, &case.geometry, &u, &path).unwrap();
+    write_solution(&setup, &case.body().geometry, &u, &path).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     std::fs::remove_file(&path).unwrap();
     let attr = |name: &str| -> usize {

@@ -288,7 +288,7 @@ fn the_level_7_bracket_keeps_every_boundary_part() {
     let case = cgfem_gpu::case::Case::from_file_with(&path, &[]).unwrap();
     let grid = case.grid(Some(7)).unwrap();
     let cells = case.classify(&grid).unwrap();
-    let g = &case.geometry;
+    let g = &case.body().geometry;
     let area = |name: &str| -> f64 {
         let tag = g.tag_id(name).unwrap();
         (0..cells.cut.len())

@@ -3,32 +3,31 @@
 //! The parser's keys come from the parser itself: every spec struct of
 //! `src/case` is `#[serde(deny_unknown_fields)]`, so a table with an unknown
 //! key is refused with "unknown field `zz`, expected one of `a`, `b`, ...".
-//! Starting from a minimal valid case (single-body and `[[body]]`), the test
-//! inserts an unknown key into each table and nested table, and reads the
-//! accepted names from the error; an unknown geometry `type` lists the node
-//! types the same way.
+//! Starting from a minimal valid case (the one-body shorthand and
+//! `[[body]]`), the test inserts an unknown key into each table and nested
+//! table, and reads the accepted names from the error; an unknown geometry
+//! `type` lists the node types the same way.
 //!
 //! The README's reference tables follow one convention, read by
 //! [`readme_keys`]: each table comes after a marker line
 //! `<!-- reference: SCOPE -->`, and each row names one key in backticks in its
 //! first cell (`` | `grid.level` | ... ``). In the `geometry` scope the first
 //! cell is a node `type` and the second lists its keys in backticks.
-//! Names: dotted paths from the case's top level, `<tag>` for a boundary tag,
-//! no index for an array of tables (`body.material.young`,
-//! `contact.penalty`); a key holding a table of its own is documented by its
-//! leaves only. A nested table added to a spec shows up here as one key (its
+//! Names: dotted paths from the case's top level (`case` scope) or from the
+//! body's table (`body` scope), `<tag>` for a boundary tag, no index for an
+//! array of tables (`contact.penalty`, `material.young`); a key holding a
+//! table of its own is documented by its leaves only. A nested table added to a spec shows up here as one key (its
 //! name) until a probe for it is added below, which then lists its leaves.
 
 use std::collections::BTreeSet;
 
-use cgfem_gpu::case::bodies::BodiesCase;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::Error;
 
 /// The key inserted into every table: no spec accepts it.
 const UNKNOWN: &str = "zz_not_a_key";
 
-/// A minimal valid single-body case.
+/// A minimal valid one-body case in the shorthand.
 const SINGLE: &str = r#"
 [geometry]
 type = "cuboid"
@@ -78,22 +77,6 @@ young = 1.0
 poisson = 0.3
 "#;
 
-/// Which parser reads a probe.
-#[derive(Clone, Copy)]
-enum Parser {
-    Single,
-    Bodies,
-}
-
-impl Parser {
-    fn parse(self, text: &str) -> Result<(), Error> {
-        match self {
-            Parser::Single => Case::from_str("probe.toml", text).map(|_| ()),
-            Parser::Bodies => BodiesCase::from_str_with("probe.toml", text, &[]).map(|_| ()),
-        }
-    }
-}
-
 /// The table at `path` (dot-separated; a number indexes an array), created
 /// where missing.
 fn table_at<'a>(root: &'a mut toml::Table, path: &str) -> &'a mut toml::Table {
@@ -136,18 +119,12 @@ fn expected_names(reason: &str) -> Vec<String> {
 /// What the parser says of `base` with `key = value` inserted into the table
 /// at `path`: the names it lists after "unknown field/variant `key`", or the
 /// error it gave instead.
-fn listed(
-    parser: Parser,
-    base: &str,
-    path: &str,
-    key: &str,
-    value: toml::Value,
-) -> Result<Vec<String>, String> {
+fn listed(base: &str, path: &str, key: &str, value: toml::Value) -> Result<Vec<String>, String> {
     let mut root: toml::Table = base.parse().expect("the probe's base case is TOML");
     table_at(&mut root, path).insert(key.to_string(), value);
     let text = toml::to_string(&root).expect("serialises");
-    match parser.parse(&text) {
-        Ok(()) => Err(format!("accepted:\n{text}")),
+    match Case::from_str("probe.toml", &text) {
+        Ok(_) => Err(format!("accepted:\n{text}")),
         Err(Error::CaseFile { reason, .. })
             if reason.starts_with(&format!("unknown field `{UNKNOWN}`"))
                 || reason.starts_with(&format!("unknown variant `{UNKNOWN}`")) =>
@@ -162,22 +139,26 @@ fn listed(
 /// in the base case (`path`).
 struct Probe {
     canon: &'static str,
-    path: &'static str,
+    path: String,
     base: &'static str,
 }
 
-const fn probe(canon: &'static str, path: &'static str, base: &'static str) -> Probe {
-    Probe { canon, path, base }
+fn probe(canon: &'static str, path: impl Into<String>, base: &'static str) -> Probe {
+    Probe {
+        canon,
+        path: path.into(),
+        base,
+    }
 }
 
-/// The keys one parser accepts, by probing `probes`: `canon.field` for every
+/// The keys the parser accepts, by probing `probes`: `canon.field` for every
 /// field listed, less the keys whose tables are probed themselves.
-fn parser_keys(parser: Parser, probes: &[Probe]) -> BTreeSet<String> {
+fn parser_keys(probes: &[Probe]) -> BTreeSet<String> {
     let mut keys = BTreeSet::new();
     let mut probed = Vec::new();
     for p in probes {
         let value = toml::Value::Integer(1);
-        match listed(parser, p.base, p.path, UNKNOWN, value) {
+        match listed(p.base, &p.path, UNKNOWN, value) {
             Ok(names) => {
                 assert!(
                     !names.is_empty() || p.canon.is_empty(),
@@ -206,24 +187,8 @@ fn parser_keys(parser: Parser, probes: &[Probe]) -> BTreeSet<String> {
     keys
 }
 
-fn single_body_keys() -> BTreeSet<String> {
-    let probes = [
-        probe("", "", SINGLE),
-        probe("grid", "grid", SINGLE),
-        probe("quadrature", "quadrature", SINGLE),
-        probe("material", "material", SINGLE),
-        probe("exact", "exact", SINGLE),
-        probe("body_load", "body_load", SINGLE),
-        probe("dirichlet.<tag>", "dirichlet.xmin", SINGLE),
-        probe("dirichlet.<tag>.region", "dirichlet.xmin.region", SINGLE),
-        probe("neumann.<tag>", "neumann.xmax", SINGLE),
-        probe("stabilisation", "stabilisation", SINGLE),
-        probe("solver", "solver", SINGLE),
-    ];
-    parser_keys(Parser::Single, &probes)
-}
-
-fn multi_body_keys() -> BTreeSet<String> {
+/// The keys of the whole run (the top level less the bodies).
+fn case_keys() -> BTreeSet<String> {
     let probes = [
         probe("", "", BODIES),
         probe("load", "load", BODIES),
@@ -231,18 +196,33 @@ fn multi_body_keys() -> BTreeSet<String> {
         probe("solver", "solver", BODIES),
         probe("stabilisation", "stabilisation", BODIES),
         probe("body", "body.0", BODIES),
-        probe("body.grid", "body.0.grid", BODIES),
-        probe("body.material", "body.0.material", BODIES),
-        probe("body.dirichlet.<tag>", "body.0.dirichlet.zmin", BODIES),
-        probe(
-            "body.dirichlet.<tag>.region",
-            "body.0.dirichlet.zmin.region",
-            BODIES,
-        ),
-        probe("body.neumann.<tag>", "body.1.neumann.zmax", BODIES),
         probe("contact", "contact.0", BODIES),
     ];
-    parser_keys(Parser::Bodies, &probes)
+    let mut keys = parser_keys(&probes);
+    keys.retain(|k| !k.starts_with("body"));
+    keys
+}
+
+/// The keys of a body, probed in `base` at `body` (the path of the body's
+/// table: `body.0` under `[[body]]`, the top level in the shorthand).
+fn body_keys(base: &'static str, body: &str) -> BTreeSet<String> {
+    let at = |t: &str| match (body, t) {
+        ("", t) => t.to_string(),
+        (b, "") => b.to_string(),
+        (b, t) => format!("{b}.{t}"),
+    };
+    let probes = [
+        probe("", at(""), base),
+        probe("grid", at("grid"), base),
+        probe("quadrature", at("quadrature"), base),
+        probe("material", at("material"), base),
+        probe("exact", at("exact"), base),
+        probe("body_load", at("body_load"), base),
+        probe("dirichlet.<tag>", at("dirichlet.zmin"), base),
+        probe("dirichlet.<tag>.region", at("dirichlet.zmin.region"), base),
+        probe("neumann.<tag>", at("neumann.xmax"), base),
+    ];
+    parser_keys(&probes)
 }
 
 fn stl_part_keys() -> BTreeSet<String> {
@@ -252,26 +232,20 @@ fn stl_part_keys() -> BTreeSet<String> {
         probe("plane", "geometry.parts.0.plane", STL),
         probe("normal", "geometry.parts.0.normal", STL),
     ];
-    parser_keys(Parser::Single, &probes)
+    parser_keys(&probes)
 }
 
 /// Geometry nodes: `type:T` for every node type, `T.key` for its keys.
 fn geometry_keys() -> BTreeSet<String> {
     let unknown = toml::Value::String(UNKNOWN.into());
-    let types = listed(Parser::Single, SINGLE, "geometry", "type", unknown)
+    let types = listed(SINGLE, "geometry", "type", unknown)
         .expect("an unknown geometry type lists the types");
     assert!(types.len() > 5, "geometry types: {types:?}");
     let mut keys = BTreeSet::new();
     for t in types {
         let base = format!("[geometry]\ntype = \"{t}\"\n[material]\nyoung = 1.0\npoisson = 0.3\n");
-        let fields = listed(
-            Parser::Single,
-            &base,
-            "geometry",
-            UNKNOWN,
-            toml::Value::Integer(1),
-        )
-        .unwrap_or_else(|e| panic!("geometry type {t}: {e}"));
+        let fields = listed(&base, "geometry", UNKNOWN, toml::Value::Integer(1))
+            .unwrap_or_else(|e| panic!("geometry type {t}: {e}"));
         for f in fields {
             keys.insert(format!("{t}.{f}"));
         }
@@ -329,8 +303,8 @@ fn readme_reference_lists_every_key_the_parser_accepts() {
     let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md"))
         .expect("README.md");
     let scopes = [
-        ("single-body", single_body_keys()),
-        ("multi-body", multi_body_keys()),
+        ("case", case_keys()),
+        ("body", body_keys(BODIES, "body.0")),
         ("geometry", geometry_keys()),
         ("stl-parts", stl_part_keys()),
     ];
@@ -366,18 +340,16 @@ fn readme_reference_lists_every_key_the_parser_accepts() {
 /// is not among them, and one it has is.
 #[test]
 fn the_probe_reads_the_parser() {
-    let single = single_body_keys();
-    assert!(single.contains("grid.level"), "{single:?}");
-    assert!(single.contains("stabilisation.A"), "{single:?}");
-    assert!(single.contains("geometry"), "{single:?}");
-    assert!(!single.contains("grid"), "{single:?}");
-    assert!(!single.contains(&format!("grid.{UNKNOWN}")));
-    let bodies = multi_body_keys();
-    assert!(
-        bodies.contains("body.dirichlet.<tag>.region.min"),
-        "{bodies:?}"
-    );
-    assert!(bodies.contains("contact.recovered_traction"), "{bodies:?}");
+    let case = case_keys();
+    assert!(case.contains("stabilisation.A"), "{case:?}");
+    assert!(case.contains("contact.recovered_traction"), "{case:?}");
+    assert!(case.contains("name") && !case.contains("body"), "{case:?}");
+    let body = body_keys(BODIES, "body.0");
+    assert!(body.contains("grid.level"), "{body:?}");
+    assert!(body.contains("geometry"), "{body:?}");
+    assert!(body.contains("dirichlet.<tag>.region.min"), "{body:?}");
+    assert!(!body.contains("grid"), "{body:?}");
+    assert!(!body.contains(&format!("grid.{UNKNOWN}")));
     let geometry = geometry_keys();
     assert!(geometry.contains("type:sphere") && geometry.contains("sphere.radius"));
     assert!(geometry.contains("stl.parts"), "{geometry:?}");
@@ -392,6 +364,13 @@ fn the_probe_reads_the_parser() {
     );
     assert_eq!(expected_names("unknown field `q`, expected `a`"), ["a"]);
     assert!(expected_names("unknown field `q`, there are no fields").is_empty());
+}
+
+/// The shorthand is one body: its top level accepts the body's keys, the
+/// same as a `[[body]]` table (one parser for both).
+#[test]
+fn the_shorthand_accepts_the_body_keys() {
+    assert_eq!(body_keys(SINGLE, ""), body_keys(BODIES, "body.0"));
 }
 
 /// The README reader finds rows after a marker and nothing else.

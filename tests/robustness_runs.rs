@@ -366,7 +366,7 @@ fn run(p: &Placement) -> Result<Outcome, String> {
             let tag = clamped_tag(p.part);
             let mut reaction = [0.0; 3];
             for (q, r) in setup.dirichlet.iter().zip(&sol.reactions) {
-                if case.geometry.tag_name(q.tag) == tag {
+                if case.body().geometry.tag_name(q.tag) == tag {
                     for i in 0..3 {
                         reaction[i] += q.w * r[i];
                     }

@@ -62,7 +62,7 @@ fn s_reproduces_the_exact_field(file: &str, overrides: &[String], level: u32, po
         let lo = setup.grid.cell_box(c).lo;
         for (xi, _) in tensor_gauss_rule(points) {
             let x = [0, 1, 2].map(|a| lo[a] + setup.grid.h * xi[a]);
-            if case.geometry.inside(x) {
+            if case.body().geometry.inside(x) {
                 inside += 1;
             } else {
                 outside += 1;

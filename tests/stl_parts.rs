@@ -99,8 +99,8 @@ fn an_stl_sphere_converges_like_the_analytic_one() {
 /// The cut cells' volume equals the mesh's signed-volume sum to 1e-12.
 fn assert_volume_is_the_meshs(r: &Value) {
     let (vol, mesh_vol) = (
-        r["domain"]["volume"].as_f64().unwrap(),
-        r["mesh"]["volume"].as_f64().unwrap(),
+        r["bodies"][0]["domain"]["volume"].as_f64().unwrap(),
+        r["bodies"][0]["mesh"]["volume"].as_f64().unwrap(),
     );
     assert!(
         (vol - mesh_vol).abs() < 1e-12 * mesh_vol,
@@ -148,7 +148,7 @@ fn imperfect_meshes_solve_and_say_what_is_wrong() {
     // T-junctions: open edges by vertex matching, but a closed surface, so
     // the rules still measure the mesh's own volume.
     let r = run_part(&parts.join("featuretype.stl"), &dir.join("featuretype"));
-    assert_eq!(r["mesh"]["open_edges"], 576);
+    assert_eq!(r["bodies"][0]["mesh"]["open_edges"], 576);
     assert_volume_is_the_meshs(&r);
     // A hole punched in a closed mesh (one facet of the plate removed): it
     // solves; the gap is reported and changes the volume by the sliver of
@@ -161,11 +161,11 @@ fn imperfect_meshes_solve_and_say_what_is_wrong() {
     let holed = dir.join("holed.stl");
     write_binary_stl(&holed, &tris).unwrap();
     let r = run_part(&holed, &dir.join("holed"));
-    assert_eq!(r["mesh"]["open_edges"], 3);
+    assert_eq!(r["bodies"][0]["mesh"]["open_edges"], 3);
     assert_eq!(r["status"], "ok");
     println!(
         "holed plate: volume {} against the closed mesh's 767362.11, area {}",
-        r["domain"]["volume"], r["domain"]["boundary_area"]
+        r["bodies"][0]["domain"]["volume"], r["bodies"][0]["domain"]["boundary_area"]
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -231,7 +231,11 @@ fn boundary_parts_from_solid_names_files_and_selectors() {
         "[grid]\nlevel = 3\noffset = [0.3, 0.3, 0.3]\n[material]\nyoung = 1.0\npoisson = 0.3\n";
     // The file's corners are ±20 only to single precision (19.999998, …), so
     // the faces' areas are 1600 to about 1e-3.
-    let area = |r: &Value, tag: &str| r["domain"]["boundary_area_by_tag"][tag].as_f64().unwrap();
+    let area = |r: &Value, tag: &str| {
+        r["bodies"][0]["domain"]["boundary_area_by_tag"][tag]
+            .as_f64()
+            .unwrap()
+    };
     // One ASCII file with two named solids: the names are the parts.
     std::fs::write(
         dir.join("named.stl"),
@@ -243,7 +247,7 @@ fn boundary_parts_from_solid_names_files_and_selectors() {
         &format!("[geometry]\ntype = \"stl\"\npath = \"named.stl\"\n{grid}"),
     );
     assert_eq!(
-        r["boundary_tags"],
+        r["boundary_tags"]["body"],
         serde_json::json!(["surface", "base", "walls"])
     );
     // The facets facing −z: the 40 × 40 bottom (the notch is in the +x +y +z octant).

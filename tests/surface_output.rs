@@ -162,7 +162,7 @@ fn sphere_area_converges_like_h_squared() {
     for level in [3, 4] {
         let out = dir.join(format!("level{level}"));
         let report = run(&case, &out, &["--level", &level.to_string(), "--plots"]);
-        let h = report["h"].as_f64().unwrap();
+        let h = report["bodies"][0]["h"].as_f64().unwrap();
         let (points, triangles, _) = surface(&out.join("surface.vtp"));
         // deformed.svg: one filled polygon per triangle.
         let svg = std::fs::read_to_string(out.join("deformed.svg")).unwrap();
@@ -299,7 +299,7 @@ fn surface_displacement_is_the_fe_solution_there() {
             .join(file);
         let out = dir.join(file);
         let report = run(&case, &out, &["--level", &level.to_string()]);
-        let h = report["h"].as_f64().unwrap();
+        let h = report["bodies"][0]["h"].as_f64().unwrap();
         let (checked, skipped) =
             check_displacement(&out.join("solution.vtu"), &out.join("surface.vtp"), p, h);
         println!("{file}: {checked} points checked, {skipped} in no active cell");
@@ -323,7 +323,7 @@ fn stl_surface_is_the_mesh_with_the_fe_solution() {
     let out = dir.join("out");
     let report = run(&case, &out, &["--level", "4"]);
     let (points, triangles, s) = surface(&out.join("surface.vtp"));
-    let mesh_area = report["mesh"]["area"].as_f64().unwrap();
+    let mesh_area = report["bodies"][0]["mesh"]["area"].as_f64().unwrap();
     let written = area(&points, &triangles);
     assert!(
         (written - mesh_area).abs() <= 1e-12 * mesh_area,
@@ -332,7 +332,7 @@ fn stl_surface_is_the_mesh_with_the_fe_solution() {
     // "surface", "bolted" and "pulled".
     let tags: HashSet<i64> = s["tag"].iter().map(|&t| t as i64).collect();
     assert_eq!(tags.len(), 3, "{tags:?}");
-    let h = report["h"].as_f64().unwrap();
+    let h = report["bodies"][0]["h"].as_f64().unwrap();
     let (checked, skipped) =
         check_displacement(&out.join("solution.vtu"), &out.join("surface.vtp"), 1, h);
     println!("plate_holes: {checked} points checked, {skipped} in no active cell");
@@ -357,8 +357,7 @@ fn bracket_tags_have_the_reported_areas() {
     let out = dir.join("out");
     let report = run(&case, &out, &["--level", "3"]);
     let (points, triangles, s) = surface(&out.join("surface.vtp"));
-    let names = cgfem_gpu::case::Case::from_file(&case)
-        .unwrap()
+    let names = cgfem_gpu::case::Case::from_file(&case).unwrap().bodies[0]
         .geometry
         .tag_names()
         .to_vec();
@@ -367,7 +366,7 @@ fn bracket_tags_have_the_reported_areas() {
         by_tag[tag as usize] += area(&points, std::slice::from_ref(t));
     }
     for (name, a) in names.iter().zip(&by_tag) {
-        let expected = report["domain"]["boundary_area_by_tag"][name]
+        let expected = report["bodies"][0]["domain"]["boundary_area_by_tag"][name]
             .as_f64()
             .unwrap();
         println!("{name}: {a:.2} (report {expected:.2})");
@@ -377,7 +376,9 @@ fn bracket_tags_have_the_reported_areas() {
         );
     }
     let total: f64 = by_tag.iter().sum();
-    let expected = report["domain"]["boundary_area"].as_f64().unwrap();
+    let expected = report["bodies"][0]["domain"]["boundary_area"]
+        .as_f64()
+        .unwrap();
     assert!(
         (total - expected).abs() < 0.01 * expected,
         "{total} vs {expected}"
@@ -448,7 +449,9 @@ traction = "exact"
     }
     // Every vertex on the body's boundary, rims included (clipped there, not
     // ragged): φ = 0 to round-off.
-    let geometry = cgfem_gpu::case::Case::from_file(&case).unwrap().geometry;
+    let geometry = cgfem_gpu::case::Case::from_file(&case).unwrap().bodies[0]
+        .geometry
+        .clone();
     let off = points
         .iter()
         .map(|&x| geometry.phi(x).abs())

@@ -4,7 +4,7 @@
 //! recovered terms evaluated at its start (step recovery), and the files are
 //! written; multigrid needs fewer Krylov iterations than Jacobi.
 
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::reproduce::table2::{paper_iterations, table2, K2};
 use cgfem_gpu::solver::{KrylovMethod, Preconditioner};
@@ -13,7 +13,7 @@ const CASE: &str = include_str!("../cases/annuli_contact.toml");
 
 #[test]
 fn table2_at_level_3_is_consistent() {
-    let case = BodiesCase::from_str_with("cases/annuli_contact.toml", CASE, &[]).unwrap();
+    let case = Case::from_str_with("cases/annuli_contact.toml", CASE, &[]).unwrap();
     let out = std::env::temp_dir().join(format!("cgfem-table2-{}", std::process::id()));
     let solvers = [
         (KrylovMethod::Cgs, Preconditioner::Jacobi),

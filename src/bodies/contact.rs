@@ -34,7 +34,7 @@ use std::sync::Mutex;
 
 use super::problem::{Coupling, CouplingTangent};
 use super::traction::{normal_traction, StressSampler};
-use crate::case::bodies::{BodiesCase, MasterSurfaceKind};
+use crate::case::{Case, MasterSurfaceKind};
 use crate::cells::Cells;
 use crate::contact::enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
@@ -90,7 +90,7 @@ fn diagonal(g: &Geometry) -> f64 {
 
 impl ContactCoupling {
     /// The pairs of `case` on the bodies `sides` with dofs from `offsets`.
-    pub fn new(case: &BodiesCase, sides: &[ContactSide], offsets: &[usize]) -> ContactCoupling {
+    pub fn new(case: &Case, sides: &[ContactSide], offsets: &[usize]) -> ContactCoupling {
         let pairs = case
             .pairs
             .iter()

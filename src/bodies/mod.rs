@@ -1,5 +1,5 @@
 //! Several hyperelastic bodies solved together (DESIGN §6, issue 8): the
-//! multi-body runner behind `cgfem-gpu run` on a case with `[[body]]`.
+//! Newton path of `cgfem-gpu run` ([`crate::case::SolutionPath`]).
 //!
 //! - [`problem`]: the stacked problem `[u_1; u_2; …]` — each body's total
 //!   Lagrangian residual and matrix-free tangent on its block, the coupling
@@ -10,9 +10,10 @@
 //!   `T̂_N = n1 · σ̂ n1`.
 //! - [`multigrid`]: the bodies' coarse levels, preconditioning the Newton
 //!   tangents (`preconditioner = "multigrid"`).
-//! - [`setup`]: a [`crate::case::bodies::BodiesCase`] mapped to that problem.
+//! - [`setup`]: a [`crate::case::Case`] mapped to that problem.
 //! - [`output`]: the ParaView series (`solution.pvd`, one `<body>_<step>.vtu`
 //!   per body and converged load step).
+//! - [`symmetry`]: symmetry planes, their normal displacement held.
 //! - [`run`]: the load steps with the outputs written as steps converge, and
 //!   the report rows.
 pub mod contact;
@@ -21,4 +22,5 @@ pub mod output;
 pub mod problem;
 pub mod run;
 pub mod setup;
+pub mod symmetry;
 pub mod traction;

@@ -35,8 +35,8 @@ use std::time::Instant;
 
 use super::setup::BodiesSetup;
 use crate::backend::CpuBackend;
-use crate::case::bodies::{BodiesCase, PLANE_STRAIN_CAP};
 use crate::case::physics::StabilisationSpec;
+use crate::case::{Case, PLANE_STRAIN_CAP};
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
@@ -61,7 +61,7 @@ impl BodiesMultigrid {
     /// The levels of every body of `setup` (module doc), down to a level of
     /// at most `opts.coarse_dofs` unknowns per body.
     pub fn new(
-        case: &BodiesCase,
+        case: &Case,
         setup: &BodiesSetup,
         opts: &MultigridOptions,
     ) -> Result<BodiesMultigrid> {
@@ -119,7 +119,7 @@ impl BodiesMultigrid {
 /// (module doc), with the S-term's weight `k2` (0 on a coarse level, which
 /// takes the finest level's S-term instead).
 fn body_operator(
-    case: &BodiesCase,
+    case: &Case,
     i: usize,
     solid: &Geometry,
     grid: &Grid,
@@ -207,7 +207,7 @@ mod tests {
     /// held `u_z`, and its free part does not depend on the held entries.
     #[test]
     fn the_preconditioner_is_symmetric_positive_and_keeps_held_rows() {
-        let case = BodiesCase::from_str_with("annuli_contact.toml", CASE, &[]).unwrap();
+        let case = Case::from_str_with("annuli_contact.toml", CASE, &[]).unwrap();
         let setup = BodiesSetup::new(&case, Some(4), &Silent).unwrap();
         let opts = MultigridOptions {
             coarse_dofs: 300,

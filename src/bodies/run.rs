@@ -10,7 +10,8 @@ use std::time::Instant;
 use super::multigrid::BodiesMultigrid;
 use super::output::Series;
 use super::setup::BodiesSetup;
-use crate::case::bodies::BodiesCase;
+use crate::case::Case;
+use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::hyper::convergence::convergence_order;
@@ -19,7 +20,8 @@ use crate::hyper::newton::{
 };
 use crate::multigrid::MultigridOptions;
 use crate::progress::Progress;
-use crate::report::{BodiesReport, BodyReport, LoadStepRow, NewtonHistory, ReactionRow};
+use crate::report::newton::{LoadReport, LoadStepRow, NewtonHistory, ReactionRow};
+use crate::report::{BodyReport, Report};
 use crate::solver::Preconditioner;
 
 /// What a run produced: the set-up, the last converged state, the report
@@ -27,7 +29,7 @@ use crate::solver::Preconditioner;
 pub struct RunOutcome {
     pub setup: BodiesSetup,
     pub solution: HyperSolution,
-    pub report: BodiesReport,
+    pub report: Report,
     pub result: Result<()>,
 }
 
@@ -35,7 +37,7 @@ pub struct RunOutcome {
 /// `dir` when given (created after a successful set-up). A set-up error is
 /// returned as such; a solve error is in [`RunOutcome::result`].
 pub fn run(
-    case: &BodiesCase,
+    case: &Case,
     level: Option<u32>,
     dir: Option<&Path>,
     progress: &dyn Progress,
@@ -46,7 +48,7 @@ pub fn run(
 /// [`run`] with the bodies' inside-cell tangents on `device` when given
 /// ([`crate::bodies::BodiesProblem::use_device`]).
 pub fn run_on(
-    case: &BodiesCase,
+    case: &Case,
     level: Option<u32>,
     dir: Option<&Path>,
     device: Option<Arc<GpuContext>>,
@@ -70,7 +72,7 @@ pub fn run_on(
 /// steps, each converged one written into `dir` (created here) and told to the
 /// coupling, whose rows form the report's `contact`.
 pub fn run_setup(
-    case: &BodiesCase,
+    case: &Case,
     setup: BodiesSetup,
     dir: Option<&Path>,
     progress: &dyn Progress,
@@ -163,44 +165,41 @@ fn reaction_rows(setup: &BodiesSetup, s: &HyperSolution) -> Vec<ReactionRow> {
 
 /// The report of a run that ended with `result`.
 fn report(
-    case: &BodiesCase,
+    case: &Case,
     setup: &BodiesSetup,
     solution: &HyperSolution,
     result: &Result<()>,
     timings: BTreeMap<String, f64>,
-) -> BodiesReport {
-    let bodies = setup
-        .bodies
-        .iter()
-        .zip(&case.bodies)
-        .map(|(b, c)| BodyReport::new(&b.name, &b.solid, &b.grid, &b.cells, c.spec.plane_strain))
-        .collect();
-    let (status, failure) = match result {
-        Ok(()) => ("ok", None),
-        Err(e @ Error::Interrupted { .. }) => ("interrupted", Some(e.to_string())),
-        Err(e) => ("failed", Some(e.to_string())),
-    };
-    BodiesReport {
-        case: case.spec.name.clone().unwrap_or_else(|| "case".into()),
-        file: case.file.clone(),
-        status: status.into(),
-        failure,
-        backend: match setup.problem.device_name() {
-            Some(_) => "gpu".into(),
-            None => "cpu".into(),
-        },
-        adapter: setup.problem.device_name().map(str::to_string),
-        dofs: setup.problem.ndofs(),
-        held_dofs: setup.problem.num_held(),
-        bodies,
+) -> Report {
+    let mut report = Report::new(case);
+    for (b, c) in setup.bodies.iter().zip(&case.bodies) {
+        report.push_body(BodyReport::new(
+            &b.name,
+            c.model,
+            ElementOrder::Q1,
+            &b.solid,
+            &b.grid,
+            &b.cells,
+            c.spec.plane_strain,
+        ));
+    }
+    if let Err(e) = result {
+        report.fail(e);
+    }
+    if let Some(name) = setup.problem.device_name() {
+        report.backend = "gpu".into();
+        report.adapter = Some(name.to_string());
+    }
+    report.dofs = setup.problem.ndofs();
+    report.held_dofs = setup.problem.num_held();
+    report.load = Some(LoadReport {
         steps: setup.newton.steps,
         converged_steps: solution.converged_steps,
         load_factor: solution.load_factor,
         load_steps: load_step_rows(&solution.attempts),
-        contact: Vec::new(),
-        reactions: Vec::new(),
-        timings,
-    }
+    });
+    report.timings = timings;
+    report
 }
 
 /// One row per attempt, numbered by the step it tried to reach.

@@ -1,10 +1,11 @@
-//! From a [`BodiesCase`] to a [`BodiesProblem`]: per body its grid (`--level`
+//! From a [`Case`] to a [`BodiesProblem`]: per body its grid (`--level`
 //! sets every body's), its solid (clipped for plane strain), the cell
 //! classification with the Q1 cut rules, the hyperelastic material, the
 //! penalty `β = k1 E`, the S-term of the pathological cells (`k2`, `A`; off
 //! for `k2 = 0`), the Dirichlet conditions per component (restricted to
 //! their region at the surface quadrature points), the tractions, and the
-//! held `u_z` of plane-strain bodies; and the Newton options of the case.
+//! held `u_z` of plane-strain bodies and the held normal displacement on
+//! symmetry planes ([`super::symmetry`]); and the Newton options of the case.
 //! The case's contact pairs, if any, are the problem's coupling
 //! ([`super::contact::ContactCoupling`]).
 
@@ -12,11 +13,12 @@ use std::sync::Arc;
 
 use super::contact::{ContactCoupling, ContactSide};
 use super::problem::BodiesProblem;
-use crate::case::bodies::{BodiesCase, HyperModel};
+use super::symmetry;
 use crate::case::boundary::RampSpec;
-use crate::cells::{cut_rule_points, Cells};
+use crate::case::{Case, Model};
+use crate::cells::Cells;
 use crate::element::ElementOrder;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::material::{Material, MaterialModel};
@@ -45,23 +47,14 @@ pub struct BodiesSetup {
 
 impl BodiesSetup {
     /// Sets the case up at its levels, or every body at `level`.
-    pub fn new(case: &BodiesCase, level: Option<u32>, progress: &dyn Progress) -> Result<Self> {
+    pub fn new(case: &Case, level: Option<u32>, progress: &dyn Progress) -> Result<Self> {
         let grids = case.grids(level)?;
         let mut bodies = Vec::with_capacity(grids.len());
         let mut problems = Vec::with_capacity(grids.len());
         for (i, grid) in grids.into_iter().enumerate() {
             let spec = &case.bodies[i].spec;
-            if spec.element != ElementOrder::Q1 {
-                return Err(bad(
-                    case,
-                    &format!("body[{i}].element"),
-                    "large deformation runs Q1 only",
-                ));
-            }
             let solid = case.solid(i, &grid)?;
-            let rule = cut_rule_points(ElementOrder::Q1);
-            let cells = Cells::classify_with_progress(&grid, &solid, rule, progress)
-                .map_err(|e| bad(case, &format!("body[{i}].geometry"), &e.to_string()))?;
+            let cells = case.classify_body(i, &grid, &solid, progress)?;
             problems.push(body_problem(case, i, &grid, &solid, &cells)?);
             bodies.push(BodySetup {
                 name: spec.name.clone(),
@@ -75,6 +68,14 @@ impl BodiesSetup {
             if body.spec.plane_strain {
                 for a in 0..problem.bodies[b].dofs.num_active() {
                     problem.hold(b, 3 * a + 2);
+                }
+            }
+            let s = &bodies[b];
+            let key = case.body_key(b, "symmetry");
+            let tags = &body.spec.symmetry;
+            for plane in symmetry::planes(&case.file, &key, &s.grid, &s.cells, &s.solid, tags)? {
+                for d in symmetry::held_dofs(&s.grid, &problem.bodies[b].dofs, plane) {
+                    problem.hold(b, d);
                 }
             }
         }
@@ -100,16 +101,8 @@ impl BodiesSetup {
     }
 }
 
-fn bad(case: &BodiesCase, key: &str, reason: &str) -> Error {
-    Error::CaseFile {
-        file: case.file.clone(),
-        key: key.into(),
-        reason: reason.into(),
-    }
-}
-
 /// The Newton options of `[load]`, `[newton]` and `[solver]`.
-pub fn newton_options(case: &BodiesCase) -> NewtonOptions {
+pub fn newton_options(case: &Case) -> NewtonOptions {
     let s = &case.spec;
     NewtonOptions {
         steps: s.load.steps,
@@ -132,12 +125,12 @@ pub fn newton_options(case: &BodiesCase) -> NewtonOptions {
 }
 
 /// Body `i`'s material.
-pub fn material(case: &BodiesCase, i: usize) -> Material {
+pub fn material(case: &Case, i: usize) -> Material {
     let m = &case.bodies[i].spec.material;
-    let model = match m.model {
-        HyperModel::NeoHookean => MaterialModel::NeoHookean,
-        HyperModel::StVenantKirchhoff => MaterialModel::StVenantKirchhoff,
-        HyperModel::Linear => MaterialModel::Linear,
+    let model = match case.bodies[i].model {
+        Model::NeoHookean => MaterialModel::NeoHookean,
+        Model::StVenantKirchhoff => MaterialModel::StVenantKirchhoff,
+        Model::Linear => MaterialModel::Linear,
     };
     Material::from_young_poisson(model, m.young, m.poisson)
 }
@@ -149,7 +142,7 @@ fn ramps(ramp: Option<&RampSpec>) -> [Ramp; 3] {
 
 /// Body `i` as a [`HyperProblem`] on its grid and cells.
 fn body_problem(
-    case: &BodiesCase,
+    case: &Case,
     i: usize,
     grid: &Grid,
     solid: &Geometry,

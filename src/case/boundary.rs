@@ -1,5 +1,5 @@
 //! The boundary-condition vocabulary shared by every body of every case
-//! (single-body linear cases and `[[body]]` cases alike), and its checks.
+//! (every body on either solution path), and its checks.
 //!
 //! ```toml
 //! [dirichlet.clamp]              # a prescribed displacement, imposed weakly
@@ -24,7 +24,7 @@
 //! in a `[[body]]` case: at load factor `t` the value is `r(t) g(x)` with
 //! `r(t) = clamp((t − start)/(end − start), 0, 1)`, so `[0, 1]` (the default)
 //! grows with the load factor and `[0, 0.5]` then `[0.5, 1]` press first and
-//! push after. A single-body case has no load path and refuses the key.
+//! push after. The linear path has no load steps and refuses the key.
 
 use std::collections::BTreeMap;
 
@@ -247,8 +247,7 @@ impl NeumannSpec {
 fn ramp_problem(ramp: &RampSpec, load_path: bool) -> Option<String> {
     if !load_path {
         return Some(
-            "a single-body case has no load path: write the body as [[body]] with [load] steps"
-                .into(),
+            "the linear path has no load steps: add [load] steps to run the case by Newton".into(),
         );
     }
     let bad = |[start, end]: &[f64; 2]| !(0.0 <= *start && start < end && *end <= 1.0);

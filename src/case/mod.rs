@@ -1,13 +1,54 @@
 //! Case files (TOML): what to solve, read with every key checked. Unknown keys
-//! are rejected, and every error names the file, the key path and the reason.
+//! are rejected, and every error names the file, the key path and the reason
+//! (exit code 2). `--set key=value` overrides any key (dotted path) before
+//! checking.
 //!
-//! The geometry tree is in [`geometry`], the physics tables in [`physics`].
-//! `--set key=value` overrides any key (dotted path) before checking.
+//! # One case model
+//! A case is a list of bodies (`[[body]]`, [`body`]), the contact pairs
+//! between them (`[[contact]]`, [`contact`]), and the settings of the whole
+//! run: `[stabilisation]`, `[solver]`, and for the Newton path `[load]` and
+//! `[newton]` ([`physics`]). A case of one body may leave out `[[body]]` and
+//! write the body's keys (`geometry`, `grid`, `material`, `dirichlet`, …) at
+//! the top level: the shorthand reads as one body named
+//! [`SHORTHAND_BODY`], and its errors name the keys as written.
+//!
+//! ```toml
+//! name = "two_blocks"
+//! overlap_tolerance = 1e-3     # overlap allowed at the start, × the smaller body's volume
+//!
+//! [[body]]
+//! name = "lower"
+//! geometry = { type = "cuboid", min = [-1, -1, -1], max = [1, 1, 0] }
+//! material = { model = "neo_hookean", young = 1000.0, poisson = 0.3 }
+//! dirichlet.zmin = { value = ["0", "0", "0"] }
+//!
+//! [[body]]
+//! name = "upper"
+//! # ...
+//!
+//! [[contact]]
+//! slave = "upper.zmin"         # body.tag
+//! master = "lower.zmax"
+//! ```
+//!
+//! # Solution path
+//! One case model, two ways to solve it ([`SolutionPath`]): a case of one
+//! linear body that asks for nothing of load stepping runs the linear fixed
+//! point on the recovered terms (`crate::fem`, Q1 or Q2, exact fields and
+//! error norms); every other case (a hyperelastic model, several bodies,
+//! contact, plane strain, symmetry planes, `[load]` or `[newton]`) runs
+//! Newton over load
+//! steps (`crate::bodies`, Q1), which holds dofs: plane strain and symmetry
+//! planes. A key the chosen path cannot honour is an
+//! error that names it and says why the case took that path.
 
-pub mod bodies;
+pub mod body;
 pub mod boundary;
+mod check;
+pub mod contact;
 pub mod geometry;
 pub mod physics;
+mod plane_strain;
 pub mod stl;
 
 use std::path::Path;
@@ -15,95 +56,89 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::cells::{cut_rule_points, Cells};
-use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
-use boundary::{check_boundary, DirichletTable, NeumannTable};
+use crate::solver::{KrylovMethod, Preconditioner};
+pub use body::{
+    Body, BodySpec, GridSpec, MaterialSpec, Model, QuadratureSpec, PLANE_STRAIN_CAP, SHORTHAND_BODY,
+};
+pub use contact::{BoundaryRef, ContactPair, ContactPairSpec, MasterSurfaceKind};
 pub use geometry::GeometrySpec;
-use physics::{BodyLoadSpec, ExactSpec, FieldValue, MaterialSpec, SolverSpec, StabilisationSpec};
+use physics::{LoadSpec, NewtonSpec, SolverSpec, StabilisationSpec};
 
-/// A case as written in its file.
+/// A case as written in its file (a shorthand one-body case after its body
+/// keys are gathered into `body`).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CaseSpec {
-    /// Name used in reports; defaults to the file stem.
+    /// Name used in reports and as the output folder; defaults to the file stem.
     #[serde(default)]
     pub name: Option<String>,
-    /// Element order, `"q1"` (default) or `"q2"`.
-    #[serde(default = "default_element")]
-    pub element: ElementOrder,
-    pub geometry: GeometrySpec,
+    /// Overlap of two bodies allowed at the start, as a fraction of the
+    /// smaller body's volume.
+    #[serde(default = "default_overlap_tolerance")]
+    pub overlap_tolerance: f64,
     #[serde(default)]
-    pub grid: GridSpec,
-    /// `[quadrature] points`: Gauss points per segment of the cut-cell rules
-    /// (default: [`cut_rule_points`] of the element).
+    pub load: LoadSpec,
     #[serde(default)]
-    pub quadrature: Option<QuadratureSpec>,
-    pub material: MaterialSpec,
-    #[serde(default)]
-    pub exact: Option<ExactSpec>,
-    #[serde(default)]
-    pub body_load: Option<BodyLoadSpec>,
-    #[serde(default)]
-    pub dirichlet: DirichletTable,
-    #[serde(default)]
-    pub neumann: NeumannTable,
-    #[serde(default)]
-    pub stabilisation: StabilisationSpec,
+    pub newton: NewtonSpec,
     #[serde(default)]
     pub solver: SolverSpec,
-}
-
-fn default_element() -> ElementOrder {
-    ElementOrder::Q1
-}
-
-/// The `[grid]` table.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct GridSpec {
-    /// Level L: the longest side of the box is split into 2^L cells (default 4).
-    #[serde(default = "default_level")]
-    pub level: u32,
-    /// Grid box corners; default the geometry's bounding box.
     #[serde(default)]
-    pub box_min: Option<[f64; 3]>,
+    pub stabilisation: StabilisationSpec,
+    pub body: Vec<BodySpec>,
     #[serde(default)]
-    pub box_max: Option<[f64; 3]>,
-    /// Shift of the grid origin in cells, each component in [0, 1).
-    #[serde(default)]
-    pub offset: [f64; 3],
+    pub contact: Vec<ContactPairSpec>,
 }
 
-fn default_level() -> u32 {
-    4
+fn default_overlap_tolerance() -> f64 {
+    1e-3
 }
 
-impl Default for GridSpec {
-    fn default() -> Self {
-        GridSpec {
-            level: default_level(),
-            box_min: None,
-            box_max: None,
-            offset: [0.0; 3],
-        }
-    }
+/// The keys of a case that belong to the whole run; in the shorthand every
+/// other top-level key belongs to the one body.
+const CASE_KEYS: [&str; 8] = [
+    "name",
+    "overlap_tolerance",
+    "load",
+    "newton",
+    "solver",
+    "stabilisation",
+    "body",
+    "contact",
+];
+
+/// The `[solver]` keys of the linear path's fixed point (the Newton path
+/// sets its fixed point in `[newton]`).
+const LINEAR_SOLVER_KEYS: [&str; 5] = [
+    "outer",
+    "inner_rel_tol",
+    "min_rel_tol",
+    "fixed_point_tol",
+    "max_fixed_point",
+];
+
+/// How a case is solved (see the module doc).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SolutionPath {
+    /// One linear body: the fixed point on the recovered terms.
+    Linear,
+    /// Newton over load steps; the reason the case takes this path.
+    Newton(String),
 }
 
-/// The `[quadrature]` table.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct QuadratureSpec {
-    pub points: usize,
-}
-
-/// A case ready to run: its spec, its solid and its file name.
+/// A case ready to run: its spec, its bodies, its contact pairs, how it is
+/// solved and its file name.
 #[derive(Clone, Debug)]
 pub struct Case {
     pub file: String,
     pub spec: CaseSpec,
-    pub geometry: Geometry,
+    pub bodies: Vec<Body>,
+    pub pairs: Vec<ContactPair>,
+    pub path: SolutionPath,
+    /// Whether the file wrote its one body at the top level.
+    pub shorthand: bool,
 }
 
 impl Case {
@@ -130,126 +165,129 @@ impl Case {
 
     /// Parses case text, applies `key=value` overrides, then checks it.
     pub fn from_str_with(file: &str, text: &str, overrides: &[String]) -> Result<Case> {
-        let table = parse_table(file, text, overrides)?;
-        let mut spec: CaseSpec = deserialize(file, table)?;
+        let mut table = parse_table(file, text, overrides)?;
+        let shorthand = gather_shorthand(&mut table);
+        let solver_keys: Vec<String> = match table.get("solver").and_then(|s| s.as_table()) {
+            Some(t) => t.keys().cloned().collect(),
+            None => Vec::new(),
+        };
+        let asks_newton: Vec<&str> = ["load", "newton", "overlap_tolerance"]
+            .into_iter()
+            .filter(|k| table.contains_key(*k))
+            .collect();
+        let mut spec: CaseSpec = deserialize(file, table, shorthand)?;
         if spec.name.is_none() {
             spec.name = file_stem(file);
         }
-        let geometry = spec.geometry.build(file)?;
-        let case = Case {
+        let model = Model::default_for(!spec.contact.is_empty());
+        let mut bodies = Vec::with_capacity(spec.body.len());
+        for b in &spec.body {
+            bodies.push(Body {
+                spec: b.clone(),
+                geometry: b.geometry.build(file)?,
+                model: b.material.model.unwrap_or(model),
+            });
+        }
+        let path = solution_path(&spec, &bodies, &asks_newton);
+        if let SolutionPath::Newton(_) = path {
+            if !solver_keys.iter().any(|k| k == "method") {
+                spec.solver.method = KrylovMethod::BiCgStab;
+            }
+            if spec.solver.preconditioner == Preconditioner::Auto {
+                spec.solver.preconditioner = Preconditioner::Multigrid;
+            }
+        }
+        let mut case = Case {
             file: file.into(),
             spec,
-            geometry,
+            bodies,
+            pairs: Vec::new(),
+            path,
+            shorthand,
         };
-        case.check_physics()?;
+        case.check(&solver_keys)?;
+        case.pairs = case.resolve_pairs()?;
+        case.check_overlap()?;
         Ok(case)
     }
 
-    /// Ranges of the physics keys, and boundary tags that exist.
-    fn check_physics(&self) -> Result<()> {
-        let s = &self.spec;
-        if let Some(name) = &s.name {
-            // The name is the default output folder, `out/<name>`.
-            let plain = !name.is_empty()
-                && name != "."
-                && name != ".."
-                && !name
-                    .chars()
-                    .any(|c| c == '/' || c == '\\' || c.is_control());
-            if !plain {
-                return Err(self.bad_key(
-                    "name",
-                    format!("{name:?} is not a plain folder name (no '/', '\\', '..' or control characters)"),
-                ));
-            }
+    /// The key path of body `i`'s key `key` as the file writes it.
+    pub fn body_key(&self, i: usize, key: &str) -> String {
+        match self.shorthand {
+            true => key.into(),
+            false => format!("body[{i}].{key}"),
         }
-        let m = &s.material;
-        if !(m.young.is_finite() && m.young > 0.0) {
-            return Err(self.bad_key(
-                "material.young",
-                format!("E must be positive, got {}", m.young),
-            ));
-        }
-        if !(m.poisson > -1.0 && m.poisson < 0.5) {
-            return Err(self.bad_key(
-                "material.poisson",
-                format!("ν must lie in (-1, 0.5), got {}", m.poisson),
-            ));
-        }
-        let st = &s.stabilisation;
-        if !(st.k1.is_finite() && st.k1 > 0.0) {
-            return Err(self.bad_key(
-                "stabilisation.k1",
-                format!("must be positive, got {}", st.k1),
-            ));
-        }
-        if !(st.k2.is_finite() && st.k2 >= 0.0) {
-            return Err(self.bad_key("stabilisation.k2", format!("must be ≥ 0, got {}", st.k2)));
-        }
-        if let Some(a) = st.a.filter(|a| !(0.0..1.0).contains(a)) {
-            return Err(self.bad_key("stabilisation.A", format!("must lie in [0, 1), got {a}")));
-        }
-        let so = &s.solver;
-        for (key, v) in [
-            ("solver.rel_tol", so.rel_tol),
-            ("solver.min_rel_tol", so.min_rel_tol),
-            ("solver.fixed_point_tol", so.fixed_point_tol()),
-            ("solver.inner_rel_tol", so.inner_rel_tol),
-        ] {
-            if !(v.is_finite() && v > 0.0 && v < 1.0) {
-                return Err(self.bad_key(key, format!("must lie in (0, 1), got {v}")));
-            }
-        }
-        if let Some(q) = &s.quadrature {
-            if !(1..=12).contains(&q.points) {
-                return Err(self.bad_key(
-                    "quadrature.points",
-                    format!("must lie in 1..=12, got {}", q.points),
-                ));
-            }
-        }
-        if so.max_iterations == 0 || so.max_fixed_point == 0 {
-            return Err(self.bad_key("solver", "iteration limits must be at least 1".into()));
-        }
-        check_boundary(
-            &self.file,
-            "",
-            &self.geometry,
-            &s.dirichlet,
-            &s.neumann,
-            s.exact.is_some(),
-            false,
-        )?;
-        if let Some(b) = &s.body_load {
-            if b.value == FieldValue::Exact && s.exact.is_none() {
-                return Err(self.bad_key("body_load.value", "\"exact\" needs [exact]".into()));
-            }
-        }
-        Ok(())
     }
 
-    /// The grid of the case at its level (or `level` when given).
+    /// The first body: the one body of the linear path.
+    pub fn body(&self) -> &Body {
+        &self.bodies[0]
+    }
+
+    /// Refuses a case that is not one linear body (the linear path's
+    /// set-up), saying why it takes the Newton path.
+    pub fn require_linear(&self) -> Result<()> {
+        match &self.path {
+            SolutionPath::Linear => Ok(()),
+            SolutionPath::Newton(why) => Err(self.bad(
+                "body",
+                format!("the linear path solves one linear body; this case runs Newton ({why})"),
+            )),
+        }
+    }
+
+    /// The grid of the first body at its level (or `level` when given).
     pub fn grid(&self, level: Option<u32>) -> Result<Grid> {
-        grid_of(&self.file, "grid", &self.spec.grid, &self.geometry, level)
+        self.body_grid(0, level)
     }
 
-    /// Refuses a grid whose memory estimate exceeds `budget_bytes` (the error
-    /// names `grid.level` and the largest level that fits).
+    /// The grid of every body, each at its own level or all at `level`
+    /// (a plane-strain body's grid is one cell thick, see [`plane_strain`]).
+    pub fn grids(&self, level: Option<u32>) -> Result<Vec<Grid>> {
+        (0..self.bodies.len())
+            .map(|i| self.body_grid(i, level))
+            .collect()
+    }
+
+    fn body_grid(&self, i: usize, level: Option<u32>) -> Result<Grid> {
+        let b = &self.bodies[i];
+        let spec = match b.spec.plane_strain {
+            true => self.slab_grid_spec(i, level)?,
+            false => b.spec.grid.clone(),
+        };
+        grid_of(
+            &self.file,
+            &self.body_key(i, "grid"),
+            &spec,
+            &b.geometry,
+            level,
+        )
+    }
+
+    /// Refuses a grid of the first body whose memory estimate exceeds
+    /// `budget_bytes` (the error names `grid.level` and the largest level
+    /// that fits).
     pub fn check_memory(&self, grid: &Grid, budget_bytes: u64) -> Result<()> {
-        grid.check_memory(self.spec.element, budget_bytes)
-            .map_err(|e| self.bad_key("grid.level", e.to_string()))
+        grid.check_memory(self.body().spec.element, budget_bytes)
+            .map_err(|e| self.bad(&self.body_key(0, "grid.level"), e.to_string()))
     }
 
-    /// Points per segment of the cut-cell rules.
+    /// Points per segment of the first body's cut-cell rules.
     pub fn rule_points(&self) -> usize {
-        match &self.spec.quadrature {
+        self.rule_points_of(0)
+    }
+
+    /// Points per segment of body `i`'s cut-cell rules.
+    pub fn rule_points_of(&self, i: usize) -> usize {
+        let spec = &self.bodies[i].spec;
+        match &spec.quadrature {
             Some(q) => q.points,
-            None => cut_rule_points(self.spec.element),
+            None => cut_rule_points(spec.element),
         }
     }
 
-    /// Classifies the grid against the case's solid with the element's rule;
-    /// an empty or misplaced solid is reported against the case's keys.
+    /// Classifies the grid against the first body's solid with its rule; an
+    /// empty or misplaced solid is reported against the case's keys.
     pub fn classify(&self, grid: &Grid) -> Result<Cells> {
         self.classify_with_progress(grid, &crate::progress::Silent)
     }
@@ -260,20 +298,75 @@ impl Case {
         grid: &Grid,
         progress: &dyn crate::progress::Progress,
     ) -> Result<Cells> {
-        Cells::classify_with_progress(grid, &self.geometry, self.rule_points(), progress).map_err(
-            |e| {
-                let key = match e {
-                    Error::GeometryOutsideGrid { .. } => "grid.box_min",
-                    _ => "geometry",
-                };
-                self.bad_key(key, e.to_string())
-            },
-        )
+        self.classify_body(0, grid, &self.body().geometry, progress)
     }
 
-    fn bad_key(&self, key: &str, reason: String) -> Error {
+    /// Classifies `grid` against body `i`'s `solid` (its geometry, clipped
+    /// for plane strain: [`Case::solid`]) with the body's rule; an empty or
+    /// misplaced solid is reported against the body's keys.
+    pub fn classify_body(
+        &self,
+        i: usize,
+        grid: &Grid,
+        solid: &Geometry,
+        progress: &dyn crate::progress::Progress,
+    ) -> Result<Cells> {
+        Cells::classify_with_progress(grid, solid, self.rule_points_of(i), progress).map_err(|e| {
+            let key = match e {
+                Error::GeometryOutsideGrid { .. } => "grid.box_min",
+                _ => "geometry",
+            };
+            self.bad(&self.body_key(i, key), e.to_string())
+        })
+    }
+
+    pub(crate) fn bad(&self, key: &str, reason: String) -> Error {
         bad_key(&self.file, key, reason)
     }
+}
+
+/// Gathers the body keys of a shorthand one-body case (no `body` key) into
+/// `body = [{ name = "body", … }]`; whether it did.
+fn gather_shorthand(table: &mut toml::Table) -> bool {
+    if table.contains_key("body") {
+        return false;
+    }
+    let keys: Vec<String> = table
+        .keys()
+        .filter(|k| !CASE_KEYS.contains(&k.as_str()))
+        .cloned()
+        .collect();
+    let mut body = toml::Table::new();
+    for k in keys {
+        let v = table.remove(&k).expect("listed key");
+        body.insert(k, v);
+    }
+    body.insert("name".into(), toml::Value::String(SHORTHAND_BODY.into()));
+    table.insert(
+        "body".into(),
+        toml::Value::Array(vec![toml::Value::Table(body)]),
+    );
+    true
+}
+
+/// The path of a case (see the module doc): Newton with the reason, or linear.
+fn solution_path(spec: &CaseSpec, bodies: &[Body], asks_newton: &[&str]) -> SolutionPath {
+    let why = if bodies.len() > 1 {
+        format!("it has {} bodies", bodies.len())
+    } else if !spec.contact.is_empty() {
+        "it has contact pairs".into()
+    } else if let Some(b) = bodies.iter().find(|b| b.model != Model::Linear) {
+        format!("body '{}' is {:?}", b.spec.name, b.model)
+    } else if let Some(b) = bodies.iter().find(|b| b.spec.plane_strain) {
+        format!("body '{}' is plane strain", b.spec.name)
+    } else if let Some(b) = bodies.iter().find(|b| !b.spec.symmetry.is_empty()) {
+        format!("body '{}' has symmetry planes", b.spec.name)
+    } else if let Some(k) = asks_newton.first() {
+        format!("it sets `{k}`")
+    } else {
+        return SolutionPath::Linear;
+    };
+    SolutionPath::Newton(why)
 }
 
 /// A case-file error of `file` at `key`.
@@ -323,10 +416,22 @@ fn parse_table(file: &str, text: &str, overrides: &[String]) -> Result<toml::Tab
     Ok(table)
 }
 
-/// Deserialises a parsed case; an error names the key path.
-fn deserialize<T: serde::de::DeserializeOwned>(file: &str, table: toml::Table) -> Result<T> {
+/// Deserialises a parsed case; an error names the key path (for a
+/// `shorthand` case, as the file writes it).
+fn deserialize<T: serde::de::DeserializeOwned>(
+    file: &str,
+    table: toml::Table,
+    shorthand: bool,
+) -> Result<T> {
     serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
-        let key = e.path().to_string();
+        let mut key = e.path().to_string();
+        if shorthand {
+            // The shorthand's body keys are written at the top level.
+            key = match key.strip_prefix("body[0]") {
+                Some(rest) => rest.trim_start_matches('.').to_string(),
+                None => key,
+            };
+        }
         let key = if key == "." || key.is_empty() {
             "(top level)".to_string()
         } else {

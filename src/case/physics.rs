@@ -1,10 +1,12 @@
-//! The physics tables of a case file: material, exact field, loads, boundary
-//! conditions per boundary tag, stabilisation and solver settings.
+//! The physics tables of a case file: exact field, body load, stabilisation
+//! and solver settings, and the load steps and Newton settings of the Newton
+//! path (the body's own tables are in [`super::body`], the boundary
+//! conditions in [`super::boundary`]).
 //!
 //! ```toml
-//! [material]
-//! young = 1000.0          # E, in the case's stress unit
-//! poisson = 0.3           # ν, in (-1, 0.5)
+//! [material]             # super::body: model, E and ν
+//! young = 1000.0
+//! poisson = 0.3
 //!
 //! [exact]                 # optional: exact displacement, gives b, g and errors
 //! displacement = ["x + x^2", "-y", "0"]
@@ -36,6 +38,27 @@
 //!                           # picard: ‖U_k+1 − U_k‖ < this ‖U_k+1‖ (default 1e-8)
 //! max_fixed_point = 200     # outer iterations
 //! ```
+//! On the Newton path (`super::SolutionPath`) `[solver]` sets the Krylov
+//! solves inside Newton: `method` (default `"bicgstab"`: the tangent with
+//! contact is not symmetric), `preconditioner` (`auto` is multigrid),
+//! `rel_tol` and `max_iterations`; the recovered terms' fixed point is set in
+//! `[newton]`:
+//!
+//! ```toml
+//! [load]
+//! steps = 5                    # step k of N is load factor t = k/N; a prescribed value grows
+//!                              # with t (linearly, or along its `ramp`: super::boundary)
+//!
+//! [newton]
+//! max_iterations = 25          # per load step
+//! rel_tol = 1e-8               # ‖R‖ / ‖R_0‖ of the step
+//! energy_tol = 1e-16           # |Δu · R| / |Δu_0 · R_0| of the step
+//! line_search = true           # backtracking on ‖R‖
+//! max_cuts = 5                 # a failed step is halved at most this many times
+//! fixed_point_tol = 1e-6       # recovered terms (T̂_N, S): ‖u_k − u_{k−1}‖/‖u_k‖ between passes
+//! max_fixed_point = 30         # Newton passes per step with recovered terms
+//! recovery = "passes"          # or "embedded" (after every Newton update), "step" (once per step)
+//! ```
 //! Boundary parts named in neither table are traction free.
 
 use std::fmt;
@@ -46,14 +69,6 @@ use serde::Deserialize;
 use crate::element::ElementOrder;
 use crate::expr::VectorExpr;
 use crate::solver::{KrylovMethod, Preconditioner};
-
-/// `[material]`: isotropic linear elasticity.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct MaterialSpec {
-    pub young: f64,
-    pub poisson: f64,
-}
 
 /// `[exact]`: an exact displacement field.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -121,7 +136,7 @@ pub struct StabilisationSpec {
     /// Whether the S-term's right-hand side drops the rigid-body part of
     /// `u_h − S` on Ω*, so that it puts no net force or moment on the body
     /// (`crate::fem::rigid_resultant`). `false`: the paper's `F_S`; `None`:
-    /// `true` ([`StabilisationSpec::balanced`]). Single-body cases only.
+    /// `true` ([`StabilisationSpec::balanced`]). Linear path only.
     pub balanced: Option<bool>,
 }
 
@@ -240,6 +255,57 @@ impl Default for SolverSpec {
             max_iterations: 20_000,
             fixed_point_tol: None,
             max_fixed_point: 200,
+        }
+    }
+}
+
+/// `[load]`: load stepping.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoadSpec {
+    /// Load steps; step k of N is load factor `k/N`, where every prescribed
+    /// value is at its ramp's factor (`t` itself by default).
+    pub steps: usize,
+}
+
+impl Default for LoadSpec {
+    fn default() -> Self {
+        LoadSpec { steps: 1 }
+    }
+}
+
+/// `[newton]`: the Newton–Raphson iterations of each load step.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct NewtonSpec {
+    pub max_iterations: usize,
+    /// Converged when ‖R‖ ≤ rel_tol ‖R_0‖ ...
+    pub rel_tol: f64,
+    /// ... and |Δu·R| ≤ energy_tol |Δu_0·R_0| (the energy norm of the increment).
+    pub energy_tol: f64,
+    pub line_search: bool,
+    /// Halvings of a failed step before the run stops (exit code 3).
+    pub max_cuts: usize,
+    /// With recovered terms: passes end when ‖u_k − u_{k−1}‖ ≤ fixed_point_tol ‖u_k‖.
+    pub fixed_point_tol: f64,
+    /// With recovered terms: Newton passes allowed per step.
+    pub max_fixed_point: usize,
+    /// With recovered terms: `"passes"` (between Newton solves),
+    /// `"embedded"` (after every Newton update) or `"step"` (once per step).
+    pub recovery: crate::hyper::newton::RecoveryMode,
+}
+
+impl Default for NewtonSpec {
+    fn default() -> Self {
+        NewtonSpec {
+            max_iterations: 25,
+            rel_tol: 1e-8,
+            energy_tol: 1e-16,
+            line_search: true,
+            max_cuts: 5,
+            fixed_point_tol: 1e-6,
+            max_fixed_point: 30,
+            recovery: crate::hyper::newton::RecoveryMode::Passes,
         }
     }
 }

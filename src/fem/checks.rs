@@ -48,7 +48,7 @@ pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
         key,
         reason,
     };
-    let m = &case.spec.material;
+    let m = &case.body().spec.material;
     let st = &case.spec.stabilisation;
     if !a.beta.is_finite() {
         return Err(bad(
@@ -74,8 +74,8 @@ pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
     if a.fixed_rhs.iter().all(|v| v.is_finite()) {
         return Ok(());
     }
-    let s = &case.spec;
-    let tag = |t: u16| case.geometry.tag_name(t).to_string();
+    let s = &case.body().spec;
+    let tag = |t: u16| case.body().geometry.tag_name(t).to_string();
     for p in a.dirichlet {
         if !finite(p.g) {
             let t = tag(p.tag);

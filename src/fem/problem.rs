@@ -37,7 +37,7 @@ pub struct Problem {
 impl Problem {
     /// Resolves the case's tables (already checked by [`Case`]).
     pub fn new(case: &Case) -> Problem {
-        let s = &case.spec;
+        let s = &case.body().spec;
         let (lambda, mu) = lame(s.material.young, s.material.poisson);
         let exact = s.exact.as_ref().map(|e| e.displacement.clone());
         let body = match (&s.body_load, &exact) {
@@ -46,6 +46,7 @@ impl Problem {
             (None, None) => None,
         };
         let boundary = case
+            .body()
             .geometry
             .tag_names()
             .iter()

@@ -137,6 +137,7 @@ impl Setup {
         level: Option<u32>,
         progress: &dyn Progress,
     ) -> Result<Setup> {
+        case.require_linear()?;
         let grid = case.grid(level)?;
         let _span = tracing::info_span!("setup", level = grid.level).entered();
         case.check_memory(&grid, machine_memory_bytes())?;
@@ -160,14 +161,14 @@ impl Setup {
             beta,
             omega_star,
             s_factor,
-        } = LevelOperator::new(case, &problem, &grid, &cells, case.spec.element);
+        } = LevelOperator::new(case, &problem, &grid, &cells, case.body().spec.element);
         let dirichlet = dirichlet_points(&cells, &problem);
         let mut fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
         let flux = FluxCorrection::new(
             &grid,
             &cells,
-            &case.geometry,
-            case.spec.element,
+            &case.body().geometry,
+            case.body().spec.element,
             case.rule_points(),
             &problem,
         );

@@ -211,7 +211,7 @@ fn first_solve_iterations_are_bounded_over_the_levels() {
 fn a_coarsest_level_that_needs_a_shift_still_preconditions() {
     let mut case = sphere("q1", 0.0);
     case.spec.stabilisation.a = Some(0.01);
-    case.spec.grid.offset = [0.8084490325077849, 0.4462829888690547, 0.5016002394782307];
+    case.bodies[0].spec.grid.offset = [0.8084490325077849, 0.4462829888690547, 0.5016002394782307];
     let setup = Setup::new(&case, Some(4)).unwrap();
     let h = hierarchy(&case, &setup, &MultigridOptions::default());
     assert!(h.shift > 0.0, "no shift needed");

@@ -55,7 +55,7 @@ impl CutSweepOptions {
         if st.k2 > 0.0 {
             CutSweepOptions {
                 k2: st.k2,
-                a: st.threshold(case.spec.element),
+                a: st.threshold(case.body().spec.element),
                 method: case.spec.solver.method,
                 ..self
             }
@@ -160,7 +160,7 @@ pub fn cut_sweep(
     out: &Path,
     progress: &dyn Progress,
 ) -> Result<Vec<SweepRow>> {
-    let element = format!("{:?}", case.spec.element).to_lowercase();
+    let element = format!("{:?}", case.body().spec.element).to_lowercase();
     let offsets = offsets(opts.offsets, opts.seed);
     let progress = Runs::start(progress, opts.levels.len() * 2 * offsets.len());
     let mut runs = Vec::new();
@@ -241,7 +241,7 @@ fn sweep_run(
     )?;
     Ok(SweepRun {
         level,
-        element: format!("{:?}", case.spec.element).to_lowercase(),
+        element: format!("{:?}", case.body().spec.element).to_lowercase(),
         offset,
         stabilised: k2 > 0.0,
         pathological: plain.pathological,

@@ -54,7 +54,7 @@ impl<'a> Fig3Curves<'a> {
     /// level 4 on, and each Q2 curve to level 5 costs minutes.
     pub fn for_case(case: &'a Case, levels: &[u32]) -> Self {
         let st = &case.spec.stabilisation;
-        let configs = match case.spec.element {
+        let configs = match case.body().spec.element {
             ElementOrder::Q1 => CONFIGS.to_vec(),
             ElementOrder::Q2 => vec![(st.k2, st.threshold(ElementOrder::Q2))],
         };
@@ -102,7 +102,7 @@ pub fn fig3(
 
 /// One configuration of one element over the levels.
 fn curve(case: &Case, levels: &[u32], k2: f64, a: f64, runs: &Runs) -> Result<Vec<Fig3Row>> {
-    let element = element_name(case.spec.element);
+    let element = element_name(case.body().spec.element);
     let mut rows = Vec::new();
     let mut previous: Option<(f64, f64)> = None;
     for &level in levels {

@@ -108,7 +108,7 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
     case.spec.stabilisation.balanced = Some(false);
     case.spec.stabilisation.k2 = cfg.k2;
     case.spec.stabilisation.a = Some(cfg.a);
-    case.spec.grid.offset = cfg.offset;
+    case.bodies[0].spec.grid.offset = cfg.offset;
     if let Some(m) = cfg.method {
         case.spec.solver.method = m;
     }

@@ -79,7 +79,7 @@ pub fn table1(
             };
             let row = Table1Row {
                 level,
-                element: format!("{:?}", case.spec.element).to_lowercase(),
+                element: format!("{:?}", case.body().spec.element).to_lowercase(),
                 k2,
                 a,
                 pathological: run.pathological,

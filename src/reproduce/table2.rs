@@ -38,13 +38,13 @@ use serde::Serialize;
 use super::{write_outputs, Runs};
 use crate::bodies::run::run_setup;
 use crate::bodies::setup::BodiesSetup;
-use crate::case::bodies::BodiesCase;
+use crate::case::Case;
 use crate::error::Result;
 use crate::fem::stabilisation::pathological_cells;
 use crate::hyper::newton::RecoveryMode;
 use crate::plot::{Chart, Series};
 use crate::progress::{Progress, Silent};
-use crate::report::LoadStepRow;
+use crate::report::newton::LoadStepRow;
 use crate::solver::{KrylovMethod, Preconditioner};
 
 /// `k2` of the stabilised runs.
@@ -104,7 +104,7 @@ pub fn paper_iterations(level: u32, stabilised: bool) -> Option<usize> {
 /// Runs `case` (the annuli) at `levels` without and with the S-term and
 /// writes the files; each run is reported to `progress` ([`crate::progress::Phase::Runs`]).
 pub fn table2(
-    case: &BodiesCase,
+    case: &Case,
     levels: &[u32],
     solvers: &[(KrylovMethod, Preconditioner)],
     out: &Path,
@@ -145,7 +145,7 @@ pub fn table2(
 /// preconditioner `solver`; a failed solve is a measurement (the row says
 /// so), a failed set-up an error.
 fn run(
-    case: &BodiesCase,
+    case: &Case,
     level: u32,
     k2: f64,
     (method, preconditioner): (KrylovMethod, Preconditioner),
@@ -166,7 +166,11 @@ fn run(
     let outcome = run_setup(&case, setup, None, &Silent)?;
     let seconds = t.elapsed().as_secs_f64();
     let sol = &outcome.solution;
-    let steps = outcome.report.load_steps;
+    let steps = outcome
+        .report
+        .load
+        .map(|l| l.load_steps)
+        .unwrap_or_default();
     Ok(Table2Row {
         level,
         k2,

@@ -92,7 +92,7 @@ pub enum Preconditioner {
     /// ([`crate::multigrid`]; CPU backend only).
     Multigrid,
     /// Multigrid where the solve runs on the CPU, Jacobi on a GPU (the
-    /// default of single-body cases): the runner resolves it once the
+    /// default): the runner resolves it once the
     /// backend is known; a solve given no hierarchy takes Jacobi.
     Auto,
 }

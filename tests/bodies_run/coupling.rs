@@ -140,9 +140,9 @@ fn the_stacked_tangent_with_coupling_and_held_dofs_is_the_derivative_of_the_resi
 fn the_coupling_reports_a_row_per_converged_step() {
     use cgfem_gpu::bodies::run::run_setup;
     use cgfem_gpu::bodies::setup::BodiesSetup;
-    use cgfem_gpu::case::bodies::BodiesCase;
+    use cgfem_gpu::case::Case;
     use cgfem_gpu::progress::Silent;
-    let case = BodiesCase::from_str_with("two.toml", &super::case_text("0.5"), &[]).unwrap();
+    let case = Case::from_str_with("two.toml", &super::case_text("0.5"), &[]).unwrap();
     let mut setup = BodiesSetup::new(&case, Some(1), &Silent).unwrap();
     let n0 = setup.problem.bodies[0].ndofs();
     let spring = Spring {
@@ -193,11 +193,11 @@ master = "lower.zmax"
 #[test]
 fn the_stacked_tangent_with_contact_is_the_derivative_of_the_residual() {
     use cgfem_gpu::bodies::setup::BodiesSetup;
-    use cgfem_gpu::case::bodies::BodiesCase;
+    use cgfem_gpu::case::Case;
     use cgfem_gpu::element::ElementOrder;
     use cgfem_gpu::hyper::newton::NonlinearProblem;
     use cgfem_gpu::progress::Silent;
-    let case = BodiesCase::from_str_with("press.toml", PRESS, &[]).unwrap();
+    let case = Case::from_str_with("press.toml", PRESS, &[]).unwrap();
     let setup = BodiesSetup::new(&case, None, &Silent).unwrap();
     let p = &setup.problem;
     let n = p.ndofs();
@@ -260,11 +260,11 @@ fn the_stacked_tangent_with_contact_is_the_derivative_of_the_residual() {
 #[test]
 fn a_pressed_block_ends_with_the_same_contact_force_in_4_and_8_steps() {
     use cgfem_gpu::bodies::run::run;
-    use cgfem_gpu::case::bodies::BodiesCase;
+    use cgfem_gpu::case::Case;
     use cgfem_gpu::progress::Silent;
     let force = |steps: &str| {
         let set = [format!("load.steps={steps}"), "stabilisation.k2=0".into()];
-        let case = BodiesCase::from_str_with("press.toml", PRESS, &set).unwrap();
+        let case = Case::from_str_with("press.toml", PRESS, &set).unwrap();
         let outcome = run(&case, None, None, &Silent).unwrap();
         outcome.result.unwrap();
         let rows = &outcome.report.contact;

@@ -6,10 +6,9 @@
 //! and, when they parse, through `Setup` at a tiny level, and some through
 //! the solve. Nothing may panic; every error of the parser and the setup must
 //! be a `CaseFile` error naming the file and a key, every error of the solve
-//! a solver failure (exit code 3). Multi-body cases (`[[body]]`, from
-//! `cases/` and a built-in two-block contact case) go through
-//! `BodiesCase::from_str_with` and, a third of those that parse, through
-//! `BodiesSetup` at level 0 or 1, under the same rules.
+//! a solver failure (exit code 3). Cases on the Newton path (from `cases/`
+//! and a built-in two-block contact case) go, a third of those that parse,
+//! through `BodiesSetup` at level 0 or 1, under the same rules.
 //!
 //! 10 000 inputs by default (a third of those that parse are set up; about
 //! half a minute in release); set
@@ -19,8 +18,7 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use cgfem_gpu::bodies::setup::BodiesSetup;
-use cgfem_gpu::case::bodies::{is_bodies_case, BodiesCase};
-use cgfem_gpu::case::Case;
+use cgfem_gpu::case::{Case, SolutionPath};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;
@@ -80,33 +78,20 @@ slave = "upper.zmin"
 master = "lower.zmax"
 "#;
 
-/// A multi-body input: parsed, and a third of those that parse set up at
-/// level 0 or 1. True when it parsed.
-fn try_bodies(rng: &mut ChaCha8Rng, k: usize, text: &str, sets: &[String]) -> bool {
-    let r = catch_unwind(AssertUnwindSafe(|| {
-        BodiesCase::from_str_with(FILE, text, sets)
-    }));
-    let case = match r {
-        Err(_) => panic!("input {k}: the multi-body parser panicked on\n{text}\n{sets:?}"),
-        Ok(Err(e)) => {
-            check_error(&e, "multi-body parse", text, sets);
-            return false;
-        }
-        Ok(Ok(case)) => case,
-    };
+/// A parsed case on the Newton path: a third of them set up at level 0 or 1.
+fn try_newton(rng: &mut ChaCha8Rng, k: usize, case: &Case, text: &str, sets: &[String]) {
     if rng.gen_bool(1.0 / 3.0) {
         let level = rng.gen_range(0..=1);
         let silent = cgfem_gpu::progress::Silent;
         let r = catch_unwind(AssertUnwindSafe(|| {
-            BodiesSetup::new(&case, Some(level), &silent)
+            BodiesSetup::new(case, Some(level), &silent)
         }));
         match r {
-            Err(_) => panic!("input {k}: the multi-body setup panicked on\n{text}\n{sets:?}"),
-            Ok(Err(e)) => check_error(&e, "multi-body setup", text, sets),
+            Err(_) => panic!("input {k}: the Newton setup panicked on\n{text}\n{sets:?}"),
+            Ok(Err(e)) => check_error(&e, "Newton setup", text, sets),
             Ok(Ok(_)) => {}
         }
     }
-    true
 }
 
 /// One input: a mutated seed (structure, then text), and overrides.
@@ -182,14 +167,10 @@ fn random_and_mutated_cases_never_panic() {
     let seeds = seeds();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut parsed, mut set_up, mut solved, mut setup_seconds) = (0, 0, 0, 0.0);
-    let mut bodies_parsed = 0;
+    let mut newton_parsed = 0;
     let start = std::time::Instant::now();
     for k in 0..n {
         let (text, sets) = input(&mut rng, &seeds);
-        if is_bodies_case(&text) {
-            bodies_parsed += try_bodies(&mut rng, k, &text, &sets) as usize;
-            continue;
-        }
         let r = catch_unwind(AssertUnwindSafe(|| Case::from_str_with(FILE, &text, &sets)));
         let case = match r {
             Err(_) => panic!("input {k}: the parser panicked on\n{text}\n{sets:?}"),
@@ -200,6 +181,11 @@ fn random_and_mutated_cases_never_panic() {
             Ok(Ok(case)) => case,
         };
         parsed += 1;
+        if let SolutionPath::Newton(_) = case.path {
+            newton_parsed += 1;
+            try_newton(&mut rng, k, &case, &text, &sets);
+            continue;
+        }
         // A setup costs a thousand parses (cut-cell rules and matrices even
         // at level 0): set up one parsed case in three.
         if !rng.gen_bool(1.0 / 3.0) {
@@ -232,14 +218,14 @@ fn random_and_mutated_cases_never_panic() {
     }
     println!(
         "{n} inputs: {parsed} parsed, {set_up} set up, {solved} solved; \
-         {bodies_parsed} multi-body parsed; {:.1} s in all, {setup_seconds:.1} s in setups",
+         {newton_parsed} of them on the Newton path; {:.1} s in all, {setup_seconds:.1} s in setups",
         start.elapsed().as_secs_f64()
     );
     // The generator must reach the checks behind the parser and the setup.
     assert!(parsed * 10 >= n, "only {parsed} of {n} inputs parsed");
     assert!(
-        bodies_parsed * 50 >= n,
-        "only {bodies_parsed} multi-body inputs of {n} parsed"
+        newton_parsed * 50 >= n,
+        "only {newton_parsed} Newton-path inputs of {n} parsed"
     );
     assert!(set_up * 40 >= n, "only {set_up} of {n} inputs were set up");
 }

@@ -1,6 +1,7 @@
 //! Case-file parsing: the geometry tree, defaults, and errors that name the key.
 
 use super::*;
+use crate::element::ElementOrder;
 
 const MATERIAL: &str = "[material]\nyoung = 1000\npoisson = 0.3\n";
 
@@ -24,9 +25,9 @@ poisson = 0.3
 #[test]
 fn parses_a_csg_case() {
     let case = Case::from_str("plate.toml", BRACKET).unwrap();
-    assert_eq!(case.spec.element, ElementOrder::Q2);
+    assert_eq!(case.body().spec.element, ElementOrder::Q2);
     assert_eq!(case.spec.name.as_deref(), Some("plate"));
-    let g = &case.geometry;
+    let g = &case.body().geometry;
     assert!(g.inside([0.5, 0.5, 0.0]) && !g.inside([0.1, 0.1, 0.0]));
     assert!(g.tag_id("hole").is_some() && g.tag_id("xmin").is_some());
     let grid = case.grid(None).unwrap();
@@ -47,8 +48,8 @@ of = { type = "rotate", axis = [0, 0, 1], angle_deg = 90, of = { type = "cylinde
 "#;
     let case = Case::from_str("t.toml", text).unwrap();
     // The rod along +x turned to +y, then moved by +x.
-    assert!(case.geometry.inside([1.0, 0.5, 0.0]));
-    assert!(!case.geometry.inside([0.5, 0.0, 0.0]));
+    assert!(case.body().geometry.inside([1.0, 0.5, 0.0]));
+    assert!(!case.body().geometry.inside([0.5, 0.0, 0.0]));
     assert_eq!(case.spec.name.as_deref(), Some("t"));
 }
 
@@ -107,10 +108,10 @@ fn physics_tables_and_overrides() {
     ];
     let case = Case::from_str_with("c.toml", &text, &overrides).unwrap();
     assert_eq!(case.spec.solver.method, crate::solver::KrylovMethod::Cg);
-    assert_eq!(case.spec.material.young, 5.0);
-    assert_eq!(case.spec.grid.level, 2);
+    assert_eq!(case.body().spec.material.young, 5.0);
+    assert_eq!(case.body().spec.grid.level, 2);
     assert_eq!(
-        case.spec.dirichlet["surface"].value,
+        case.body().spec.dirichlet["surface"].value,
         boundary::DirichletValue::Exact
     );
     assert_eq!(case.spec.stabilisation.k1, 30.0);
@@ -146,3 +147,5 @@ fn physics_errors_name_the_key() {
         }
     }
 }
+
+mod bodies;

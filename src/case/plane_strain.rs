@@ -1,20 +1,27 @@
-//! Plane strain (see the module doc of [`super`]): the one-cell slab grid of a
-//! plane-strain body and its solid clipped to the slab.
+//! Plane strain: a body with `plane_strain = true` is solved as a slab one
+//! cell thick. Its grid box spans the x–y extent of the grid box (or the
+//! geometry's) and exactly `z ∈ [−h/2, h/2]` at every level (`h` from the x–y
+//! extent and the level; the z offset must be 0), its solid is the geometry
+//! clipped to that slab (see [`Case::solid`]: the two caps lie on the grid's
+//! two node planes and are tagged [`PLANE_STRAIN_CAP`], traction free), and
+//! the Newton path holds `u_z = 0` at every node (strongly). The geometry
+//! must span the slab (z from −h/2 to h/2 at least); it is meant to be a
+//! prism along z.
 
-use super::{BodiesCase, PLANE_STRAIN_CAP};
+use super::{Case, PLANE_STRAIN_CAP};
 use crate::case::GridSpec;
 use crate::error::Result;
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 
-impl BodiesCase {
+impl Case {
     /// The `[grid]` of plane-strain body `i`: its x–y box, `z ∈ [−h/2, h/2]`.
     pub(super) fn slab_grid_spec(&self, i: usize, level: Option<u32>) -> Result<GridSpec> {
         let b = &self.bodies[i];
         let g = &b.spec.grid;
         if g.offset[2] != 0.0 {
             return Err(self.bad(
-                &format!("body[{i}].grid.offset"),
+                &self.body_key(i, "grid.offset"),
                 "a plane-strain body's grid has no z offset (its slab is z ∈ [−h/2, h/2])".into(),
             ));
         }
@@ -48,7 +55,7 @@ impl BodiesCase {
         let own = b.geometry.bounding_box();
         if !(own.lo[2] <= lo && own.hi[2] >= hi) {
             return Err(self.bad(
-                &format!("body[{i}].plane_strain"),
+                &self.body_key(i, "plane_strain"),
                 format!(
                     "the geometry spans z ∈ [{}, {}]; a plane-strain body must span the slab \
                      z ∈ [{lo}, {hi}]",
@@ -65,6 +72,6 @@ impl BodiesCase {
         b.geometry
             .clone()
             .intersection(slab)
-            .map_err(|e| self.bad(&format!("body[{i}].geometry"), e.to_string()))
+            .map_err(|e| self.bad(&self.body_key(i, "geometry"), e.to_string()))
     }
 }

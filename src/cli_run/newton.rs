@@ -1,31 +1,20 @@
-//! `cgfem-gpu run` on a multi-body case (`[[body]]`, large deformation):
-//! set-up, the load steps with progress and Ctrl-C, the ParaView series
-//! written as steps converge, and DIR/report.json — written also when a step
-//! fails (status "failed", exit code 3) or the run is interrupted (status
-//! "interrupted", exit code 130).
+//! The Newton path of `cgfem-gpu run` (hyperelastic bodies, several bodies,
+//! contact, load steps): set-up, the load steps with progress and Ctrl-C,
+//! the ParaView series written as steps converge, and DIR/report.json —
+//! written also when a step fails or the run is interrupted.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
-use anyhow::Context;
-
 use cgfem_gpu::bodies::run::run_on;
-use cgfem_gpu::case::bodies::BodiesCase;
+use cgfem_gpu::case::Case;
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
-use cgfem_gpu::output::write_atomic;
-use cgfem_gpu::report::BodiesReport;
 
+use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
-use crate::cli_run::{Device, Outputs};
-
-fn write_report(dir: &Path, report: &BodiesReport) -> anyhow::Result<()> {
-    let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
-    write_atomic(&dir.join("report.json"), &json)?;
-    Ok(())
-}
 
 /// The device for the bodies' inside-cell tangents: only with `--backend gpu`
-/// (`auto` keeps multi-body runs on the CPU, where the Krylov iterations run
+/// (`auto` keeps Newton runs on the CPU, where the Krylov iterations run
 /// anyway), in f64. The preconditioner (Jacobi or the bodies' multigrid)
 /// runs on the CPU beside it.
 fn tangent_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
@@ -45,36 +34,23 @@ fn tangent_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
     Ok(Some(Arc::new(ctx)))
 }
 
-/// Runs the multi-body case at `path`.
-pub fn run_bodies_case(
-    path: &Path,
+/// Solves `case` over its load steps and writes its outputs into `dir`.
+pub fn run(
+    case: &Case,
     level: Option<u32>,
-    set: &[String],
+    dir: &Path,
     outputs: &Outputs,
     device: &Device,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
-    let case = BodiesCase::from_file_with(path, set)?;
-    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let dir = outputs
-        .dir
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&name));
-    if dir.exists() && !dir.is_dir() {
-        return Err(cgfem_gpu::Error::Io {
-            path: dir.display().to_string(),
-            reason: "--out names a file, not a folder".into(),
-        }
-        .into());
-    }
     if outputs.plots {
-        println!("note: --plots has no chart for multi-body cases yet");
+        println!("note: --plots draws the linear path's charts only");
     }
     let gpu = tangent_device(device)?;
     if let Some(ctx) = &gpu {
         println!("tangent of the inside cells on {}", ctx.adapter.name);
     }
-    let outcome = run_on(&case, level, Some(&dir), gpu, progress);
+    let outcome = run_on(case, level, Some(dir), gpu, progress);
     progress.finish();
     let outcome = outcome?;
     let report = &outcome.report;
@@ -93,12 +69,16 @@ pub fn run_bodies_case(
             }
         );
     }
-    write_report(&dir, report)?;
+    super::write_report(dir, report)?;
+    let load = report
+        .load
+        .as_ref()
+        .expect("a Newton run reports its load steps");
     println!(
         "  {} of {} load steps converged (load factor {:.4}), {} Newton iterations, {} Krylov iterations",
-        report.converged_steps,
-        report.steps,
-        report.load_factor,
+        load.converged_steps,
+        load.steps,
+        load.load_factor,
         outcome.solution.newton_iterations(),
         outcome.solution.krylov_iterations()
     );
@@ -107,8 +87,8 @@ pub fn run_bodies_case(
             println!(
                 "  wrote {}, solution.pvd, {} body files, {} surface files and {} contact point files",
                 dir.join("report.json").display(),
-                report.bodies.len() * report.converged_steps,
-                report.bodies.len() * report.converged_steps,
+                report.bodies.len() * load.converged_steps,
+                report.bodies.len() * load.converged_steps,
                 report.contact.len()
             );
             Ok(())

@@ -1,12 +1,10 @@
-//! `cgfem-gpu run`: one case from file to report — set-up, optional
-//! condition numbers, the solve on the chosen backend (with progress and
-//! Ctrl-C), error norms, reactions, and the outputs (report.json,
+//! The linear path of `cgfem-gpu run` (one linear body): set-up, optional
+//! condition numbers, the fixed point on the chosen backend (with progress
+//! and Ctrl-C), error norms, reactions, and the outputs (report.json,
 //! solution.vtu, surface.vtp, solution.pvd listing both; with --plots
 //! residuals.svg and deformed.svg), each written atomically.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -22,22 +20,16 @@ use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with_progress;
 use cgfem_gpu::fem::surface_output::{write_surface, SurfaceFields};
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
-use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
+use cgfem_gpu::gpu::BackendChoice;
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::plot::{deformed_svg, SurfacePicture};
-use cgfem_gpu::report::{Condition, FixedPoint, Krylov, Report, Stabilisation};
+use cgfem_gpu::report::newton::ReactionRow;
+use cgfem_gpu::report::{BodyReport, Condition, FixedPoint, Krylov, Report};
 use cgfem_gpu::solver::Preconditioner;
 use cgfem_gpu::vtu::write_pvd_parts;
 
+use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
-
-/// Where `run` writes and what besides the report and the solution.
-pub struct Outputs {
-    /// `--out` (default: out/<case name>).
-    pub dir: Option<PathBuf>,
-    /// `--plots`: also DIR/residuals.svg and DIR/deformed.svg.
-    pub plots: bool,
-}
 
 /// Writes DIR/report.json and, with `plots`, DIR/residuals.svg from the loop's
 /// history.
@@ -47,9 +39,7 @@ fn write_report(
     fp: &FixedPointReport,
     plots: bool,
 ) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
-    write_atomic(&dir.join("report.json"), &json)?;
+    super::write_report(dir, report)?;
     if plots {
         let title = format!("{}: fixed-point convergence", report.case);
         let svg = fp.residual_chart(&title).to_svg()?;
@@ -118,49 +108,6 @@ fn condition_numbers(setup: &Setup) -> anyhow::Result<Condition> {
     })
 }
 
-/// What `run` asked of the device.
-pub struct Device {
-    pub backend: Option<BackendChoice>,
-    pub adapter: Option<String>,
-    pub precision: PrecisionChoice,
-}
-
-/// The GPU context to solve on, or `None` for the CPU.
-fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
-    let filter = cgfem_gpu::gpu::context::adapter_filter(d.adapter.as_deref());
-    match BackendChoice::resolve(d.backend)? {
-        BackendChoice::Cpu => {
-            if d.precision == PrecisionChoice::F32 {
-                return Err(cgfem_gpu::Error::CaseFile {
-                    file: "(command line)".into(),
-                    key: "--precision".into(),
-                    reason: "f32 needs the GPU backend".into(),
-                }
-                .into());
-            }
-            Ok(None)
-        }
-        BackendChoice::Gpu => Ok(Some(Arc::new(GpuContext::new(
-            filter.as_deref(),
-            d.precision,
-        )?))),
-        // An adapter named by `--adapter`/`CGFEM_ADAPTER` is taken even when it
-        // is a software one; otherwise `auto` wants hardware.
-        BackendChoice::Auto => match if filter.is_some() {
-            GpuContext::new(filter.as_deref(), d.precision)
-        } else {
-            GpuContext::new_hardware(None, d.precision)
-        } {
-            Ok(ctx) => Ok(Some(Arc::new(ctx))),
-            Err(e @ cgfem_gpu::Error::NoAdapter { .. }) => {
-                println!("note: {e}; solving on the CPU");
-                Ok(None)
-            }
-            Err(e) => Err(e.into()),
-        },
-    }
-}
-
 /// Whether the case's solver must run on the CPU whatever `--backend`
 /// says: the multigrid preconditioner runs on the CPU backend only, so
 /// `--backend gpu` is refused ([`cgfem_gpu::Error::UnsupportedOnBackend`],
@@ -186,27 +133,20 @@ fn cpu_only(case: &Case, d: &Device) -> anyhow::Result<bool> {
     }
 }
 
-pub fn run_case(
-    path: &Path,
+/// Solves the one linear body of `case` and writes its outputs into `dir`.
+pub fn run(
+    mut case: Case,
     level: Option<u32>,
-    set: &[String],
+    dir: &Path,
     outputs: &Outputs,
     condition: bool,
     device: &Device,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
-    let mut case = Case::from_file_with(path, set)?;
-    if let Some(mesh) = case.geometry.mesh() {
-        eprintln!(
-            "note: {}: mesh: {}",
-            case.file,
-            mesh.diagnostics().summary()
-        );
-    }
     let gpu = if cpu_only(&case, device)? {
         None
     } else {
-        open_device(device)?
+        super::open_device(device)?
     };
     let solver = &mut case.spec.solver;
     if solver.preconditioner == Preconditioner::Auto {
@@ -216,40 +156,28 @@ pub fn run_case(
         };
     }
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let dir = outputs
-        .dir
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&name));
-    if dir.exists() && !dir.is_dir() {
-        return Err(cgfem_gpu::Error::Io {
-            path: dir.display().to_string(),
-            reason: "--out names a file, not a folder".into(),
-        }
-        .into());
-    }
     let setup = Setup::new_with_progress(&case, level, progress);
     progress.finish();
     let setup = setup?;
-    let order = case.spec.element;
-    let mut report = Report::geometry(
-        &name,
-        &case.file,
+    let order = case.body().spec.element;
+    let mut report = Report::new(&case);
+    let body = case.body();
+    let mut row = BodyReport::new(
+        &body.spec.name,
+        body.model,
         order,
-        &case.geometry,
+        &body.geometry,
         &setup.grid,
         &setup.cells,
+        false,
     );
+    row.cells.pathological = Some(setup.omega_star.len());
+    report.push_body(row);
     report.timings.extend(setup.timings.iter().cloned());
-    report.cells.pathological = Some(setup.omega_star.len());
-    let st = &case.spec.stabilisation;
-    report.stabilisation = Some(Stabilisation {
-        k1: st.k1,
-        k2: st.k2,
-        a: st.threshold(order),
-    });
+    let b = &report.bodies[0];
     println!(
         "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
-        case.file, setup.grid.level, report.dofs, report.cells.inside, report.cells.cut
+        case.file, setup.grid.level, report.dofs, b.cells.inside, b.cells.cut
     );
 
     if condition {
@@ -337,62 +265,71 @@ pub fn run_case(
     let solution = match result {
         Ok(s) => s,
         Err(e) => {
-            report.status = match e {
-                cgfem_gpu::Error::Interrupted { .. } => "interrupted",
-                _ => "failed",
-            }
-            .into();
-            report.failure = Some(e.to_string());
-            write_report(&dir, &report, &fp, outputs.plots)?;
+            report.fail(&e);
+            write_report(dir, &report, &fp, outputs.plots)?;
             eprintln!(
                 "report (marked {}): {}",
                 report.status,
-                dir.join("report.json").display()
+                &dir.join("report.json").display()
             );
             return Err(e.into());
         }
     };
     let t = Instant::now();
+    let row = &mut report.bodies[0];
     if let Some(exact) = &setup.problem.exact {
         let (l, m) = (setup.problem.lambda, setup.problem.mu);
         let dofs = &setup.op.dofs;
         let (grid, cells, u) = (&setup.grid, &setup.cells, &solution.u);
         let (error, interpolant) =
             solution_and_interpolant_errors(grid, cells, dofs, u, exact, l, m);
-        report.error = Some(error);
+        row.error = Some(error);
         match interpolant {
-            Ok(e) => report.interpolant_error = Some(Some(e)),
+            Ok(e) => row.interpolant_error = Some(Some(e)),
             Err(why) => {
-                report.interpolant_error = Some(None);
-                report.interpolant_error_note = Some(why);
+                row.interpolant_error = Some(None);
+                row.interpolant_error_note = Some(why);
             }
         }
     }
-    let mut reactions: BTreeMap<String, [f64; 3]> = BTreeMap::new();
+    // Σ_q w_q λ_q per Dirichlet part, in the parts' order (one load step).
+    let geometry = &case.body().geometry;
+    let mut reactions: Vec<ReactionRow> = Vec::new();
     for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
-        let e = reactions
-            .entry(case.geometry.tag_name(p.tag).to_string())
-            .or_default();
-        for i in 0..3 {
-            e[i] += p.w * r[i];
+        let part = geometry.tag_name(p.tag);
+        let at = match reactions.iter().position(|row| row.part == part) {
+            Some(at) => at,
+            None => {
+                reactions.push(ReactionRow {
+                    body: case.body().spec.name.clone(),
+                    part: part.to_string(),
+                    step: 1,
+                    force: [0.0; 3],
+                });
+                reactions.len() - 1
+            }
+        };
+        for (f, r) in reactions[at].force.iter_mut().zip(r) {
+            *f += p.w * r;
         }
     }
+    reactions.sort_by(|a, b| a.part.cmp(&b.part));
     report.reactions = reactions;
     report
         .timings
         .insert("error_norms".into(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     write_solution(
         &setup,
-        &case.geometry,
+        &case.body().geometry,
         &solution.u,
         &dir.join("solution.vtu"),
     )?;
     let (surface, fields) = write_surface(
         &setup,
-        &case.geometry,
+        &case.body().geometry,
         &solution.u,
         &dir.join("surface.vtp"),
     )?;
@@ -402,9 +339,9 @@ pub fn run_case(
     report
         .timings
         .insert("output".into(), t.elapsed().as_secs_f64());
-    write_report(&dir, &report, &fp, outputs.plots)?;
+    write_report(dir, &report, &fp, outputs.plots)?;
     if outputs.plots {
-        write_deformed(&dir, &name, &surface, &fields)?;
+        write_deformed(dir, &name, &surface, &fields)?;
     }
 
     println!(
@@ -422,8 +359,9 @@ pub fn run_case(
             fp.floored_diagonal_entries
         );
     }
-    if let Some(e) = &report.error {
-        let interpolant = match &report.interpolant_error {
+    let row = &report.bodies[0];
+    if let Some(e) = &row.error {
+        let interpolant = match &row.interpolant_error {
             Some(Some(ei)) => format!("; interpolant {:.4e}", ei.energy_relative),
             _ => String::new(),
         };
@@ -431,19 +369,20 @@ pub fn run_case(
             "  energy error {:.4e} (relative {:.4e}{interpolant}), L2 relative {:.4e}",
             e.energy, e.energy_relative, e.l2_relative
         );
-        if let Some(why) = &report.interpolant_error_note {
+        if let Some(why) = &row.interpolant_error_note {
             println!("  interpolant error not reported: {why}");
         }
     }
-    for (tag, r) in &report.reactions {
+    for r in &report.reactions {
+        let f = r.force;
         println!(
-            "  reaction on '{tag}': [{:.6e}, {:.6e}, {:.6e}]",
-            r[0], r[1], r[2]
+            "  reaction on '{}': [{:.6e}, {:.6e}, {:.6e}]",
+            r.part, f[0], f[1], f[2]
         );
     }
     println!(
         "  wrote {}, solution.vtu, surface.vtp, solution.pvd{}",
-        dir.join("report.json").display(),
+        &dir.join("report.json").display(),
         if outputs.plots {
             ", residuals.svg, deformed.svg"
         } else {

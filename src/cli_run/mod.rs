@@ -1,0 +1,137 @@
+//! `cgfem-gpu run`: one case from file to report. The case is read once
+//! ([`cgfem_gpu::case::Case`]), its output folder checked, and it is solved
+//! along its path ([`cgfem_gpu::case::SolutionPath`]): [`linear`] (the
+//! fixed point on the recovered terms) or [`newton`] (load steps, contact).
+//! Both write the one report schema ([`cgfem_gpu::report::Report`]) to
+//! DIR/report.json — also when the solve fails (status "failed", exit code
+//! 3) or is interrupted (status "interrupted", exit code 130) — and the
+//! ParaView files, each atomically.
+
+mod linear;
+mod newton;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::Context;
+
+use cgfem_gpu::case::{Case, SolutionPath};
+use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
+use cgfem_gpu::output::write_atomic;
+use cgfem_gpu::report::Report;
+
+use crate::cli_progress::Terminal;
+
+/// Where `run` writes and what besides the report and the solution.
+pub struct Outputs {
+    /// `--out` (default: out/<case name>).
+    pub dir: Option<PathBuf>,
+    /// `--plots`: also DIR/residuals.svg and DIR/deformed.svg.
+    pub plots: bool,
+}
+
+/// What `run` asked of the device.
+pub struct Device {
+    pub backend: Option<BackendChoice>,
+    pub adapter: Option<String>,
+    pub precision: PrecisionChoice,
+}
+
+/// The GPU context to solve on, or `None` for the CPU.
+pub(super) fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
+    let filter = cgfem_gpu::gpu::context::adapter_filter(d.adapter.as_deref());
+    match BackendChoice::resolve(d.backend)? {
+        BackendChoice::Cpu => {
+            if d.precision == PrecisionChoice::F32 {
+                return Err(cgfem_gpu::Error::CaseFile {
+                    file: "(command line)".into(),
+                    key: "--precision".into(),
+                    reason: "f32 needs the GPU backend".into(),
+                }
+                .into());
+            }
+            Ok(None)
+        }
+        BackendChoice::Gpu => Ok(Some(Arc::new(GpuContext::new(
+            filter.as_deref(),
+            d.precision,
+        )?))),
+        // An adapter named by `--adapter`/`CGFEM_ADAPTER` is taken even when it
+        // is a software one; otherwise `auto` wants hardware.
+        BackendChoice::Auto => match if filter.is_some() {
+            GpuContext::new(filter.as_deref(), d.precision)
+        } else {
+            GpuContext::new_hardware(None, d.precision)
+        } {
+            Ok(ctx) => Ok(Some(Arc::new(ctx))),
+            Err(e @ cgfem_gpu::Error::NoAdapter { .. }) => {
+                println!("note: {e}; solving on the CPU");
+                Ok(None)
+            }
+            Err(e) => Err(e.into()),
+        },
+    }
+}
+
+/// Runs the case at `path`: `level` overrides every body's, `set` the keys.
+pub fn run_case(
+    path: &Path,
+    level: Option<u32>,
+    set: &[String],
+    outputs: &Outputs,
+    condition: bool,
+    device: &Device,
+    progress: &Terminal,
+) -> anyhow::Result<()> {
+    let case = Case::from_file_with(path, set)?;
+    mesh_notes(&case);
+    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
+    let dir = outputs
+        .dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&name));
+    if dir.exists() && !dir.is_dir() {
+        return Err(cgfem_gpu::Error::Io {
+            path: dir.display().to_string(),
+            reason: "--out names a file, not a folder".into(),
+        }
+        .into());
+    }
+    match &case.path {
+        SolutionPath::Linear => {
+            linear::run(case, level, &dir, outputs, condition, device, progress)
+        }
+        SolutionPath::Newton(why) => {
+            println!(
+                "case {name} ({}): Newton over load steps ({why})",
+                case.file
+            );
+            if condition {
+                println!("note: --condition applies to the linear path; not computed");
+            }
+            newton::run(&case, level, &dir, outputs, device, progress)
+        }
+    }
+}
+
+/// What loading each STL body found, on stderr.
+pub fn mesh_notes(case: &Case) {
+    for b in &case.bodies {
+        if let Some(mesh) = b.geometry.mesh() {
+            eprintln!(
+                "note: {}: body '{}': mesh: {}",
+                case.file,
+                b.spec.name,
+                mesh.diagnostics().summary()
+            );
+        }
+    }
+}
+
+/// Writes DIR/report.json (creating DIR).
+fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
+    write_atomic(&dir.join("report.json"), &json)?;
+    Ok(())
+}

@@ -1,0 +1,272 @@
+//! `report.json`: the machine-readable summary of a run (DESIGN §8), one
+//! schema for both solution paths: the run's keys, then the bodies as rows
+//! (`bodies`, [`BodyReport`]), then what the path measured (the linear fixed
+//! point's `fixed_point`, `krylov` and `condition`; Newton's load steps and
+//! contact rows, [`newton`]), and the reactions as rows. Keys are stable and
+//! documented in the README; a key whose stage has not run yet is absent or
+//! `null`, never a made-up value.
+
+pub mod newton;
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::cells::{CellKind, Cells};
+use crate::element::ElementOrder;
+use crate::geometry::Geometry;
+use crate::grid::Grid;
+
+/// Cell counts by class.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct CellCounts {
+    pub inside: usize,
+    pub cut: usize,
+    pub outside: usize,
+    /// Cut cells with volume fraction below the stabilisation threshold A;
+    /// `null` until the stabilisation is configured.
+    pub pathological: Option<usize>,
+    /// Cut cells of negligible volume merged into a neighbour (counted in
+    /// `outside`).
+    pub merged: usize,
+}
+
+/// Measures of the domain by the cut-cell quadrature.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Domain {
+    pub volume: f64,
+    pub boundary_area: f64,
+    pub boundary_area_by_tag: BTreeMap<String, f64>,
+}
+
+/// `stabilisation`: the parameters used.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Stabilisation {
+    pub k1: f64,
+    pub k2: f64,
+    #[serde(rename = "A")]
+    pub a: f64,
+}
+
+/// `krylov`: the linear solves.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Krylov {
+    pub method: String,
+    pub preconditioner: String,
+    pub iterations_per_solve: Vec<usize>,
+    pub total_iterations: usize,
+    pub final_relative_residual: f64,
+    /// Zero or negative Jacobi diagonal entries at round-off level (cut artefacts) floored by
+    /// the preconditioner instead of failing ([`crate::solver::DIAGONAL_FLOOR`]).
+    pub floored_diagonal_entries: usize,
+}
+
+/// `fixed_point`: the recovery loop.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FixedPoint {
+    /// `"fgmres"` or `"picard"` (`[solver] outer`).
+    pub method: String,
+    pub iterations: usize,
+    pub eps_history: Vec<f64>,
+    pub converged: bool,
+}
+
+/// `condition`: κ of the operator on the active dofs (DESIGN §3.5).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Condition {
+    pub kappa: f64,
+    pub kappa_jacobi: f64,
+    /// True where only a lower bound could be given (then `method` says why).
+    pub kappa_is_lower_bound: bool,
+    pub kappa_jacobi_is_lower_bound: bool,
+    pub method: String,
+}
+
+/// The report of a run.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Report {
+    pub case: String,
+    pub file: String,
+    /// `"linear"` or `"newton"` ([`crate::case::SolutionPath`]).
+    pub path: String,
+    /// Why the case runs Newton.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub path_reason: Option<String>,
+    /// `"ok"`, `"failed"` or `"interrupted"` (Ctrl-C), the last two with `failure`.
+    pub status: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
+    /// `"cpu"`, or `"gpu"` when the solve (linear path) or the inside-cell
+    /// tangents (Newton path) ran on `adapter`.
+    pub backend: String,
+    pub adapter: Option<String>,
+    pub precision: String,
+    /// Unknowns of all bodies, and those held at zero (plane strain).
+    pub dofs: usize,
+    pub held_dofs: usize,
+    pub bodies: Vec<BodyReport>,
+    pub stabilisation: Stabilisation,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fixed_point: Option<FixedPoint>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub krylov: Option<Krylov>,
+    /// Condition numbers of the operator (`run --condition`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition: Option<Condition>,
+    /// Newton path: the load steps.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub load: Option<newton::LoadReport>,
+    /// Per contact pair and converged load step.
+    pub contact: Vec<crate::contact::ContactRow>,
+    /// Per body, Dirichlet part and converged load step (the linear path
+    /// is one step).
+    pub reactions: Vec<newton::ReactionRow>,
+    /// Seconds per phase.
+    pub timings: BTreeMap<String, f64>,
+}
+
+impl Report {
+    /// A report of `case` before anything is solved: the bodies are added
+    /// by the path that sets them up.
+    pub fn new(case: &crate::case::Case) -> Report {
+        let (path, path_reason) = match &case.path {
+            crate::case::SolutionPath::Linear => ("linear", None),
+            crate::case::SolutionPath::Newton(why) => ("newton", Some(why.clone())),
+        };
+        let st = &case.spec.stabilisation;
+        Report {
+            case: case.spec.name.clone().unwrap_or_else(|| "case".into()),
+            file: case.file.clone(),
+            path: path.into(),
+            path_reason,
+            status: "ok".into(),
+            failure: None,
+            backend: "cpu".into(),
+            adapter: None,
+            precision: "f64".into(),
+            dofs: 0,
+            held_dofs: 0,
+            bodies: Vec::new(),
+            stabilisation: Stabilisation {
+                k1: st.k1,
+                k2: st.k2,
+                a: st.threshold(case.body().spec.element),
+            },
+            fixed_point: None,
+            krylov: None,
+            condition: None,
+            load: None,
+            contact: Vec::new(),
+            reactions: Vec::new(),
+            timings: BTreeMap::new(),
+        }
+    }
+
+    /// The load steps of a Newton run (none on the linear path).
+    pub fn load_steps(&self) -> &[newton::LoadStepRow] {
+        self.load.as_ref().map_or(&[], |l| &l.load_steps)
+    }
+
+    /// Adds a body's row (and its unknowns to `dofs`).
+    pub fn push_body(&mut self, body: BodyReport) {
+        self.dofs += body.dofs;
+        self.bodies.push(body);
+    }
+
+    /// Marks the report failed (or interrupted) with `e`.
+    pub fn fail(&mut self, e: &crate::Error) {
+        self.status = match e {
+            crate::Error::Interrupted { .. } => "interrupted",
+            _ => "failed",
+        }
+        .into();
+        self.failure = Some(e.to_string());
+    }
+}
+
+/// One body of a report: its grid, cells and domain, and its errors against
+/// the exact field where it has one.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct BodyReport {
+    pub name: String,
+    /// `"linear"`, `"neo_hookean"` or `"st_venant_kirchhoff"`.
+    pub model: crate::case::Model,
+    pub element: ElementOrder,
+    pub level: u32,
+    pub h: f64,
+    pub grid_cells: [usize; 3],
+    pub dofs: usize,
+    pub plane_strain: bool,
+    pub cells: CellCounts,
+    pub domain: Domain,
+    /// What loading the STL found, when the solid is a mesh.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<crate::mesh::MeshDiagnostics>,
+    /// Errors against the exact field, when the body has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<crate::fem::field::ErrorNorms>,
+    /// The same norms for the nodal interpolant of the exact field (the
+    /// best-approximation reference): absent without an exact field,
+    /// `Some(None)` (`null`) where they would mean nothing, with the reason
+    /// in `interpolant_error_note` ([`crate::fem::field::interpolant_error`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpolant_error: Option<Option<crate::fem::field::ErrorNorms>>,
+    /// Why `interpolant_error` is `null`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpolant_error_note: Option<String>,
+}
+
+impl BodyReport {
+    /// Body `name` of `model` and element `order` on its grid and cells:
+    /// grid, cells, dofs and domain measures.
+    pub fn new(
+        name: &str,
+        model: crate::case::Model,
+        order: ElementOrder,
+        geometry: &Geometry,
+        grid: &Grid,
+        cells: &Cells,
+        plane_strain: bool,
+    ) -> BodyReport {
+        let outside = cells
+            .kinds
+            .iter()
+            .filter(|k| **k == CellKind::Outside)
+            .count();
+        let mut by_tag: BTreeMap<String, f64> = geometry
+            .tag_names()
+            .iter()
+            .map(|t| (t.clone(), 0.0))
+            .collect();
+        for p in &cells.surface {
+            *by_tag.get_mut(geometry.tag_name(p.tag)).expect("known tag") += p.w;
+        }
+        let (_, active) = cells.active_nodes(grid, order);
+        BodyReport {
+            name: name.into(),
+            model,
+            element: order,
+            level: grid.level,
+            h: grid.h,
+            grid_cells: grid.n,
+            dofs: 3 * active,
+            plane_strain,
+            cells: CellCounts {
+                inside: cells.num_inside,
+                cut: cells.cut.len(),
+                outside,
+                pathological: None,
+                merged: cells.merged,
+            },
+            domain: Domain {
+                volume: cells.volume(grid),
+                boundary_area: cells.boundary_area(),
+                boundary_area_by_tag: by_tag,
+            },
+            mesh: geometry.mesh().map(|m| m.diagnostics().clone()),
+            error: None,
+            interpolant_error: None,
+            interpolant_error_note: None,
+        }
+    }
+}
