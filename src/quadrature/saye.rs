@@ -168,7 +168,7 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
         }
         return;
     };
-    for (sweep, (k, emit)) in plan.into_iter().enumerate() {
+    for (sweep, (k, emit, monotone)) in plan.into_iter().enumerate() {
         let size = free.iter().map(|&a| b.hi[a] - b.lo[a]).fold(0.0, f64::max);
         let n = if sweep == 0 && want_surface {
             super::branch::lower_points(fns.iter().map(|f| &f.1), free, k, size, ctx.cell, ctx.q)
@@ -191,7 +191,18 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
             rule.samples.extend(base.volume.iter().map(|p| p.x));
         } else {
             let start = rule.volume.len();
-            sweep_box(ctx, ctx, &fns, b, free, k, true, sweep == 0, &emit, rule);
+            sweep_box(
+                ctx,
+                ctx,
+                &fns,
+                b,
+                free,
+                k,
+                monotone,
+                sweep == 0,
+                &emit,
+                rule,
+            );
             extend_samples(ctx, rule, start);
         }
     }
@@ -212,13 +223,17 @@ fn extend_samples(ctx: &Ctx, rule: &mut BoxRule, start: usize) {
 /// points of the leaves with a nonzero derivative along its axis; further
 /// sweeps along other axes give the surface points of the remaining leaves
 /// (a boundary parallel to a sweep direction has no points on its lines).
-/// `None` when some leaf has no usable axis.
+/// Each sweep is `(axis, leaves whose surface it emits, monotone)`: a leaf
+/// that is a plane on a face of the box (a CSG cut on a grid plane) may be
+/// swept along its normal although other leaves are not monotone along it,
+/// with the scanning root finder ([`on_face_plane`]). `None` when some leaf
+/// has no usable axis.
 fn sweep_plan(
     fns: &[(Restricted, Dual<Interval>)],
     free: &[usize],
     want_surface: bool,
     min_quality: f64,
-) -> Option<Vec<(usize, Vec<bool>)>> {
+) -> Option<Vec<(usize, Vec<bool>, bool)>> {
     let k = height_axis(fns, free, min_quality)?;
     let strict = |k: usize, i: usize| fns[i].1.d[k].strictly_signed();
     let mut plan = vec![(
@@ -226,25 +241,46 @@ fn sweep_plan(
         (0..fns.len())
             .map(|i| want_surface && strict(k, i))
             .collect::<Vec<_>>(),
+        true,
     )];
     if !want_surface {
         return Some(plan);
     }
     let mut done: Vec<bool> = plan[0].1.clone();
     while let Some(i) = done.iter().position(|d| !d) {
-        let k = free.iter().copied().find(|&k| {
-            strict(k, i)
-                && fns.iter().all(|(_, bd)| {
-                    monotone_or_constant(bd, k) && quality(bd, k, free) >= min_quality
-                })
-        })?;
-        let emit: Vec<bool> = (0..fns.len()).map(|j| !done[j] && strict(k, j)).collect();
+        let monotone = |k: usize| {
+            fns.iter()
+                .all(|(_, bd)| monotone_or_constant(bd, k) && quality(bd, k, free) >= min_quality)
+        };
+        let (k, monotone) = match free.iter().copied().find(|&k| strict(k, i) && monotone(k)) {
+            Some(k) => (k, true),
+            None => {
+                let k = free
+                    .iter()
+                    .copied()
+                    .find(|&k| on_face_plane(&fns[i].1, k, free))?;
+                (k, false)
+            }
+        };
+        let emit: Vec<bool> = (0..fns.len())
+            .map(|j| !done[j] && strict(k, j) && (monotone || on_face_plane(&fns[j].1, k, free)))
+            .collect();
         for (d, e) in done.iter_mut().zip(&emit) {
             *d |= e;
         }
-        plan.push((k, emit));
+        plan.push((k, emit, monotone));
     }
     Some(plan)
+}
+
+/// ψ is linear with its gradient along `k` and only touches zero on the box:
+/// its zero set there is a face of the box normal to `k`. Its boundary
+/// points lie at the lines' ends, so a sweep along `k` emits them whatever
+/// the other leaves do along `k`, given roots found by scanning.
+fn on_face_plane(bd: &Dual<Interval>, k: usize, free: &[usize]) -> bool {
+    let linear = free.iter().all(|&a| bd.d[a].lo == bd.d[a].hi);
+    let along_k = free.iter().all(|&a| a == k || bd.d[a].lo == 0.0);
+    linear && along_k && bd.d[k].strictly_signed() && !bd.v.straddles_zero()
 }
 
 /// One height-direction sweep of the box along `k`: the lines' Gauss rules
