@@ -73,10 +73,14 @@ impl BodiesSetup {
             let s = &bodies[b];
             let key = case.body_key(b, "symmetry");
             let tags = &body.spec.symmetry;
-            for plane in symmetry::planes(&case.file, &key, &s.grid, &s.cells, &s.solid, tags)? {
+            let planes = symmetry::planes(&case.file, &key, &s.grid, &s.cells, &s.solid, tags)?;
+            for &plane in &planes {
                 for d in symmetry::held_dofs(&s.grid, &problem.bodies[b].dofs, plane) {
                     problem.hold(b, d);
                 }
+            }
+            if let Some(s_term) = problem.bodies[b].s_term.as_mut() {
+                s_term.mirror = symmetry::mirror(&planes);
             }
         }
         if !case.pairs.is_empty() {

@@ -48,7 +48,7 @@ use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::fem::stabilisation::{cell_s_matrix, pathological_cells};
 use crate::geometry::Geometry;
-use crate::recovery::{recover, Recovered, Sample, SprOptions};
+use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
 
 /// Gauss points per axis of the sample rule and of the `f_c` integral.
 const RULE_POINTS: usize = 3;
@@ -74,6 +74,9 @@ pub struct STerm {
     cut_sample_start: Vec<usize>,
     /// Per Ω* cell: `f_c` of the last refresh (zero before the first).
     targets: RwLock<Vec<CellVector>>,
+    /// The faces of the grid box that are symmetry planes: the patches
+    /// continue across them (`crate::bodies::symmetry`).
+    pub mirror: Mirror,
 }
 
 impl STerm {
@@ -126,6 +129,7 @@ impl STerm {
             kinds: cells.kinds.clone(),
             cut_samples,
             cut_sample_start,
+            mirror: Mirror::none(),
         }
     }
 
@@ -233,19 +237,16 @@ impl STerm {
             p.grid.cell_nodes(ElementOrder::Q1, c, &mut v);
             nodes.extend_from_slice(&v);
         }
-        let samples = |cell: usize, out: &mut Vec<Sample<3>>| {
-            let mut xs = Vec::new();
-            self.sample_positions(p, cell, &mut xs);
-            out.extend(xs.into_iter().map(|x| (x, value(cell, x))));
+        let samples = DisplacementSamples {
+            term: self,
+            problem: p,
+            value,
         };
-        recover(
-            &p.grid,
-            &self.kinds,
-            &nodes,
-            DEGREE,
-            &samples,
-            &SprOptions::default(),
-        )
+        let opts = SprOptions {
+            mirror: self.mirror,
+            ..SprOptions::default()
+        };
+        recover(&p.grid, &self.kinds, &nodes, DEGREE, &samples, &opts)
     }
 
     /// `S` of the displacement `u` of `p`.
@@ -290,6 +291,30 @@ impl STerm {
     /// The Ω* cells' entries in [`HyperProblem::cells`].
     pub fn entries(&self) -> &[usize] {
         &self.entries
+    }
+}
+
+/// The samples of a displacement field `value(cell, x)` at the S-term's
+/// sample positions; a displacement reflects as a vector.
+struct DisplacementSamples<'a, F> {
+    term: &'a STerm,
+    problem: &'a HyperProblem,
+    value: F,
+}
+
+impl<F> PatchSamples<3> for DisplacementSamples<'_, F>
+where
+    F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+{
+    fn samples(&self, cell: usize, out: &mut Vec<Sample<3>>) {
+        let mut xs = Vec::new();
+        self.term.sample_positions(self.problem, cell, &mut xs);
+        out.extend(xs.into_iter().map(|x| (x, (self.value)(cell, x))));
+    }
+
+    fn reflected(&self, axis: usize, mut value: [f64; 3]) -> Option<[f64; 3]> {
+        value[axis] = -value[axis];
+        Some(value)
     }
 }
 

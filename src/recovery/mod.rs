@@ -30,6 +30,9 @@
 //! it is defined on the whole cell box, also outside Ω (polynomial extension).
 
 mod fit;
+mod mirror;
+#[cfg(test)]
+mod mirror_tests;
 mod sample_cache;
 mod spr;
 #[cfg(test)]
@@ -40,6 +43,7 @@ mod tests;
 use nalgebra::DMatrix;
 
 pub use fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
+pub use mirror::Mirror;
 pub use spr::{
     recover, recover_from_rings, CellBlend, Patch, PatchInfo, PatchSamples, Recovered,
     RecoveryStats, SprOptions,

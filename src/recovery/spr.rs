@@ -10,6 +10,7 @@
 use rayon::prelude::*;
 
 use super::fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
+use super::mirror::{reflect_point, reflected_axes, ring_cells, Mirror};
 use super::sample_cache::SampleCache;
 use super::{Monomials, Sample};
 use crate::cells::CellKind;
@@ -29,6 +30,13 @@ pub trait PatchSamples<const NC: usize>: Sync {
     /// `patch` in the scaled basis `basis` (see [`LinearConstraints`],
     /// [`Patch::scaled`]); none by default. Asked again for every ring tried.
     fn constraints(&self, _patch: &Patch<'_>, _basis: &Monomials) -> Option<LinearConstraints> {
+        None
+    }
+
+    /// The field value `value` seen in the mirror across a plane normal to
+    /// `axis` ([`super::Mirror`]); `None` (the default) for a field that
+    /// cannot be reflected, whose patches then stop at the grid box.
+    fn reflected(&self, _axis: usize, _value: [f64; NC]) -> Option<[f64; NC]> {
         None
     }
 }
@@ -71,14 +79,18 @@ pub struct SprOptions {
     pub max_rings: usize,
     /// Acceptance of a ring's fit; a rejected fit enlarges the patch.
     pub fit: FitOptions,
+    /// Faces of the grid box that are symmetry planes: patches continue
+    /// across them for fields that [`PatchSamples::reflected`] reflects.
+    pub mirror: Mirror,
 }
 
 impl Default for SprOptions {
-    /// Up to 3 rings (216 cells), default [`FitOptions`].
+    /// Up to 3 rings (216 cells), default [`FitOptions`], no mirror.
     fn default() -> Self {
         SprOptions {
             max_rings: 3,
             fit: FitOptions::default(),
+            mirror: Mirror::none(),
         }
     }
 }
@@ -237,20 +249,34 @@ impl<S> Context<'_, S> {
     {
         let center = self.grid.node_position(ElementOrder::Q1, node);
         let vertex = node_ijk(self.grid, node);
-        let mut cells = Vec::new();
+        let (mut patch_cells, mut cells) = (Vec::new(), Vec::new());
         buf.clear();
         let mut failure = None;
         let first_ring = first_ring.min(self.opts.max_rings.max(1));
+        let probe = [0.0; NC];
+        let mirror = match (0..3).all(|a| self.samples.reflected(a, probe).is_some()) {
+            true => self.opts.mirror,
+            false => Mirror::none(),
+        };
         for ring in 1..=self.opts.max_rings.max(1) {
-            let first = cells.len();
-            ring_cells(self.grid, self.kinds, vertex, ring, &mut cells);
-            for &c in &cells[first..] {
+            let first = patch_cells.len();
+            ring_cells(
+                self.grid,
+                self.kinds,
+                &mirror,
+                vertex,
+                ring,
+                &mut patch_cells,
+            );
+            for &(c, mask) in &patch_cells[first..] {
                 let samples = cache.get(self.samples, c);
-                buf.extend(
-                    samples
-                        .iter()
-                        .map(|&(x, v)| (scaled(center, self.grid.h, x), v)),
-                );
+                if mask == 0 {
+                    cells.push(c);
+                }
+                buf.extend(samples.iter().map(|&(x, v)| {
+                    let (x, v) = self.reflect(mask, x, v);
+                    (scaled(center, self.grid.h, x), v)
+                }));
             }
             if ring < first_ring {
                 continue;
@@ -267,7 +293,7 @@ impl<S> Context<'_, S> {
                 Ok(a) => {
                     let info = PatchInfo {
                         ring,
-                        cells: cells.len(),
+                        cells: patch_cells.len(),
                         samples: buf.len(),
                     };
                     return Ok((a, info));
@@ -286,32 +312,28 @@ impl<S> Context<'_, S> {
     }
 }
 
+impl<S> Context<'_, S> {
+    /// A sample of a cell seen across the faces in `mask`.
+    fn reflect<const NC: usize>(&self, mask: u8, x: [f64; 3], v: [f64; NC]) -> Sample<NC>
+    where
+        S: PatchSamples<NC>,
+    {
+        if mask == 0 {
+            return (x, v);
+        }
+        let v = reflected_axes(mask).fold(v, |v, a| {
+            self.samples
+                .reflected(a, v)
+                .expect("mirrored patches only for reflectable fields")
+        });
+        (reflect_point(self.grid, mask, x), v)
+    }
+}
+
 /// Lattice indices of a Q1 node.
 fn node_ijk(grid: &Grid, node: usize) -> [usize; 3] {
     let m = grid.nodes_per_axis(ElementOrder::Q1);
     [node % m[0], (node / m[0]) % m[1], node / (m[0] * m[1])]
-}
-
-/// Appends the cells with positive volume exactly `ring` cells away from the
-/// vertex `v`: cell `i` along an axis is at distance `v − i` when `i < v`, else
-/// `i − v + 1`, and a cell's distance is the largest over the axes.
-fn ring_cells(grid: &Grid, kinds: &[CellKind], v: [usize; 3], ring: usize, out: &mut Vec<usize>) {
-    let lo = v.map(|vk| vk.saturating_sub(ring));
-    let hi = [0, 1, 2].map(|k| (v[k] + ring).min(grid.n[k]));
-    let dist = |k: usize, i: usize| if i < v[k] { v[k] - i } else { i - v[k] + 1 };
-    for k in lo[2]..hi[2] {
-        for j in lo[1]..hi[1] {
-            for i in lo[0]..hi[0] {
-                if dist(0, i).max(dist(1, j)).max(dist(2, k)) != ring {
-                    continue;
-                }
-                let c = grid.cell_index([i, j, k]);
-                if kinds[c] != CellKind::Outside {
-                    out.push(c);
-                }
-            }
-        }
-    }
 }
 
 impl<const NC: usize> Recovered<NC> {
