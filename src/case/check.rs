@@ -13,7 +13,7 @@ impl Case {
     pub(super) fn check(&self, solver_keys: &[String]) -> Result<()> {
         self.check_name()?;
         let s = &self.spec;
-        if s.body.is_empty() {
+        if self.bodies.is_empty() {
             return Err(self.bad("body", "a case needs at least one [[body]]".into()));
         }
         let st = &s.stabilisation;

@@ -87,6 +87,8 @@ pub struct CaseSpec {
     pub solver: SolverSpec,
     #[serde(default)]
     pub stabilisation: StabilisationSpec,
+    /// The bodies as read; moved into [`Case::bodies`] (empty after), so
+    /// that a body's spec has one copy.
     pub body: Vec<BodySpec>,
     #[serde(default)]
     pub contact: Vec<ContactPairSpec>,
@@ -181,11 +183,11 @@ impl Case {
         }
         let model = Model::default_for(!spec.contact.is_empty());
         let mut bodies = Vec::with_capacity(spec.body.len());
-        for b in &spec.body {
+        for b in std::mem::take(&mut spec.body) {
             bodies.push(Body {
-                spec: b.clone(),
                 geometry: b.geometry.build(file)?,
                 model: b.material.model.unwrap_or(model),
+                spec: b,
             });
         }
         let path = solution_path(&spec, &bodies, &asks_newton);

@@ -4,6 +4,7 @@
 //! solution.vtu, surface.vtp, solution.pvd listing both; with --plots
 //! residuals.svg and deformed.svg), each written atomically.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -292,28 +293,24 @@ pub fn run(
             }
         }
     }
-    // Σ_q w_q λ_q per Dirichlet part, in the parts' order (one load step).
+    // Σ_q w_q λ_q per Dirichlet part, one load step.
     let geometry = &case.body().geometry;
-    let mut reactions: Vec<ReactionRow> = Vec::new();
+    let mut by_part: BTreeMap<&str, [f64; 3]> = BTreeMap::new();
     for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
-        let part = geometry.tag_name(p.tag);
-        let at = match reactions.iter().position(|row| row.part == part) {
-            Some(at) => at,
-            None => {
-                reactions.push(ReactionRow {
-                    body: case.body().spec.name.clone(),
-                    part: part.to_string(),
-                    step: 1,
-                    force: [0.0; 3],
-                });
-                reactions.len() - 1
-            }
-        };
-        for (f, r) in reactions[at].force.iter_mut().zip(r) {
+        let force = by_part.entry(geometry.tag_name(p.tag)).or_default();
+        for (f, r) in force.iter_mut().zip(r) {
             *f += p.w * r;
         }
     }
-    reactions.sort_by(|a, b| a.part.cmp(&b.part));
+    let reactions = by_part
+        .into_iter()
+        .map(|(part, force)| ReactionRow {
+            body: case.body().spec.name.clone(),
+            part: part.to_string(),
+            step: 1,
+            force,
+        })
+        .collect();
     report.reactions = reactions;
     report
         .timings

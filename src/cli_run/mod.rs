@@ -43,12 +43,7 @@ pub(super) fn open_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>>
     match BackendChoice::resolve(d.backend)? {
         BackendChoice::Cpu => {
             if d.precision == PrecisionChoice::F32 {
-                return Err(cgfem_gpu::Error::CaseFile {
-                    file: "(command line)".into(),
-                    key: "--precision".into(),
-                    reason: "f32 needs the GPU backend".into(),
-                }
-                .into());
+                return Err(precision_refused("f32 needs the GPU backend"));
             }
             Ok(None)
         }
@@ -112,6 +107,16 @@ pub fn run_case(
             newton::run(&case, level, &dir, outputs, device, progress)
         }
     }
+}
+
+/// `--precision` refused for `reason` (exit code 2).
+pub(super) fn precision_refused(reason: &str) -> anyhow::Error {
+    cgfem_gpu::Error::CaseFile {
+        file: "(command line)".into(),
+        key: "--precision".into(),
+        reason: reason.into(),
+    }
+    .into()
 }
 
 /// What loading each STL body found, on stderr.

@@ -22,12 +22,7 @@ fn tangent_device(d: &Device) -> anyhow::Result<Option<Arc<GpuContext>>> {
         return Ok(None);
     }
     if d.precision == PrecisionChoice::F32 {
-        return Err(cgfem_gpu::Error::CaseFile {
-            file: "(command line)".into(),
-            key: "--precision".into(),
-            reason: "large-deformation runs need f64".into(),
-        }
-        .into());
+        return Err(super::precision_refused("large-deformation runs need f64"));
     }
     let filter = cgfem_gpu::gpu::context::adapter_filter(d.adapter.as_deref());
     let ctx = GpuContext::new(filter.as_deref(), PrecisionChoice::F64)?;

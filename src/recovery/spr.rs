@@ -190,12 +190,19 @@ pub fn recover_from_rings<const NC: usize, S: PatchSamples<NC>>(
         });
     }
     let basis = Monomials::new(degree);
+    // Patches continue across the mirror faces only for a field that reflects.
+    let reflects = (0..3).all(|a| samples.reflected(a, [0.0; NC]).is_some());
     let ctx = Context {
         grid,
         kinds,
         basis: &basis,
         samples,
         opts,
+        mirror: if reflects {
+            opts.mirror
+        } else {
+            Mirror::none()
+        },
     };
     let fits: Vec<Result<(Vec<f64>, PatchInfo)>> = nodes
         .par_iter()
@@ -231,6 +238,9 @@ struct Context<'a, S> {
     basis: &'a Monomials,
     samples: &'a S,
     opts: &'a SprOptions,
+    /// The faces patches continue across (none for a field that does not
+    /// reflect).
+    mirror: Mirror,
 }
 
 impl<S> Context<'_, S> {
@@ -253,17 +263,12 @@ impl<S> Context<'_, S> {
         buf.clear();
         let mut failure = None;
         let first_ring = first_ring.min(self.opts.max_rings.max(1));
-        let probe = [0.0; NC];
-        let mirror = match (0..3).all(|a| self.samples.reflected(a, probe).is_some()) {
-            true => self.opts.mirror,
-            false => Mirror::none(),
-        };
         for ring in 1..=self.opts.max_rings.max(1) {
             let first = patch_cells.len();
             ring_cells(
                 self.grid,
                 self.kinds,
-                &mirror,
+                &self.mirror,
                 vertex,
                 ring,
                 &mut patch_cells,
