@@ -54,6 +54,18 @@ pub fn cut_rule_points(order: ElementOrder) -> usize {
     }
 }
 
+/// A cut cell gives its fits all of its points up to this many
+/// ([`Cells::fit_points`]): Q1 cut cells have about 14 with the default
+/// rule (the plate with a hole of `tests/symmetry.rs`: 8 to 128), Q2 64 to
+/// 384 on the sphere at level 3; only cells refined where several surfaces
+/// meet have more (Hertz's ball at its pole on two symmetry planes: over
+/// 1 000). With every point, `quadrature.points = 8` made the recovery of a
+/// level-3 patch test minutes long (512 points a cell). Lower caps cost the
+/// Q2 fixed point its conditioning: with 128 the Q2 sphere's Jacobi and
+/// multigrid answers were 2.6e-7 apart (`tests/multigrid_fixed_point.rs`
+/// asks 1e-7), as with a binned symmetric subset of 64.
+pub const MAX_FIT_POINTS: usize = 384;
+
 /// The cells of a grid classified against a geometry, with the cut cells'
 /// rules stored flat (cut cell `i`'s volume points are
 /// `volume[volume_start[i]..volume_start[i + 1]]`, likewise for the surface).
@@ -190,21 +202,29 @@ impl Cells {
         &self.samples[self.sample_start[i]..self.sample_start[i + 1]]
     }
 
-    /// At most about `max` points of the `i`-th cut cell for least-squares
-    /// fits (SPR samples): evenly strided, in sweep order, through its
-    /// [`Self::sample_points`] or, where it has none, its volume points. The
-    /// samples keep the base rule's points where the volume rule took more
+    /// Points of the `i`-th cut cell for least-squares fits (SPR samples):
+    /// its [`Self::sample_points`] or, where it has none, its volume points,
+    /// all of them up to `max` (the recoveries of the solution take
+    /// [`MAX_FIT_POINTS`]), else about that many strided in the rule's sweep
+    /// order. The samples keep the base rule's points
+    /// where the volume rule took more
     /// ([`crate::quadrature::saye::box_rule`]), so the fits do not depend on
     /// the accuracy of the volume rule.
+    ///
+    /// All points, where they are not too many, because a strided subset is
+    /// not mirror symmetric: a mirror image of the cell lists its points in
+    /// another order, so a symmetric problem would get a recovery that is
+    /// not symmetric (`tests/symmetry.rs`). A cell over the cap (a raised
+    /// `quadrature.points`, or a cell refined where several surfaces meet)
+    /// is strided and not symmetric.
     pub fn fit_points(&self, i: usize, max: usize) -> Vec<[f64; 3]> {
         let own = self.sample_points(i);
+        let stride = |n: usize| n.div_ceil(max).max(1);
         if own.is_empty() {
             let pts = self.volume_points(i);
-            let stride = pts.len().div_ceil(max).max(1);
-            pts.iter().step_by(stride).map(|q| q.x).collect()
+            pts.iter().step_by(stride(pts.len())).map(|q| q.x).collect()
         } else {
-            let stride = own.len().div_ceil(max).max(1);
-            own.iter().step_by(stride).copied().collect()
+            own.iter().step_by(stride(own.len())).copied().collect()
         }
     }
 

@@ -16,10 +16,9 @@
 //! recovered terms are fitted to the same samples: the S-term's patches
 //! continue across the planes into the mirror image. `tests/symmetry.rs`
 //! finds a quarter plate with a hole equal to the full one to 8e-12 with the
-//! S-term off. With it on they differ by 7.5e-3 at level 3, because the full
-//! model is not symmetric itself: a cut cell's S-term samples are a strided
-//! subset of its volume points in sweep order, which a reflection does not
-//! map onto itself (with all points the full plate is symmetric to 5e-15).
+//! S-term off and to 9e-15 with the default S-term at level 3: the full
+//! model's cut cells sample mirror-image points on the two sides of each
+//! plane ([`Cells::fit_points`]).
 
 use crate::cells::Cells;
 use crate::element::ElementOrder;

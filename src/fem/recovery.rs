@@ -40,9 +40,9 @@ pub fn vertex_nodes_of(setup: &Setup, cells: &[usize]) -> Vec<usize> {
 }
 
 /// The SPR sample points of a cell (stress and displacement recovery alike):
-/// the Gauss points `rule` of an inside cell; in a cut cell at most twice as
-/// many of its points ([`crate::cells::Cells::fit_points`]), which is enough for a least-squares fit and keeps the cost
-/// independent of the accuracy of the cut-cell rule.
+/// the Gauss points `rule` of an inside cell; in a cut cell its base rule's
+/// points, at most [`crate::cells::MAX_FIT_POINTS`]
+/// ([`crate::cells::Cells::fit_points`]).
 pub fn sample_positions(
     setup: &Setup,
     cell: usize,
@@ -63,7 +63,7 @@ pub fn sample_positions(
                 .cells
                 .cut_position(cell)
                 .expect("a cut cell is in the cut list");
-            out.extend(setup.cells.fit_points(i, 2 * rule.len()));
+            out.extend(setup.cells.fit_points(i, crate::cells::MAX_FIT_POINTS));
         }
         CellKind::Outside => {}
     }

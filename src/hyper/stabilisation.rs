@@ -29,8 +29,8 @@
 //! `S` towards a field that is not the body's equilibrium; a plain fit of the
 //! complete quadratic still reproduces every field of that space exactly.
 //!
-//! Sample points: the 3×3×3 Gauss points of inside cells; in cut cells, at
-//! most 54 of their volume points (evenly strided) and those of the cell's
+//! Sample points: the 3×3×3 Gauss points of inside cells; in cut cells, their
+//! fit points ([`crate::cells::Cells::fit_points`]) and those of the cell's
 //! 3×3×3 Gauss points that lie in the body. Three levels per axis, not the
 //! element's two, because a plane-strain slab is one cell thick: with two
 //! sample levels in z (which is all the cut cells' rule has, q = 2) the `ζ²`
@@ -105,12 +105,11 @@ impl STerm {
         for (s, &k) in entries.iter().enumerate() {
             slot[k] = Some(s);
         }
-        let max_points = 2 * RULE_POINTS.pow(3);
         let rule = tensor_gauss_rule(RULE_POINTS);
         let mut cut_samples = Vec::new();
         let mut cut_sample_start = vec![0];
         for (i, &c) in cells.cut.iter().enumerate() {
-            cut_samples.extend(cells.fit_points(i, max_points));
+            cut_samples.extend(cells.fit_points(i, crate::cells::MAX_FIT_POINTS));
             let lo = problem.grid.cell_box(c).lo;
             cut_samples.extend(
                 rule.iter()
