@@ -63,7 +63,7 @@ pub fn cut_rule_points(order: ElementOrder) -> usize {
 /// level-3 patch test minutes long (512 points a cell). Lower caps cost the
 /// Q2 fixed point its conditioning: with 128 the Q2 sphere's Jacobi and
 /// multigrid answers were 2.6e-7 apart (`tests/multigrid_fixed_point.rs`
-/// asks 1e-7), as with a binned symmetric subset of 64.
+/// asks 1e-7), as with a density-following symmetric subset of 64.
 pub const MAX_FIT_POINTS: usize = 384;
 
 /// The cells of a grid classified against a geometry, with the cut cells'
