@@ -12,7 +12,10 @@
 //! Dirichlet parts hold the components they hold, inside their regions. A
 //! plane-strain body's caps hold `u_z` by the same penalty: on the finest
 //! level the caps are the slab's two node planes, where `u_z` is held
-//! anyway; on a coarse one the upper cap cuts the coarse cells.
+//! anyway; on a coarse one the upper cap cuts the coarse cells. A symmetry
+//! plane holds its normal component by the same penalty (without it a body
+//! held only on its symmetry planes has a singular hierarchy, and its
+//! V-cycle diverges).
 //!
 //! # The preconditioner
 //! Block diagonal: body `b`'s residual, with its held entries set to zero,
@@ -33,7 +36,7 @@
 use std::sync::Mutex;
 use std::time::Instant;
 
-use super::setup::BodiesSetup;
+use super::setup::{BodiesSetup, BodySetup};
 use crate::backend::CpuBackend;
 use crate::case::physics::StabilisationSpec;
 use crate::case::{Case, PLANE_STRAIN_CAP};
@@ -43,7 +46,6 @@ use crate::error::{Error, Result};
 use crate::fem::operator::{ElasticOperator, OperatorParams};
 use crate::fem::setup::LevelOperator;
 use crate::fem::stabilisation::pathological_cells;
-use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::multigrid::galerkin_s::FineSTerm;
 use crate::multigrid::{Hierarchy, Multigrid, MultigridOptions};
@@ -69,7 +71,7 @@ impl BodiesMultigrid {
         let mut levels = Vec::with_capacity(setup.bodies.len());
         for (i, body) in setup.bodies.iter().enumerate() {
             let st = &case.spec.stabilisation;
-            let fine = body_operator(case, i, &body.solid, &body.grid, &body.cells, st.k2);
+            let fine = body_operator(case, i, body, &body.grid, &body.cells, st.k2);
             let omega_star = pathological_cells(&body.cells, st.threshold(ElementOrder::Q1));
             let young = case.bodies[i].spec.material.young;
             let s_term = FineSTerm {
@@ -87,7 +89,7 @@ impl BodiesMultigrid {
                         key: format!("body[{i}].geometry"),
                         reason: format!("multigrid level {}: {e}", grid.level),
                     })?;
-                let mut op = body_operator(case, i, &body.solid, &grid, &cells, 0.0);
+                let mut op = body_operator(case, i, body, &grid, &cells, 0.0);
                 s_term.add_to(&mut op);
                 Ok(Some(op))
             })?;
@@ -121,7 +123,7 @@ impl BodiesMultigrid {
 fn body_operator(
     case: &Case,
     i: usize,
-    solid: &Geometry,
+    body: &BodySetup,
     grid: &Grid,
     cells: &Cells,
     k2: f64,
@@ -130,16 +132,22 @@ fn body_operator(
     let parts: Vec<_> = spec
         .dirichlet
         .iter()
-        .filter_map(|(name, d)| solid.tag_id(name).map(|tag| (tag, d)))
+        .filter_map(|(name, d)| body.solid.tag_id(name).map(|tag| (tag, d)))
         .collect();
     let cap = spec
         .plane_strain
-        .then(|| solid.tag_id(PLANE_STRAIN_CAP))
+        .then(|| body.solid.tag_id(PLANE_STRAIN_CAP))
         .flatten();
-    // A tag has at most one Dirichlet condition; the caps have none.
+    // A tag has at most one Dirichlet condition; the caps and the symmetry
+    // planes have none.
     let held = |tag: u16, x: [f64; 3]| -> Option<[bool; 3]> {
         if cap == Some(tag) {
             return Some([false, false, true]);
+        }
+        if let Some(plane) = body.symmetry.iter().find(|p| p.tag == tag) {
+            let mut mask = [false; 3];
+            mask[plane.axis] = true;
+            return Some(mask);
         }
         let (_, d) = parts.iter().find(|(t, _)| *t == tag)?;
         d.applies_at(x).then(|| d.mask())

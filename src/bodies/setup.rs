@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 use super::contact::{ContactCoupling, ContactSide};
 use super::problem::BodiesProblem;
-use super::symmetry;
+use super::symmetry::{self, SymmetryPlane};
 use crate::case::boundary::RampSpec;
 use crate::case::{Case, Model};
 use crate::cells::Cells;
@@ -36,6 +36,8 @@ pub struct BodySetup {
     /// The solid on the grid (clipped for plane strain).
     pub solid: Geometry,
     pub cells: Cells,
+    /// Its symmetry planes, the normal displacement held on them.
+    pub symmetry: Vec<SymmetryPlane>,
 }
 
 /// Every body of a case and the stacked problem.
@@ -56,11 +58,15 @@ impl BodiesSetup {
             let solid = case.solid(i, &grid)?;
             let cells = case.classify_body(i, &grid, &solid, progress)?;
             problems.push(body_problem(case, i, &grid, &solid, &cells)?);
+            let key = case.body_key(i, "symmetry");
+            let symmetry =
+                symmetry::planes(&case.file, &key, &grid, &cells, &solid, &spec.symmetry)?;
             bodies.push(BodySetup {
                 name: spec.name.clone(),
                 grid,
                 solid,
                 cells,
+                symmetry,
             });
         }
         let mut problem = BodiesProblem::new(problems);
@@ -71,16 +77,13 @@ impl BodiesSetup {
                 }
             }
             let s = &bodies[b];
-            let key = case.body_key(b, "symmetry");
-            let tags = &body.spec.symmetry;
-            let planes = symmetry::planes(&case.file, &key, &s.grid, &s.cells, &s.solid, tags)?;
-            for &plane in &planes {
+            for &plane in &s.symmetry {
                 for d in symmetry::held_dofs(&s.grid, &problem.bodies[b].dofs, plane) {
                     problem.hold(b, d);
                 }
             }
             if let Some(s_term) = problem.bodies[b].s_term.as_mut() {
-                s_term.mirror = symmetry::mirror(&planes);
+                s_term.mirror = symmetry::mirror(&s.symmetry);
             }
         }
         if !case.pairs.is_empty() {

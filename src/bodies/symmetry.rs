@@ -29,9 +29,10 @@ use crate::grid::Grid;
 use crate::recovery::Mirror;
 
 /// A symmetry plane `x_axis = coordinate`, a face of the grid box (`high`:
-/// its high face).
+/// its high face), the boundary part tagged `tag`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SymmetryPlane {
+    pub tag: u16,
     pub axis: usize,
     pub coordinate: f64,
     pub high: bool,
@@ -80,6 +81,7 @@ pub fn symmetry_plane(
         }
     };
     Ok(SymmetryPlane {
+        tag: id,
         axis,
         coordinate,
         high,
