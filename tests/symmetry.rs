@@ -203,8 +203,8 @@ fn a_body_held_only_by_symmetry_planes_solves_exactly_with_either_preconditioner
         for (a, &n) in dofs.active_to_node.iter().enumerate() {
             let x = grid.node_position(ElementOrder::Q1, n as usize);
             let exact = [eps * x[0], -nu * eps * x[1], -nu * eps * x[2]];
-            for c in 0..3 {
-                worst = worst.max((o.solution.u[3 * a + c] - exact[c]).abs());
+            for (c, e) in exact.iter().enumerate() {
+                worst = worst.max((o.solution.u[3 * a + c] - e).abs());
             }
         }
         let krylov: usize = o
