@@ -46,6 +46,7 @@ use crate::fem::dofs::DofMap;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::problem::HyperProblem;
+use crate::recovery::Mirror;
 
 /// One pair, ready to enforce.
 struct Pair {
@@ -78,6 +79,9 @@ pub struct ContactSide<'a> {
     pub dofs: &'a DofMap,
     pub solid: &'a Geometry,
     pub cells: &'a Cells,
+    /// The body's symmetry planes (the recovered traction's patches
+    /// continue across them).
+    pub mirror: Mirror,
 }
 
 fn diagonal(g: &Geometry) -> f64 {
@@ -113,7 +117,7 @@ impl ContactCoupling {
                     search_radius: 0.5 * diagonal(s.solid).min(diagonal(m.solid)),
                     sampler: spec
                         .recovered_traction
-                        .then(|| StressSampler::new(s.grid, s.cells)),
+                        .then(|| StressSampler::new(s.grid, s.cells, s.mirror)),
                 }
             })
             .collect();

@@ -95,6 +95,7 @@ impl BodiesSetup {
                     dofs: &p.dofs,
                     solid: &b.solid,
                     cells: &b.cells,
+                    mirror: symmetry::mirror(&b.symmetry),
                 })
                 .collect();
             let coupling = ContactCoupling::new(case, &sides, &problem.offsets);

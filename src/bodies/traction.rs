@@ -11,7 +11,9 @@
 //! **Fit.** The generic SPR of [`crate::recovery::recover`] (degree 1, the
 //! Q1 vertex patches, enlarged ring by ring where a patch is thin) on the
 //! patches of the vertex nodes of the requested cells; `σ̂(X)` is its CPE
-//! blend in the cell holding `X`. Recovering on the reference grid keeps the
+//! blend in the cell holding `X`. A patch that reaches past a symmetry plane
+//! of the body takes the mirror image of its samples there (the shears with
+//! one index along the plane's normal change sign). Recovering on the reference grid keeps the
 //! patches the grid's, whatever the deformation; `σ̂` is still the current
 //! (Cauchy) stress, a function of the reference point.
 //!
@@ -28,29 +30,33 @@ use crate::grid::Grid;
 use crate::hyper::material::PointState;
 use crate::hyper::problem::{quad_point, HyperProblem, QuadPoint};
 use crate::hyper::residual::deformation_gradient;
-use crate::recovery::{recover, PatchSamples, Recovered, Sample, SprOptions};
+use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
 
 /// Sample points of a cut cell: at most 16, twice the inside cell's 2×2×2.
 /// The recovered contact pressure at coarse levels moves with the choice of
 /// points: with every point (up to [`crate::cells::MAX_FIT_POINTS`]) Hertz
 /// at level 2 gave a recovered peak +14% from Hertz's against −0.5% with
 /// these (`tests/hertz.rs`), so the traction keeps them. They are not
-/// mirror symmetric; this recovery does not continue across symmetry
-/// planes either.
+/// mirror symmetric, but across a symmetry plane the patches take the
+/// mirror image of the body's own samples, so a half (quarter) model is
+/// still symmetric.
 const CUT_CELL_SAMPLES: usize = 16;
 
 /// What the stress recovery of one body needs from its cell classification:
-/// the cell kinds and, per cut cell, its sample points (reference position
-/// and the Q1 shape gradients there, [`Cells::fit_points`]).
+/// the cell kinds, per cut cell its sample points (reference position and
+/// the Q1 shape gradients there, [`Cells::fit_points`]), and the body's
+/// symmetry planes, across which the patches continue.
 #[derive(Clone, Debug)]
 pub struct StressSampler {
     kinds: Vec<CellKind>,
     cut_samples: Vec<Vec<(QuadPoint, [f64; 3])>>,
+    mirror: Mirror,
 }
 
 impl StressSampler {
-    /// The sampler of a body on `grid` classified as `cells` (Q1 cut rules).
-    pub fn new(grid: &Grid, cells: &Cells) -> StressSampler {
+    /// The sampler of a body on `grid` classified as `cells` (Q1 cut rules),
+    /// with the symmetry planes `mirror` (faces of the grid box).
+    pub fn new(grid: &Grid, cells: &Cells, mirror: Mirror) -> StressSampler {
         let inv_h = 1.0 / grid.h;
         let cut_samples = cells
             .cut
@@ -72,6 +78,7 @@ impl StressSampler {
         StressSampler {
             kinds: cells.kinds.clone(),
             cut_samples,
+            mirror,
         }
     }
 
@@ -91,7 +98,10 @@ impl StressSampler {
             &nodes,
             ElementOrder::Q1.degree(),
             &samples,
-            &SprOptions::default(),
+            &SprOptions {
+                mirror: self.mirror,
+                ..SprOptions::default()
+            },
         )
     }
 }
@@ -146,6 +156,22 @@ impl PatchSamples<6> for CauchySamples<'_> {
             }
         }
     }
+
+    fn reflected(&self, axis: usize, value: [f64; 6]) -> Option<[f64; 6]> {
+        Some(reflected_voigt(axis, value))
+    }
+}
+
+/// A Voigt stress seen in the mirror across a plane normal to `axis`:
+/// `M σ M` with `M = I − 2 e_axis e_axisᵀ` flips the sign of the two shear
+/// components with one index along `axis`.
+fn reflected_voigt(axis: usize, mut value: [f64; 6]) -> [f64; 6] {
+    // Voigt (xx, yy, zz, yz, xz, xy): the shears with an index `axis`.
+    const SHEARS: [[usize; 2]; 3] = [[4, 5], [3, 5], [3, 4]];
+    for k in SHEARS[axis] {
+        value[k] = -value[k];
+    }
+    value
 }
 
 /// `σ = P Fᵀ / J` in Voigt order `(xx, yy, zz, yz, xz, xy)`.
@@ -198,7 +224,7 @@ mod tests {
                 [d[0], d[1], d[2]]
             })
             .collect();
-        let sigma = StressSampler::new(&grid, &cells)
+        let sigma = StressSampler::new(&grid, &cells, Mirror::none())
             .recover(&body, &u, &cells.cut)
             .unwrap();
         let j = f0.determinant();
@@ -216,5 +242,31 @@ mod tests {
             }
         }
         assert!(checked > 1000, "{checked} boundary points");
+    }
+
+    /// The mirror image of a deformation, `M F M`, has the Cauchy stress
+    /// `M σ M`: [`reflected_voigt`] against the matrix product.
+    #[test]
+    fn a_reflected_stress_is_the_stress_of_the_reflected_deformation() {
+        let material = Material::neo_hookean(1000.0, 0.3);
+        let f = Matrix3::new(1.1, 0.05, -0.03, 0.02, 0.92, 0.04, -0.01, 0.06, 1.05);
+        let stress =
+            |f: &Matrix3<f64>| cauchy_voigt(f, &material.stress(&PointState::new(*f).unwrap()));
+        for axis in 0..3 {
+            let mut m = Matrix3::identity();
+            m[(axis, axis)] = -1.0;
+            let mirrored = stress(&(m * f * m));
+            let reflected = reflected_voigt(axis, stress(&f));
+            for k in 0..6 {
+                assert!(
+                    (mirrored[k] - reflected[k]).abs() < 1e-12 * 1000.0,
+                    "axis {axis}, {k}"
+                );
+            }
+            assert!(
+                reflected != stress(&f),
+                "axis {axis}: the shears are not zero"
+            );
+        }
     }
 }
