@@ -246,9 +246,19 @@ impl Coupling for ContactCoupling {
                 *h = e.converged_history(&recovered);
                 let force = |b: usize| self.resultant(b, &e.residual);
                 let peak = recovered.iter().map(|t| -t).fold(0.0, f64::max);
+                // Per point `J_s = w J_s / w`: the current weight over dΓ_0.
+                let (mut area, mut nominal) = (0.0, 0.0f64);
+                for ((q, s), t) in p.points.iter().zip(&e.points).zip(&recovered) {
+                    let ratio = s.weight / q.weight;
+                    if s.hit.is_some() && s.pressure > 0.0 {
+                        area += q.weight;
+                    }
+                    nominal = nominal.max(-t * ratio);
+                }
                 e.contact_row(&p.name, step)
                     .with_forces(force(p.slave), force(p.master))
                     .with_recovered_peak(peak)
+                    .with_reference_measures(area, nominal)
             })
             .collect()
     }

@@ -16,6 +16,15 @@
 //! pressure (0 with the pure penalty method, `T̂_N = 0`); set by
 //! [`ContactRow::with_recovered_peak`].
 //!
+//! The same two measures in the reference configuration, per reference
+//! area `dΓ_0 = w_k / J_s,k` (set by [`ContactRow::with_reference_measures`]):
+//! `reference_contact_area = Σ_{k: p_k > 0} w_k / J_s,k` and
+//! `peak_recovered_nominal_pressure = max_k −T̂_N,k J_s,k` (force per
+//! reference area). A small-strain theory (Hertz) does not tell the two
+//! configurations apart; under a contact the surface is compressed
+//! laterally (`J_s < 1`), so the current measures differ from the
+//! reference ones by the surface strain, a few per cent at `p/E ≈ 0.1`.
+//!
 //! `slave_force` and `master_force` are the resultants `Σ R_c` of the contact
 //! residual over each body's dofs, per component (the force the contact
 //! exerts on the body is minus that): they balance, `slave_force +
@@ -62,6 +71,8 @@ pub struct ContactRow {
     pub peak_pressure: f64,
     pub max_penetration: f64,
     pub peak_recovered_pressure: f64,
+    pub reference_contact_area: f64,
+    pub peak_recovered_nominal_pressure: f64,
     pub slave_force: [f64; 3],
     pub master_force: [f64; 3],
 }
@@ -84,8 +95,24 @@ impl ContactRow {
             peak_pressure: samples.iter().map(|s| s.pressure).fold(0.0, f64::max),
             max_penetration: samples.iter().map(|s| -s.gap).fold(0.0, f64::max),
             peak_recovered_pressure: 0.0,
+            reference_contact_area: 0.0,
+            peak_recovered_nominal_pressure: 0.0,
             slave_force: [0.0; 3],
             master_force: [0.0; 3],
+        }
+    }
+
+    /// The row with the reference configuration's contact area and largest
+    /// recovered pressure per reference area (module doc).
+    pub fn with_reference_measures(
+        self,
+        reference_contact_area: f64,
+        peak_recovered_nominal_pressure: f64,
+    ) -> ContactRow {
+        ContactRow {
+            reference_contact_area,
+            peak_recovered_nominal_pressure,
+            ..self
         }
     }
 
@@ -138,6 +165,8 @@ mod tests {
                 peak_pressure: 10.0,
                 max_penetration: 0.002,
                 peak_recovered_pressure: 0.0,
+                reference_contact_area: 0.0,
+                peak_recovered_nominal_pressure: 0.0,
                 slave_force: [0.0; 3],
                 master_force: [0.0; 3],
             }
@@ -145,7 +174,7 @@ mod tests {
         let json = serde_json::to_string(&row).unwrap();
         assert_eq!(
             json,
-            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"stick_area":0.5,"peak_pressure":10.0,"max_penetration":0.002,"peak_recovered_pressure":0.0,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
+            r#"{"pair":"ring","step":3,"normal_force":6.0,"contact_area":0.75,"stick_area":0.5,"peak_pressure":10.0,"max_penetration":0.002,"peak_recovered_pressure":0.0,"reference_contact_area":0.0,"peak_recovered_nominal_pressure":0.0,"slave_force":[0.0,0.0,0.0],"master_force":[0.0,0.0,0.0]}"#
         );
         let empty = ContactRow::from_samples("none", 0, &[]);
         assert_eq!(
