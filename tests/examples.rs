@@ -269,7 +269,8 @@ fn hertz_contact_radius_and_pressure_near_the_analytic_ones() {
          p = {peak:.4} (nominal {nominal:.4}) against {p0:.4}"
     );
     // Measured at level 3 (a = 1.9 cells of the ball): radius −7.3%, peak
-    // +7.8%, nominal peak +2.9% (docs/verification.md, "Hertz at three loads").
+    // +7.8%, nominal peak +2.9% (docs/verification.md, "The case, at three
+    // loads").
     assert!(
         (measured / a - 1.0).abs() < 0.1,
         "a = {measured} against {a}"
