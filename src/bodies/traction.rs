@@ -34,9 +34,10 @@ use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptio
 
 /// Sample points of a cut cell: at most 16, twice the inside cell's 2×2×2.
 /// The recovered contact pressure at coarse levels moves with the choice of
-/// points: with every point (up to [`crate::cells::MAX_FIT_POINTS`]) Hertz
-/// at level 2 gave a recovered peak +14% from Hertz's against −0.5% with
-/// these (`tests/hertz.rs`), so the traction keeps them. They are not
+/// points: with every point (up to [`crate::cells::MAX_FIT_POINTS`]) the
+/// earlier Hertz case (ball's grid offset, rollers) at level 2 gave a
+/// recovered peak +14% from Hertz's against −0.5% with these, so the
+/// traction keeps them. They are not
 /// mirror symmetric, but across a symmetry plane the patches take the
 /// mirror image of the body's own samples, so a half (quarter) model is
 /// still symmetric.
