@@ -122,7 +122,7 @@ pub(super) fn precision_refused(reason: &str) -> anyhow::Error {
 /// What loading each STL body found, on stderr.
 pub fn mesh_notes(case: &Case) {
     for b in &case.bodies {
-        if let Some(mesh) = b.geometry.mesh() {
+        for mesh in b.geometry.meshes() {
             eprintln!(
                 "note: {}: body '{}': mesh: {}",
                 case.file,

@@ -28,7 +28,11 @@
 //! planes `x_a = lo_a`, `x_a = hi_a`: a vertex is kept when on the inner side,
 //! and an edge crossing a plane adds the point `p + t (q − p)` with
 //! `t = (c − p_a) / (q_a − p_a)`), the clipped polygon split into a fan.
-//! Vertices are welded by exact equality of their coordinates.
+//! Vertices are welded by exact equality of their coordinates. A mesh leaf
+//! of a CSG tree keeps the clipped triangles whose centroid is on the
+//! solid's boundary, each facing out (whole triangles: the rim where the
+//! mesh meets another surface is ragged by a triangle, as in the contact
+//! surface); the analytic leaves are meshed as above.
 //!
 //! **Host cells.** A boundary point `x` lies in the closure of one to eight
 //! grid cells, of which those not outside carry the solution (all their nodes
@@ -48,11 +52,15 @@ use rayon::prelude::*;
 use crate::cells::CellKind;
 use crate::contact::marching;
 use crate::contact::surface::{polarity_on_boundary, Polarity};
+use crate::contact::vec3::{cross, sub};
 use crate::geometry::scalar::Dual;
+use crate::geometry::surface::normalize;
 use crate::geometry::surface::Leaf;
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 use crate::mesh::MeshSolid;
+use crate::quadrature::mixed::on_boundary;
+use crate::quadrature::saye::SurfacePoint;
 
 /// A triangulated boundary with host cells and tags.
 #[derive(Clone, Debug, Default)]
@@ -86,6 +94,9 @@ impl BoundaryMesh {
                     if !repeated {
                         add_leaf(grid, geometry, leaf, &mut out);
                     }
+                }
+                for mesh in geometry.meshes() {
+                    add_mesh_leaf(grid, geometry, mesh, &mut out);
                 }
                 out
             }
@@ -252,6 +263,35 @@ fn add_leaf(grid: &Grid, geometry: &Geometry, leaf: &Leaf, out: &mut Triangulati
             triangles.push(t);
             tags.push(leaf.tag);
         }
+    }
+}
+
+/// Appends the triangles of a mesh leaf of a CSG tree that bound the solid
+/// (tested at each clipped triangle's centroid,
+/// [`crate::quadrature::mixed::on_boundary`]), turned to face out of it.
+fn add_mesh_leaf(grid: &Grid, geometry: &Geometry, mesh: &MeshSolid, out: &mut Triangulation) {
+    let (points, triangles, tags) = clipped_mesh(mesh, &grid.bounding_box());
+    let base = out.0.len() as u32;
+    out.0.extend(&points);
+    for (t, tag) in triangles.into_iter().zip(tags) {
+        let [a, b, c] = t.map(|v| points[v as usize]);
+        let n = normalize(cross(sub(b, a), sub(c, a)));
+        let centroid = [0, 1, 2].map(|i| (a[i] + b[i] + c[i]) / 3.0);
+        let p = SurfacePoint {
+            x: centroid,
+            w: 0.0,
+            n,
+            tag,
+        };
+        let Some(kept) = on_boundary(geometry, p, grid.h) else {
+            continue;
+        };
+        let mut tri = t.map(|v| v + base);
+        if kept.n != n {
+            tri.swap(1, 2);
+        }
+        out.1.push(tri);
+        out.2.push(tag);
     }
 }
 

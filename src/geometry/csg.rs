@@ -8,7 +8,7 @@ impl Node {
     fn shifted(self, by: usize) -> Node {
         match self {
             Node::Leaf(i) => Node::Leaf(i + by),
-            Node::Mesh(m) => Node::Mesh(m),
+            leaf @ (Node::Mesh(_) | Node::Const(_)) => leaf,
             Node::Union(a, b) => Node::Union(Box::new(a.shifted(by)), Box::new(b.shifted(by))),
             Node::Intersection(a, b) => {
                 Node::Intersection(Box::new(a.shifted(by)), Box::new(b.shifted(by)))
@@ -21,27 +21,32 @@ impl Node {
 }
 
 impl Geometry {
-    /// Appends `other`'s leaves (tags merged by name); returns both roots.
-    fn merge(mut self, other: Geometry) -> (Geometry, Node, Node) {
+    /// Appends `other`'s leaves (tags merged by name, in its analytic leaves
+    /// and its meshes' triangles); returns both roots.
+    fn merge(mut self, mut other: Geometry) -> (Geometry, Node, Node) {
         let by = self.leaves.len();
-        for mut leaf in other.leaves {
-            let name = &other.tags[leaf.tag as usize];
-            leaf.tag = match self.tag_id(name) {
+        let ids: Vec<u16> = other
+            .tags
+            .iter()
+            .map(|name| match self.tag_id(name) {
                 Some(id) => id,
                 None => {
                     self.tags.push(name.clone());
                     (self.tags.len() - 1) as u16
                 }
-            };
+            })
+            .collect();
+        other.retag_meshes(|t| ids[t as usize]);
+        for mut leaf in other.leaves {
+            leaf.tag = ids[leaf.tag as usize];
             self.leaves.push(leaf);
         }
         let a = std::mem::replace(&mut self.root, Node::Leaf(0));
         (self, a, other.root.shifted(by))
     }
 
-    /// `self ∪ other`; an error for a mesh solid.
+    /// `self ∪ other`.
     pub fn union(self, other: Geometry) -> Result<Geometry> {
-        self.refuse_mesh_operand(&other, "union")?;
         let bbox = self.bbox.union(&other.bbox);
         let (mut g, a, b) = self.merge(other);
         g.root = Node::Union(Box::new(a), Box::new(b));
@@ -51,7 +56,6 @@ impl Geometry {
 
     /// `self ∩ other`; an error when the bounding boxes are disjoint.
     pub fn intersection(self, other: Geometry) -> Result<Geometry> {
-        self.refuse_mesh_operand(&other, "intersection")?;
         let bbox = self.bbox.intersection(&other.bbox);
         if bbox.is_empty() {
             return Err(Error::EmptyGeometry {
@@ -68,7 +72,6 @@ impl Geometry {
     /// contains every corner and the centre of `self`'s box (a cheap emptiness
     /// test; the grid reports an empty result it finds later).
     pub fn difference(self, other: Geometry) -> Result<Geometry> {
-        self.refuse_mesh_operand(&other, "difference")?;
         let bbox = self.bbox;
         if bbox.is_finite() && bbox.intersection(&other.bbox) == bbox {
             let c = [0, 1, 2].map(|i| 0.5 * (bbox.lo[i] + bbox.hi[i]));
@@ -146,10 +149,10 @@ impl Geometry {
         for leaf in &mut self.leaves {
             leaf.frame = leaf.frame.moved(r, s);
         }
-        if self.mesh().is_some() {
-            self.move_mesh(r, s);
-        } else if self.bbox.is_finite() {
-            let b = self.bbox;
+        let b = self.bbox;
+        self.bbox = if !b.is_finite() {
+            Aabb::EVERYTHING
+        } else {
             let mut out = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
             for k in 0..8 {
                 let p = [0, 1, 2].map(|i| if k >> i & 1 == 1 { b.hi[i] } else { b.lo[i] });
@@ -159,10 +162,10 @@ impl Geometry {
                     out.hi[i] = out.hi[i].max(q);
                 }
             }
-            self.bbox = out;
-        } else {
-            self.bbox = Aabb::EVERYTHING;
-        }
+            out
+        };
+        // A solid that is one mesh takes its moved mesh's own box instead.
+        self.move_meshes(r, s);
         self
     }
 
@@ -172,7 +175,7 @@ impl Geometry {
         for leaf in &mut self.leaves {
             leaf.tag = 0;
         }
-        self.retag_mesh(|_| 0);
+        self.retag_meshes(|_| 0);
         self
     }
 
@@ -195,7 +198,7 @@ impl Geometry {
             for leaf in &mut self.leaves {
                 leaf.tag = renumber(leaf.tag);
             }
-            self.retag_mesh(renumber);
+            self.retag_meshes(renumber);
         } else {
             self.tags[old as usize] = to.into();
         }

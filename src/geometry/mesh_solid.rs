@@ -1,17 +1,15 @@
-//! Geometries made of one triangle-mesh solid ([`MeshSolid`]): construction
-//! and access. The cut-cell rules of such a geometry are the exact polyhedral
-//! ones of [`crate::quadrature::polyhedral`].
+//! Triangle-mesh solids ([`MeshSolid`]) in the CSG tree: construction,
+//! access, and the motions and tag edits that reach every mesh leaf.
 //!
-//! A mesh solid is not yet combined with other solids by union, intersection
-//! or difference: a cell where a mesh facet meets an analytic surface would
-//! need a rule for both at once, which neither Saye's algorithm (smooth level
-//! sets) nor the polyhedral rules (flat pieces) give. The CSG operations
-//! refuse it with a clear error; motions and tag edits work.
+//! A geometry that is one mesh solid gets the exact polyhedral cut rules of
+//! [`crate::quadrature::polyhedral`] everywhere. A mesh combined with other
+//! solids gets them in the cells only its surface crosses, Saye's where only
+//! analytic surfaces cross, and a first-order rule where both meet
+//! ([`crate::quadrature::mixed`]).
 
 use std::sync::Arc;
 
-use super::{Geometry, Node};
-use crate::error::{Error, Result};
+use super::{Aabb, Geometry, Node};
 use crate::mesh::MeshSolid;
 
 impl Geometry {
@@ -25,7 +23,7 @@ impl Geometry {
         }
     }
 
-    /// The mesh, when the solid is one.
+    /// The mesh, when the whole solid is one.
     pub fn mesh(&self) -> Option<&MeshSolid> {
         match &self.root {
             Node::Mesh(m) => Some(m),
@@ -33,30 +31,65 @@ impl Geometry {
         }
     }
 
-    /// An error when `self` or `other` is a mesh solid (see the module doc).
-    pub(super) fn refuse_mesh_operand(&self, other: &Geometry, op: &str) -> Result<()> {
-        if self.mesh().is_some() || other.mesh().is_some() {
-            return Err(Error::InvalidGeometry {
-                what: op.into(),
-                reason: "an stl solid cannot be combined with other solids yet (a cell where a facet meets an analytic surface has no exact rule); mesh the combined part as one STL".into(),
-            });
+    /// Every mesh leaf of the tree, in the order of the case file.
+    pub fn meshes(&self) -> Vec<&MeshSolid> {
+        fn walk<'a>(n: &'a Node, out: &mut Vec<&'a MeshSolid>) {
+            match n {
+                Node::Mesh(m) => out.push(m),
+                Node::Union(a, b) | Node::Intersection(a, b) | Node::Difference(a, b) => {
+                    walk(a, out);
+                    walk(b, out);
+                }
+                Node::Leaf(_) | Node::Const(_) => {}
+            }
         }
-        Ok(())
+        let mut out = Vec::new();
+        walk(&self.root, &mut out);
+        out
     }
 
-    /// The mesh moved by `x ↦ R x + s`, if the solid is one.
-    pub(super) fn move_mesh(&mut self, r: &[[f64; 3]; 3], s: [f64; 3]) {
-        if let Node::Mesh(m) = &self.root {
-            let moved = m.moved(r, s);
-            self.bbox = grid_box(&moved);
-            self.root = Node::Mesh(Arc::new(moved));
+    /// True when some leaf of the tree is a mesh.
+    pub fn has_mesh(&self) -> bool {
+        super::local::has_mesh(&self.root)
+    }
+
+    /// Every mesh leaf moved by `x ↦ R x + s`; the box of a solid that is
+    /// one mesh follows it (the caller moves the box of any other).
+    pub(super) fn move_meshes(&mut self, r: &[[f64; 3]; 3], s: [f64; 3]) {
+        self.root =
+            std::mem::replace(&mut self.root, Node::Const(false)).map_meshes(&|m| m.moved(r, s));
+        if let Some(m) = self.mesh() {
+            self.bbox = grid_box(m);
         }
     }
 
-    /// The mesh's tags passed through `f`, if the solid is one.
-    pub(super) fn retag_mesh(&mut self, f: impl Fn(u16) -> u16) {
-        if let Node::Mesh(m) = &self.root {
-            self.root = Node::Mesh(Arc::new(m.retagged(f)));
+    /// Every mesh leaf's tags passed through `f`.
+    pub(super) fn retag_meshes(&mut self, f: impl Fn(u16) -> u16) {
+        self.root =
+            std::mem::replace(&mut self.root, Node::Const(false)).map_meshes(&|m| m.retagged(&f));
+    }
+}
+
+impl Node {
+    /// The tree with every mesh leaf replaced by `f` of it.
+    pub(super) fn map_meshes(self, f: &dyn Fn(&MeshSolid) -> MeshSolid) -> Node {
+        let map2 =
+            |a: Box<Node>, b: Box<Node>| (Box::new(a.map_meshes(f)), Box::new(b.map_meshes(f)));
+        match self {
+            Node::Mesh(m) => Node::Mesh(Arc::new(f(&m))),
+            Node::Union(a, b) => {
+                let (a, b) = map2(a, b);
+                Node::Union(a, b)
+            }
+            Node::Intersection(a, b) => {
+                let (a, b) = map2(a, b);
+                Node::Intersection(a, b)
+            }
+            Node::Difference(a, b) => {
+                let (a, b) = map2(a, b);
+                Node::Difference(a, b)
+            }
+            leaf @ (Node::Leaf(_) | Node::Const(_)) => leaf,
         }
     }
 }
@@ -64,7 +97,7 @@ impl Geometry {
 /// The mesh's box grown by `10⁻⁹` of its diagonal on its upper sides: the
 /// polyhedral rules give each cell the half-open `[lo, hi)`, so a facet on
 /// the upper face of a grid fitted to the exact box would belong to no cell.
-fn grid_box(mesh: &MeshSolid) -> crate::geometry::Aabb {
+fn grid_box(mesh: &MeshSolid) -> Aabb {
     let mut b = mesh.bounding_box();
     let diag = (0..3)
         .map(|i| (b.hi[i] - b.lo[i]).powi(2))

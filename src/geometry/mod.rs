@@ -7,17 +7,25 @@
 //! point is that gradient normalised. Every leaf carries a tag naming its part of
 //! the boundary (`outer`, `inner`, `xmin`, …) so that a case can load the parts
 //! differently.
+//!
+//! A leaf may also be a solid bounded by a triangle mesh (an `stl` node,
+//! [`MeshSolid`]), whose level set is `½ − w` with `w` the generalised winding
+//! number. Over one box the tree reduces to what crosses it ([`local`]): that
+//! decides which cut rule a cell gets.
 
 mod csg;
+mod local;
 mod mesh_solid;
 mod primitives;
 pub mod scalar;
 pub mod surface;
 
+pub use local::LocalSolid;
+
 use std::sync::Arc;
 
 use crate::mesh::MeshSolid;
-use scalar::{Dual, Interval, Lattice};
+use scalar::{Dual, Interval, Lattice, Scalar};
 use surface::Leaf;
 
 /// An axis-aligned box; components may be infinite (half-spaces).
@@ -67,9 +75,13 @@ impl Aabb {
 #[derive(Clone, Debug, PartialEq)]
 enum Node {
     Leaf(usize),
-    /// A solid bounded by a triangle mesh (the whole tree, for now: see
-    /// [`Geometry::from_mesh`]).
+    /// A solid bounded by a triangle mesh ([`Geometry::from_mesh`]).
     Mesh(Arc<MeshSolid>),
+    /// Everything (`true`, φ = −∞) or nothing (`false`, φ = +∞): what a
+    /// leaf that keeps one sign over a box is there ([`local`]). After
+    /// [`local`]'s simplification one remains only as the whole tree or as
+    /// the first operand of a difference (the complement of the second).
+    Const(bool),
     Union(Box<Node>, Box<Node>),
     Intersection(Box<Node>, Box<Node>),
     Difference(Box<Node>, Box<Node>),
@@ -94,6 +106,7 @@ impl Geometry {
         match node {
             Node::Leaf(i) => self.leaves[*i].eval(x),
             Node::Mesh(m) => T::mesh_level_set(m, x),
+            Node::Const(inside) => T::cst(const_level_set(*inside)),
             Node::Union(a, b) => self.eval_node(a, x).min(self.eval_node(b, x)),
             Node::Intersection(a, b) => self.eval_node(a, x).max(self.eval_node(b, x)),
             Node::Difference(a, b) => self.eval_node(a, x).max(-self.eval_node(b, x)),
@@ -137,6 +150,7 @@ impl Geometry {
         match node {
             Node::Leaf(i) => leaf_values[*i],
             Node::Mesh(m) => Interval::mesh_level_set(m, bx.intervals()),
+            Node::Const(inside) => Interval::cst(const_level_set(*inside)),
             Node::Union(a, b) => {
                 self.combine(a, leaf_values, bx)
                     .min(self.combine(b, leaf_values, bx))
@@ -175,6 +189,16 @@ impl Geometry {
     /// The id of a tag name, if some leaf carries it.
     pub fn tag_id(&self, name: &str) -> Option<u16> {
         self.tags.iter().position(|t| t == name).map(|i| i as u16)
+    }
+}
+
+/// The level set of [`Node::Const`]: `∓∞`, which `min` and `max` pass
+/// through exactly (`max(−∞, −ψ) = −ψ`, the complement of ψ).
+fn const_level_set(inside: bool) -> f64 {
+    if inside {
+        f64::NEG_INFINITY
+    } else {
+        f64::INFINITY
     }
 }
 

@@ -3,6 +3,7 @@ mod branch;
 mod crossings;
 pub mod gauss;
 mod lines;
+pub mod mixed;
 pub mod polyhedral;
 mod restricted;
 mod roots;

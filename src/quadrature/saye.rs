@@ -102,10 +102,14 @@ impl<'a> Ctx<'a> {
 /// degenerate in `b`).
 ///
 /// A mesh solid gets the exact polyhedral rule instead
-/// ([`super::polyhedral::mesh_box_rule`], `q + 1` points per axis).
+/// ([`super::polyhedral::mesh_box_rule`], `q + 1` points per axis), a tree
+/// with mesh leaves the rules of [`super::mixed`].
 pub fn box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
     if let Some(mesh) = g.mesh() {
         return super::polyhedral::mesh_box_rule(mesh, b, free, q);
+    }
+    if g.has_mesh() {
+        return super::mixed::mixed_box_rule(g, b, free, q);
     }
     let cell = free.iter().map(|&a| b.hi[a] - b.lo[a]).fold(0.0, f64::max);
     let ctx = Ctx::new(g, q, cell);
@@ -493,7 +497,7 @@ fn center(b: &Aabb) -> [f64; 3] {
 }
 
 /// The 2^d boxes halving `b` along its free axes.
-fn halves(b: &Aabb, free: &[usize]) -> Vec<Aabb> {
+pub(super) fn halves(b: &Aabb, free: &[usize]) -> Vec<Aabb> {
     let c = center(b);
     let mut out = vec![*b];
     for &a in free {

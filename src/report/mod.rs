@@ -199,7 +199,8 @@ pub struct BodyReport {
     pub plane_strain: bool,
     pub cells: CellCounts,
     pub domain: Domain,
-    /// What loading the STL found, when the solid is a mesh.
+    /// What loading the STL found, when the solid is a mesh or has one (the
+    /// first `stl` node of its geometry; stderr notes each).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mesh: Option<crate::mesh::MeshDiagnostics>,
     /// Errors against the exact field, when the body has one.
@@ -263,7 +264,7 @@ impl BodyReport {
                 boundary_area: cells.boundary_area(),
                 boundary_area_by_tag: by_tag,
             },
-            mesh: geometry.mesh().map(|m| m.diagnostics().clone()),
+            mesh: geometry.meshes().first().map(|m| m.diagnostics().clone()),
             error: None,
             interpolant_error: None,
             interpolant_error_note: None,

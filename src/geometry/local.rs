@@ -1,0 +1,137 @@
+//! What a CSG tree with mesh leaves is over one box: the tree with every
+//! surface that does not cross the box replaced by the side the box is on,
+//! simplified. It decides a cell's cut rule ([`crate::quadrature::mixed`]).
+//!
+//! A leaf is replaced when its enclosure over the box has one strict sign
+//! (the natural interval extension, then [`super::surface::Leaf::bounds`]),
+//! a mesh when no triangle's box meets the box ([`MeshSolid::may_cross`]),
+//! by its side at the box's centre (one winding number). The constants then
+//! fold through the operations (`A ∪ all = all`, `A ∩ all = A`,
+//! `A \ all = none`, …); what is left holds only surfaces that may cross.
+
+use std::sync::Arc;
+
+use super::{Aabb, Geometry, Node};
+use crate::mesh::MeshSolid;
+
+/// A solid over one box.
+pub enum LocalSolid {
+    /// No mesh crosses the box: the tree with the meshes replaced by their
+    /// sides, for Saye's rules (it may still hold analytic leaves).
+    Analytic(Geometry),
+    /// Only this mesh crosses the box, and the solid there is its inside.
+    Mesh(Arc<MeshSolid>),
+    /// Anything else: a mesh and another surface, or a mesh's outside.
+    Mixed {
+        /// The meshes that may cross the box.
+        meshes: Vec<Arc<MeshSolid>>,
+        /// The analytic leaves (indices into [`Geometry::leaves`]) that may.
+        leaves: Vec<usize>,
+    },
+}
+
+impl Geometry {
+    /// The solid over the box `b` (see the module doc).
+    pub fn local(&self, b: &Aabb) -> LocalSolid {
+        let root = self.reduce(&self.root, b);
+        match root {
+            Node::Mesh(m) => LocalSolid::Mesh(m),
+            root if !has_mesh(&root) => LocalSolid::Analytic(Geometry {
+                leaves: self.leaves.clone(),
+                tags: self.tags.clone(),
+                root,
+                bbox: self.bbox,
+            }),
+            root => {
+                let (mut meshes, mut leaves) = (Vec::new(), Vec::new());
+                surfaces(&root, &mut meshes, &mut leaves);
+                LocalSolid::Mixed { meshes, leaves }
+            }
+        }
+    }
+
+    /// The solid bounded by leaf `i` alone (its tag, among the same names).
+    pub fn leaf_solid(&self, i: usize) -> Geometry {
+        Geometry {
+            leaves: vec![self.leaves[i].clone()],
+            tags: self.tags.clone(),
+            root: Node::Leaf(0),
+            bbox: Aabb::EVERYTHING,
+        }
+    }
+
+    fn reduce(&self, node: &Node, b: &Aabb) -> Node {
+        match node {
+            Node::Leaf(i) => {
+                let leaf = &self.leaves[*i];
+                let natural = leaf.eval(b.intervals());
+                let v = if natural.strictly_signed() {
+                    natural
+                } else {
+                    leaf.bounds(b).v
+                };
+                if v.strictly_signed() {
+                    Node::Const(v.hi < 0.0)
+                } else {
+                    Node::Leaf(*i)
+                }
+            }
+            Node::Mesh(m) => {
+                if m.may_cross(b) {
+                    Node::Mesh(m.clone())
+                } else {
+                    let c = [0, 1, 2].map(|i| 0.5 * (b.lo[i] + b.hi[i]));
+                    Node::Const(m.phi(c) < 0.0)
+                }
+            }
+            Node::Const(c) => Node::Const(*c),
+            Node::Union(a, c) => match (self.reduce(a, b), self.reduce(c, b)) {
+                (Node::Const(true), _) | (_, Node::Const(true)) => Node::Const(true),
+                (Node::Const(false), x) | (x, Node::Const(false)) => x,
+                (x, y) => Node::Union(Box::new(x), Box::new(y)),
+            },
+            Node::Intersection(a, c) => match (self.reduce(a, b), self.reduce(c, b)) {
+                (Node::Const(false), _) | (_, Node::Const(false)) => Node::Const(false),
+                (Node::Const(true), x) | (x, Node::Const(true)) => x,
+                (x, y) => Node::Intersection(Box::new(x), Box::new(y)),
+            },
+            Node::Difference(a, c) => match (self.reduce(a, b), self.reduce(c, b)) {
+                (Node::Const(false), _) | (_, Node::Const(true)) => Node::Const(false),
+                (x, Node::Const(false)) => x,
+                (x, y) => Node::Difference(Box::new(x), Box::new(y)),
+            },
+        }
+    }
+}
+
+/// True when the tree `n` has a mesh leaf.
+pub(super) fn has_mesh(n: &Node) -> bool {
+    match n {
+        Node::Mesh(_) => true,
+        Node::Union(a, b) | Node::Intersection(a, b) | Node::Difference(a, b) => {
+            has_mesh(a) || has_mesh(b)
+        }
+        Node::Leaf(_) | Node::Const(_) => false,
+    }
+}
+
+/// The meshes and the analytic leaves of the tree `n`, each once.
+fn surfaces(n: &Node, meshes: &mut Vec<Arc<MeshSolid>>, leaves: &mut Vec<usize>) {
+    match n {
+        Node::Mesh(m) => {
+            if !meshes.iter().any(|k| Arc::ptr_eq(k, m)) {
+                meshes.push(m.clone());
+            }
+        }
+        Node::Leaf(i) => {
+            if !leaves.contains(i) {
+                leaves.push(*i);
+            }
+        }
+        Node::Union(a, b) | Node::Intersection(a, b) | Node::Difference(a, b) => {
+            surfaces(a, meshes, leaves);
+            surfaces(b, meshes, leaves);
+        }
+        Node::Const(_) => {}
+    }
+}
