@@ -4,7 +4,7 @@
 //!
 //! A leaf is replaced when its enclosure over the box has one strict sign
 //! (the natural interval extension, then [`super::surface::Leaf::bounds`]),
-//! a mesh when no triangle's box meets the box ([`MeshSolid::may_cross`]),
+//! a mesh when no triangle meets the box ([`MeshSolid::crosses`]),
 //! by its side at the box's centre (one winding number). The constants then
 //! fold through the operations (`A ∪ all = all`, `A ∩ all = A`,
 //! `A \ all = none`, …); what is left holds only surfaces that may cross.
@@ -77,7 +77,7 @@ impl Geometry {
                 }
             }
             Node::Mesh(m) => {
-                if m.may_cross(b) {
+                if m.crosses(b) {
                     Node::Mesh(m.clone())
                 } else {
                     let c = [0, 1, 2].map(|i| 0.5 * (b.lo[i] + b.hi[i]));

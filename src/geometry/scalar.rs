@@ -146,7 +146,7 @@ impl Lattice for Interval {
     }
     fn mesh_level_set(mesh: &MeshSolid, x: [Self; 3]) -> Self {
         let b = crate::geometry::Aabb::new(x.map(|i| i.lo), x.map(|i| i.hi));
-        if mesh.may_cross(&b) {
+        if mesh.crosses(&b) {
             Interval::new(-0.5, 0.5)
         } else {
             let v = mesh.phi(x.map(|i| i.mid()));

@@ -15,6 +15,7 @@
 //! winding number: `−½` inside and `+½` outside a closed mesh, exactly, and a
 //! smooth blend across the gaps of an open one.
 
+mod overlap;
 pub mod stl;
 mod winding;
 
@@ -279,10 +280,14 @@ impl MeshSolid {
         self.bvh.for_each_in_box(b.lo, b.hi, f)
     }
 
-    /// True when some triangle's box meets `b`.
-    pub fn may_cross(&self, b: &Aabb) -> bool {
+    /// True when some triangle meets `b` ([`overlap::triangle_meets_box`]):
+    /// the boxes of a few large facets of a rotated part cover much of its
+    /// inside, where they are not.
+    pub fn crosses(&self, b: &Aabb) -> bool {
         let mut any = false;
-        self.bvh.for_each_in_box(b.lo, b.hi, |_| any = true);
+        self.bvh.for_each_in_box(b.lo, b.hi, |t| {
+            any = any || overlap::triangle_meets_box(self.triangle(t), b)
+        });
         any
     }
 
