@@ -8,20 +8,25 @@
 //! by its side at the box's centre (one winding number). The constants then
 //! fold through the operations (`A ∪ all = all`, `A ∩ all = A`,
 //! `A \ all = none`, …); what is left holds only surfaces that may cross.
+//! A mesh left beside other surfaces whose triangles in the box lie in one
+//! plane ([`MeshSolid::plane_in`]) is that half-space there: a plane leaf.
 
 use std::sync::Arc;
 
+use super::surface::{Frame, Leaf, Shape};
 use super::{Aabb, Geometry, Node};
 use crate::mesh::MeshSolid;
 
 /// A solid over one box.
 pub enum LocalSolid {
-    /// No mesh crosses the box: the tree with the meshes replaced by their
-    /// sides, for Saye's rules (it may still hold analytic leaves).
+    /// No mesh crosses the box, or each is one plane there: the tree with
+    /// the meshes replaced by their sides or their planes (added leaves),
+    /// for Saye's rules.
     Analytic(Geometry),
     /// Only this mesh crosses the box, and the solid there is its inside.
     Mesh(Arc<MeshSolid>),
-    /// Anything else: a mesh and another surface, or a mesh's outside.
+    /// Anything else: a mesh's edge or corner beside another surface, or
+    /// its outside.
     Mixed {
         /// The meshes that may cross the box.
         meshes: Vec<Arc<MeshSolid>>,
@@ -43,6 +48,17 @@ impl Geometry {
                 bbox: self.bbox,
             }),
             root => {
+                let mut planes = Vec::new();
+                if let Some(planar) = planarise(&root, b, self.leaves.len(), &mut planes) {
+                    let mut leaves = self.leaves.clone();
+                    leaves.extend(planes);
+                    return LocalSolid::Analytic(Geometry {
+                        leaves,
+                        tags: self.tags.clone(),
+                        root: planar,
+                        bbox: self.bbox,
+                    });
+                }
                 let (mut meshes, mut leaves) = (Vec::new(), Vec::new());
                 surfaces(&root, &mut meshes, &mut leaves);
                 LocalSolid::Mixed { meshes, leaves }
@@ -113,6 +129,42 @@ pub(super) fn has_mesh(n: &Node) -> bool {
         }
         Node::Leaf(_) | Node::Const(_) => false,
     }
+}
+
+/// The tree `n` with each mesh replaced by the half-space of its facets in
+/// `b` ([`MeshSolid::plane_in`]), appended to `planes` as leaves numbered
+/// from `first`; `None` when some mesh is not one plane there.
+fn planarise(n: &Node, b: &Aabb, first: usize, planes: &mut Vec<Leaf>) -> Option<Node> {
+    let mut two = |x: &Node, y: &Node| -> Option<(Box<Node>, Box<Node>)> {
+        let x = planarise(x, b, first, planes)?;
+        let y = planarise(y, b, first, planes)?;
+        Some((Box::new(x), Box::new(y)))
+    };
+    Some(match n {
+        Node::Mesh(m) => {
+            let (normal, offset, tag) = m.plane_in(b)?;
+            planes.push(Leaf {
+                shape: Shape::Plane { normal, offset },
+                frame: Frame::IDENTITY,
+                tag,
+            });
+            Node::Leaf(first + planes.len() - 1)
+        }
+        Node::Union(x, y) => {
+            let (x, y) = two(x, y)?;
+            Node::Union(x, y)
+        }
+        Node::Intersection(x, y) => {
+            let (x, y) = two(x, y)?;
+            Node::Intersection(x, y)
+        }
+        Node::Difference(x, y) => {
+            let (x, y) = two(x, y)?;
+            Node::Difference(x, y)
+        }
+        Node::Leaf(i) => Node::Leaf(*i),
+        Node::Const(c) => Node::Const(*c),
+    })
 }
 
 /// The meshes and the analytic leaves of the tree `n`, each once.

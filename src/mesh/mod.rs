@@ -291,6 +291,37 @@ impl MeshSolid {
         any
     }
 
+    /// The plane `(n, d)` (`n·x = d`, `n` the outward normal) and the tag
+    /// of the triangles that meet `b`, when there are some and they lie in
+    /// one plane with one tag: normals within `10⁻⁶` and corners within
+    /// `10⁻⁶` of `b`'s size of the first one's (an STL's float corners put
+    /// the two triangles of a flat face that far apart). Inside `b` the
+    /// solid is then that half-space, up to that tolerance.
+    pub fn plane_in(&self, b: &Aabb) -> Option<([f64; 3], f64, u16)> {
+        let size = (0..3).map(|i| b.hi[i] - b.lo[i]).fold(0.0, f64::max);
+        let mut plane: Option<([f64; 3], f64, u16)> = None;
+        let mut planar = true;
+        self.bvh.for_each_in_box(b.lo, b.hi, |t| {
+            if !planar || !overlap::triangle_meets_box(self.triangle(t), b) {
+                return;
+            }
+            let (n, tag) = (self.normals[t], self.tags[t]);
+            match plane {
+                None => plane = Some((n, dot(n, self.triangle(t)[0]), tag)),
+                Some((n0, d0, tag0)) => {
+                    let close = norm(sub(n, n0)) <= 1e-6
+                        && tag == tag0
+                        && self
+                            .triangle(t)
+                            .iter()
+                            .all(|&v| (dot(n0, v) - d0).abs() <= 1e-6 * size);
+                    planar = close;
+                }
+            }
+        });
+        plane.filter(|_| planar)
+    }
+
     /// The generalised winding number at `x`: 1 inside and 0 outside a closed
     /// mesh (see [`winding`]).
     pub fn winding_number(&self, x: [f64; 3]) -> f64 {

@@ -3,26 +3,29 @@
 //!
 //! Over a box the tree reduces to the surfaces that cross it
 //! ([`Geometry::local`]):
-//! - no mesh crosses: Saye's rule of the reduced tree ([`super::saye`]);
 //! - only one mesh crosses and the solid is its inside: the exact
 //!   polyhedral rule ([`super::polyhedral`]);
-//! - otherwise (a mesh meets another surface, or the solid is a mesh's
-//!   outside) the box is halved along its free axes, down to
+//! - no mesh crosses, or each crossing mesh is one flat face there (its
+//!   triangles in the box coplanar, with one tag): Saye's rule of the reduced
+//!   tree, with each such face a plane leaf ([`super::saye`]). That is the
+//!   usual case where a drilled hole meets an STL face, and it is as accurate
+//!   as on analytic parts;
+//! - otherwise (another surface meets a mesh's edge or corner, or the solid
+//!   is the outside of a mesh's edge or corner) the box is halved along its free axes, down to
 //!   [`MAX_DEPTH`] levels, and each half gets its own rule by the same
-//!   choice. So only the boxes of size `h / 2^MAX_DEPTH` along the curves
-//!   where a mesh meets another surface are left, and they get a
+//!   choice. The boxes of size `h / 2^MAX_DEPTH` still left get a
 //!   **first-order rule**: the tensor Gauss points of the box that lie in the
 //!   solid (the point-membership rule), and on each crossing surface its own
 //!   boundary points (clipped triangles, or Saye's points of the leaf alone)
-//!   where they are on the solid's boundary, with the solid's outward
-//!   normal (see [`on_boundary`]).
+//!   where they are on the solid's boundary, with the solid's outward normal
+//!   (see [`on_boundary`]). Where another surface crosses a mesh edge these
+//!   are a few boxes around each crossing point; for a part minus an STL
+//!   cavity they follow the cavity's edges.
 //!
-//! **Accuracy.** Exact (polyhedral) or high order (Saye) away from those
-//! curves; in a cell the curve crosses, the volume is off by about the
-//! cut fraction of the few `(h/8)³` boxes along it, which converges like
-//! `h²` in the total volume (measured in docs/stl.md). The patch test stays
-//! exact: the boundary flux of every cut cell is derived from its volume
-//! rule ([`crate::fem::flux_consistency`]), whatever that rule's accuracy.
+//! **Accuracy.** Measured in `tests/cut_volume.rs` and docs/stl.md. The
+//! patch test stays exact whatever the rules' accuracy: the boundary flux of
+//! every cut cell is derived from its volume rule
+//! ([`crate::fem::flux_consistency`]).
 
 use super::gauss::gauss_legendre_unit;
 use super::polyhedral::mesh_box_rule;
