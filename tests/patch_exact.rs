@@ -3,9 +3,11 @@
 //! Q2 with a quadratic one, on the sphere, the half torus of `cases/`, a
 //! cuboid minus a tilted cylinder, the bracket of `cases/` and three STL parts
 //! of `cases/parts/` (a re-entrant cube, a plate with holes, the embossed
-//! calibration cube), and the re-entrant cube minus a tilted drilled hole
-//! (an STL leaf in a CSG tree: its cells where the hole meets the cube's
-//! faces get the first-order rule of `quadrature::mixed`), under random
+//! calibration cube), and the re-entrant cube notched by a tilted drilled
+//! hole through its face `x = −20` (an STL leaf in a CSG tree: where the
+//! hole meets a face the face is a plane leaf for Saye's rule, and where it
+//! crosses the cube's edges `quadrature::mixed` gives its first-order
+//! rule), under random
 //! grid offsets and rotations of the part, with Dirichlet data on some parts
 //! and the exact traction on the others. Only the solver is tightened: the
 //! patch test measures the discretisation, not the stopping tolerance.
@@ -177,11 +179,11 @@ const PARTS: [Part; 8] = [
         q2_solved: Q2Solved::All,
     },
     Part {
-        name: "7/8 cube minus a tilted drilled hole (STL and CSG)",
+        name: "7/8 cube notched by a tilted drilled hole (STL and CSG)",
         geometry: r#"{ type = "difference", of = [
             { type = "stl", path = "cases/parts/7_8ths_cube.stl", parts = [
                 { name = "clamped", normal = { direction = [0, 0, -1], angle_deg = 1 } } ] },
-            { type = "tag", name = "hole", of = { type = "cylinder", start = [-9, -7, -30], end = [-5, -10, 30], radius = 6 } } ] }"#,
+            { type = "tag", name = "hole", of = { type = "cylinder", start = [-19, -5, -30], end = [-17, -8, 30], radius = 6 } } ] }"#,
         dirichlet: &["clamped", "hole"],
         neumann: &["surface"],
         scale: 20.0,
