@@ -535,3 +535,30 @@ fn solution_vtu_carries_the_level_set_for_clipping() {
     );
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// An STL part in a CSG tree (`cases/plate_drilled.toml`, the plate minus a
+/// drilled hole, level 5): `surface.vtp` keeps the STL's facets where they
+/// bound the part, split where the hole crosses them (to `h/4`), and the
+/// hole's wall; its area is the cut-cell rules' to the split's raggedness,
+/// and every tag is drawn.
+#[test]
+fn a_drilled_stl_surface_keeps_the_facets_that_bound_it() {
+    let dir = scratch("stl_drilled");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/plate_drilled.toml");
+    let out = dir.join("out");
+    let report = run(&case, &out, &["--level", "5"]);
+    let (points, triangles, s) = surface(&out.join("surface.vtp"));
+    let rules = report["bodies"][0]["domain"]["boundary_area"]
+        .as_f64()
+        .unwrap();
+    let written = area(&points, &triangles);
+    println!("plate_drilled: surface.vtp area {written}, the rules' {rules}");
+    assert!(
+        (written - rules).abs() <= 1e-3 * rules,
+        "{written} vs {rules}"
+    );
+    // "surface", "bolted", "pulled" and "lightening_hole".
+    let tags: HashSet<i64> = s["tag"].iter().map(|&t| t as i64).collect();
+    assert_eq!(tags.len(), 4, "{tags:?}");
+    std::fs::remove_dir_all(dir).unwrap();
+}

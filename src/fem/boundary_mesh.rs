@@ -29,10 +29,11 @@
 //! and an edge crossing a plane adds the point `p + t (q − p)` with
 //! `t = (c − p_a) / (q_a − p_a)`), the clipped polygon split into a fan.
 //! Vertices are welded by exact equality of their coordinates. A mesh leaf
-//! of a CSG tree keeps the clipped triangles whose centroid is on the
-//! solid's boundary, each facing out (whole triangles: the rim where the
-//! mesh meets another surface is ragged by a triangle, as in the contact
-//! surface); the analytic leaves are meshed as above.
+//! of a CSG tree keeps the parts of its clipped triangles that bound the
+//! solid, each facing out: whole triangles away from the other surfaces,
+//! split in four down to edges of `h/4` where they cross one (the rim is
+//! ragged by that much, and the pieces are not welded); the analytic
+//! leaves are meshed as above.
 //!
 //! **Host cells.** A boundary point `x` lies in the closure of one to eight
 //! grid cells, of which those not outside carry the solution (all their nodes
@@ -266,33 +267,65 @@ fn add_leaf(grid: &Grid, geometry: &Geometry, leaf: &Leaf, out: &mut Triangulati
     }
 }
 
-/// Appends the triangles of a mesh leaf of a CSG tree that bound the solid
-/// (tested at each clipped triangle's centroid,
-/// [`crate::quadrature::mixed::on_boundary`]), turned to face out of it.
+/// Appends the triangles of a mesh leaf of a CSG tree that bound the solid,
+/// turned to face out of it: each clipped triangle whole where its corners
+/// (nudged to its centroid) and centroid all bound it the same way
+/// ([`crate::quadrature::mixed::on_boundary`]), else split in four at its
+/// edges' midpoints down to edges of `h/4`, the smallest pieces kept by
+/// their centroid.
 fn add_mesh_leaf(grid: &Grid, geometry: &Geometry, mesh: &MeshSolid, out: &mut Triangulation) {
     let (points, triangles, tags) = clipped_mesh(mesh, &grid.bounding_box());
-    let base = out.0.len() as u32;
-    out.0.extend(&points);
     for (t, tag) in triangles.into_iter().zip(tags) {
-        let [a, b, c] = t.map(|v| points[v as usize]);
-        let n = normalize(cross(sub(b, a), sub(c, a)));
-        let centroid = [0, 1, 2].map(|i| (a[i] + b[i] + c[i]) / 3.0);
-        let p = SurfacePoint {
-            x: centroid,
-            w: 0.0,
-            n,
-            tag,
-        };
-        let Some(kept) = on_boundary(geometry, p, grid.h) else {
-            continue;
-        };
-        let mut tri = t.map(|v| v + base);
-        if kept.n != n {
-            tri.swap(1, 2);
-        }
-        out.1.push(tri);
-        out.2.push(tag);
+        let corners = t.map(|v| points[v as usize]);
+        let n = normalize(cross(
+            sub(corners[1], corners[0]),
+            sub(corners[2], corners[0]),
+        ));
+        add_mesh_piece(geometry, corners, n, tag, grid.h, out);
     }
+}
+
+fn add_mesh_piece(
+    geometry: &Geometry,
+    c: [[f64; 3]; 3],
+    n: [f64; 3],
+    tag: u16,
+    h: f64,
+    out: &mut Triangulation,
+) {
+    let centroid = [0, 1, 2].map(|i| (c[0][i] + c[1][i] + c[2][i]) / 3.0);
+    let side = |x: [f64; 3]| {
+        let p = SurfacePoint { x, w: 0.0, n, tag };
+        on_boundary(geometry, p, h).map(|kept| kept.n == n)
+    };
+    let at_centroid = side(centroid);
+    let nudged = c.map(|v| [0, 1, 2].map(|i| 0.9 * v[i] + 0.1 * centroid[i]));
+    let longest = (0..3)
+        .map(|k| crate::contact::vec3::norm(sub(c[(k + 1) % 3], c[k])))
+        .fold(0.0, f64::max);
+    if longest > 0.25 * h && nudged.iter().any(|&x| side(x) != at_centroid) {
+        let m = [0, 1, 2].map(|k| [0, 1, 2].map(|i| 0.5 * (c[k][i] + c[(k + 1) % 3][i])));
+        for piece in [
+            [c[0], m[0], m[2]],
+            [m[0], c[1], m[1]],
+            [m[2], m[1], c[2]],
+            m,
+        ] {
+            add_mesh_piece(geometry, piece, n, tag, h, out);
+        }
+        return;
+    }
+    let Some(facing_n) = at_centroid else {
+        return;
+    };
+    let base = out.0.len() as u32;
+    out.0.extend(c);
+    out.1.push(if facing_n {
+        [base, base + 1, base + 2]
+    } else {
+        [base, base + 2, base + 1]
+    });
+    out.2.push(tag);
 }
 
 /// A mesh solid's triangles clipped to `bx`, welded, with their tags.
