@@ -5,8 +5,10 @@
 //! set bounds (interval arithmetic) are strictly negative is inside as a whole,
 //! strictly positive outside; only blocks the boundary may cross are split, so
 //! the work follows the number of cut cells (~4× per level), not the number of
-//! cells (8× per level). A mesh solid is classified by flood fill instead
-//! ([`flood`]). Single candidate cells get their cut rule (in parallel).
+//! cells (8× per level). A geometry that is one mesh solid is classified by
+//! flood fill instead ([`flood`]); a CSG tree with mesh leaves takes the
+//! descent, a mesh's bounds over a block being decided by whether a triangle
+//! meets it. Single candidate cells get their cut rule (in parallel).
 //! A candidate whose rule has no volume is outside; one with full volume and no
 //! boundary points is inside; the rest are cut. A cell with a boundary part on
 //! one of its faces and the body on its side is cut with volume fraction 1: it

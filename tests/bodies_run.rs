@@ -273,6 +273,23 @@ fn bad_multi_body_inputs_exit_2_naming_the_key() {
     refused("steps", &good, &["--set", "load.steps=0"], "load.steps");
     let pair = format!("{good}\n[[contact]]\nslave = \"left.xmax\"\nmaster = \"right.top\"\n");
     refused("tag", &pair, &[], "contact[0].master");
+    // A master part on an STL surface: its master surface would be empty.
+    let stl = format!("{}/cases/parts/7_8ths_cube.stl", env!("CARGO_MANIFEST_DIR"));
+    let parts = ["xmin", "ymin", "zmin", "xmax"]
+        .iter()
+        .zip([[-1, 0, 0], [0, -1, 0], [0, 0, -1], [1, 0, 0]])
+        .map(|(n, d)| {
+            format!("{{ name = \"{n}\", normal = {{ direction = {d:?}, angle_deg = 1 }} }}")
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    let stl_right = good.replace(
+        r#"geometry = { type = "cuboid", min = [3, 0, 0], max = [5, 1, 1] }"#,
+        &format!(r#"geometry = {{ type = "translate", by = [4, 0.5, 0.5], of = {{ type = "stl", path = "{stl}", scale = 0.025, parts = [{parts}] }} }}"#),
+    );
+    let stl_master =
+        format!("{stl_right}\n[[contact]]\nslave = \"left.xmax\"\nmaster = \"right.xmin\"\n");
+    refused("stl-master", &stl_master, &[], "lies on an STL surface");
     let overlapping = good.replace(
         "min = [3, 0, 0], max = [5, 1, 1]",
         "min = [1, 0, 0], max = [3, 1, 1]",
