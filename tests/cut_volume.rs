@@ -183,3 +183,29 @@ of = { type = "difference", of = [ { type = "stl", path = "cases/parts/7_8ths_cu
     let exact = mesh_volume - 36.0 * 40.0 * std::f64::consts::PI;
     check("stl minus hole", geometry, exact, 3);
 }
+
+/// A cuboid minus the rotated re-entrant STL cube (a cavity): where only the
+/// cavity's mesh crosses a cell, the whole cell's Gauss weights minus the
+/// polyhedral rule's, exact (`quadrature::mixed`). The reference is the
+/// cuboid's volume minus the mesh's own.
+#[test]
+fn a_part_minus_an_stl_cavity_is_exact() {
+    let geometry = r#"type = "difference"
+of = [ { type = "cuboid", min = [-41, -42, -43], max = [41, 42, 43] }, { type = "rotate", axis = [0.3, -0.5, 0.8], angle_deg = 37, of = { type = "stl", path = "cases/parts/7_8ths_cube.stl" } } ]"#;
+    let text = format!("[geometry]\n{geometry}\n[material]\nyoung = 1\npoisson = 0.3\n");
+    let case = Case::from_str("volume.toml", &text).unwrap();
+    let mesh_volume = case.bodies[0].geometry.meshes()[0].diagnostics().volume;
+    let exact = 82.0 * 84.0 * 86.0 - mesh_volume;
+    let levels: Vec<u32> = (2..=max_level(5)).collect();
+    for element in ["q1", "q2"] {
+        for (level, e) in levels
+            .iter()
+            .zip(volume_errors(geometry, exact, element, &levels))
+        {
+            assert!(
+                e < 1e-13,
+                "{element} level {level}: relative volume error {e:.3e}"
+            );
+        }
+    }
+}

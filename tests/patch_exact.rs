@@ -7,7 +7,8 @@
 //! hole through its face `x = −20` (an STL leaf in a CSG tree: where the
 //! hole meets a face the face is a plane leaf for Saye's rule, and where it
 //! crosses the cube's edges `quadrature::mixed` gives its first-order
-//! rule), under random
+//! rule) and a block with that cube as a cavity (the exact rule of a mesh's
+//! outside), under random
 //! grid offsets and rotations of the part, with Dirichlet data on some parts
 //! and the exact traction on the others. Only the solver is tightened: the
 //! patch test measures the discretisation, not the stopping tolerance.
@@ -92,7 +93,7 @@ enum Q2Solved {
     None,
 }
 
-const PARTS: [Part; 8] = [
+const PARTS: [Part; 9] = [
     Part {
         name: "sphere",
         geometry: r#"{ type = "intersection", of = [
@@ -187,6 +188,18 @@ const PARTS: [Part; 8] = [
         dirichlet: &["clamped", "hole"],
         neumann: &["surface"],
         scale: 20.0,
+        young: 1000.0,
+        extra_level: 0,
+        q2_solved: Q2Solved::All,
+    },
+    Part {
+        name: "block with an STL cavity",
+        geometry: r#"{ type = "difference", of = [
+            { type = "cuboid", min = [-41, -42, -43], max = [41, 42, 43] },
+            { type = "rotate", axis = [0.3, -0.5, 0.8], angle_deg = 37, of = { type = "stl", path = "cases/parts/7_8ths_cube.stl", tag = "cavity" } } ] }"#,
+        dirichlet: &["zmin"],
+        neumann: &["cavity", "xmin", "xmax", "ymin", "ymax", "zmax"],
+        scale: 40.0,
         young: 1000.0,
         extra_level: 0,
         q2_solved: Q2Solved::All,

@@ -25,8 +25,10 @@ pub enum LocalSolid {
     Analytic(Geometry),
     /// Only this mesh crosses the box, and the solid there is its inside.
     Mesh(Arc<MeshSolid>),
-    /// Anything else: a mesh's edge or corner beside another surface, or
-    /// its outside.
+    /// Only this mesh crosses the box, and the solid there is its outside
+    /// (a cavity).
+    MeshOutside(Arc<MeshSolid>),
+    /// Anything else: a mesh's edge or corner beside another surface.
     Mixed {
         /// The meshes that may cross the box.
         meshes: Vec<Arc<MeshSolid>>,
@@ -39,6 +41,9 @@ impl Geometry {
     /// The solid over the box `b` (see the module doc).
     pub fn local(&self, b: &Aabb) -> LocalSolid {
         let root = self.reduce(&self.root, b);
+        if let Some(m) = cavity(&root) {
+            return LocalSolid::MeshOutside(m);
+        }
         match root {
             Node::Mesh(m) => LocalSolid::Mesh(m),
             root if !has_mesh(&root) => LocalSolid::Analytic(Geometry {
@@ -117,6 +122,17 @@ impl Geometry {
                 (x, y) => Node::Difference(Box::new(x), Box::new(y)),
             },
         }
+    }
+}
+
+/// The mesh of a tree that is everything minus that mesh.
+fn cavity(n: &Node) -> Option<Arc<MeshSolid>> {
+    match n {
+        Node::Difference(all, m) => match (&**all, &**m) {
+            (Node::Const(true), Node::Mesh(m)) => Some(m.clone()),
+            _ => None,
+        },
+        _ => None,
     }
 }
 

@@ -227,6 +227,7 @@ fn over_a_box_a_tree_with_a_mesh_reduces_to_what_crosses_it() {
             }
         }
         LocalSolid::Mesh(_) => "mesh",
+        LocalSolid::MeshOutside(_) => "cavity",
         LocalSolid::Mixed { meshes, leaves } => {
             assert_eq!((meshes.len(), leaves.len()), (1, 1));
             "mixed"
@@ -241,6 +242,13 @@ fn over_a_box_a_tree_with_a_mesh_reduces_to_what_crosses_it() {
     assert_eq!(kind([0.2, 0.5, 1.0]), "analytic");
     // The hole across the cube's edge (x = 0, z = 1).
     assert_eq!(kind([0.0, 0.3, 1.0]), "mixed");
+    // The cube as a cavity in a block.
+    let block = Geometry::cuboid([-1.0; 3], [2.0; 3])
+        .unwrap()
+        .difference(Geometry::from_mesh(unit_cube_mesh(), vec!["cavity".into()]))
+        .unwrap();
+    let face = cube_box([0.5, 0.0, 0.5], 0.03);
+    assert!(matches!(block.local(&face), LocalSolid::MeshOutside(_)));
 }
 
 #[test]

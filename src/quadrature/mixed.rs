@@ -4,14 +4,14 @@
 //! Over a box the tree reduces to the surfaces that cross it
 //! ([`Geometry::local`]):
 //! - only one mesh crosses and the solid is its inside: the exact
-//!   polyhedral rule ([`super::polyhedral`]);
+//!   polyhedral rule ([`super::polyhedral`]); its outside (a cavity): the
+//!   whole box's Gauss weights minus that rule's, exact too;
 //! - no mesh crosses, or each crossing mesh is one flat face there (its
 //!   triangles in the box coplanar, with one tag): Saye's rule of the reduced
 //!   tree, with each such face a plane leaf ([`super::saye`]). That is the
 //!   usual case where a drilled hole meets an STL face, and it is as accurate
 //!   as on analytic parts;
-//! - otherwise (another surface meets a mesh's edge or corner, or the solid
-//!   is the outside of a mesh's edge or corner) the box is halved along its free axes, down to
+//! - otherwise (another surface meets a mesh's edge or corner) the box is halved along its free axes, down to
 //!   [`MAX_DEPTH`] levels, and each half gets its own rule by the same
 //!   choice. The boxes of size `h / 2^MAX_DEPTH` still left get a
 //!   **first-order rule**: the tensor Gauss points of the box that lie in the
@@ -19,8 +19,7 @@
 //!   boundary points (clipped triangles, or Saye's points of the leaf alone)
 //!   where they are on the solid's boundary, with the solid's outward normal
 //!   (see [`on_boundary`]). Where another surface crosses a mesh edge these
-//!   are a few boxes around each crossing point; for a part minus an STL
-//!   cavity they follow the cavity's edges.
+//!   are a few boxes around each crossing point.
 //!
 //! **Accuracy.** Measured in `tests/cut_volume.rs` and docs/stl.md. The
 //! patch test stays exact whatever the rules' accuracy: the boundary flux of
@@ -43,6 +42,7 @@ pub fn mixed_box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRu
     match g.local(b) {
         LocalSolid::Analytic(local) => box_rule(&local, b, free, q),
         LocalSolid::Mesh(mesh) => mesh_box_rule(&mesh, b, free, q),
+        LocalSolid::MeshOutside(mesh) => outside_rule(g, &mesh, b, free, q),
         LocalSolid::Mixed { .. } => {
             let mut parts = Vec::new();
             for child in halves(b, free) {
@@ -59,6 +59,53 @@ pub fn mixed_box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRu
             rule
         }
     }
+}
+
+/// The exact rule of `b` outside a mesh solid (a cavity): on the polyhedral
+/// rule's points (`q + 1` per free axis) the tensor Gauss weights of the
+/// whole box minus the polyhedral weights, the mesh's boundary points facing
+/// into it, and [`lattice_samples`].
+fn outside_rule(g: &Geometry, mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
+    let inner = mesh_box_rule(mesh, b, free, q);
+    let n = q + 1;
+    let mut rule = tensor_rule(b, free, n, |_| true);
+    for (p, i) in rule.volume.iter_mut().zip(&inner.volume) {
+        p.w -= i.w;
+    }
+    rule.surface = inner
+        .surface
+        .into_iter()
+        .map(|p| SurfacePoint {
+            n: p.n.map(|v| -v),
+            ..p
+        })
+        .collect();
+    if free.len() == 3 {
+        rule.samples = lattice_samples(g, b, q, &rule.surface);
+    }
+    rule
+}
+
+/// The tensor Gauss rule of `n` points per free axis of `b`, the points
+/// `keep` accepts (in the polyhedral rules' order: first free axis fastest).
+fn tensor_rule(b: &Aabb, free: &[usize], n: usize, keep: impl Fn([f64; 3]) -> bool) -> BoxRule {
+    let (t, w) = gauss_legendre_unit(n);
+    let mut rule = BoxRule::default();
+    for idx in 0..n.pow(free.len() as u32) {
+        let mut x = b.lo;
+        let mut weight = 1.0;
+        let mut rest = idx;
+        for &a in free {
+            let len = b.hi[a] - b.lo[a];
+            x[a] = b.lo[a] + len * t[rest % n];
+            weight *= len * w[rest % n];
+            rest /= n;
+        }
+        if keep(x) {
+            rule.volume.push(VolumePoint { x, w: weight });
+        }
+    }
+    rule
 }
 
 /// Points of `b ∩ Ω` for the recovery's fits ([`BoxRule::samples`]): the
@@ -90,6 +137,7 @@ fn collect(g: &Geometry, b: &Aabb, free: &[usize], q: usize, depth: u32, out: &m
     match g.local(b) {
         LocalSolid::Analytic(local) => out.push(box_rule(&local, b, free, q)),
         LocalSolid::Mesh(mesh) => out.push(mesh_box_rule(&mesh, b, free, q)),
+        LocalSolid::MeshOutside(mesh) => out.push(outside_rule(g, &mesh, b, free, q)),
         LocalSolid::Mixed { .. } if depth < MAX_DEPTH => {
             for child in halves(b, free) {
                 collect(g, &child, free, q, depth + 1, out);
@@ -112,23 +160,7 @@ fn membership_rule(
     meshes: &[std::sync::Arc<MeshSolid>],
     leaves: &[usize],
 ) -> BoxRule {
-    let (t, w) = gauss_legendre_unit(q);
-    let mut rule = BoxRule::default();
-    let count = q.pow(free.len() as u32);
-    for idx in 0..count {
-        let mut x = b.lo;
-        let mut weight = 1.0;
-        let mut rest = idx;
-        for &a in free {
-            let len = b.hi[a] - b.lo[a];
-            x[a] = b.lo[a] + len * t[rest % q];
-            weight *= len * w[rest % q];
-            rest /= q;
-        }
-        if g.inside(x) {
-            rule.volume.push(VolumePoint { x, w: weight });
-        }
-    }
+    let mut rule = tensor_rule(b, free, q, |x| g.inside(x));
     if free.len() < 3 {
         return rule;
     }
