@@ -11,7 +11,8 @@
 //!   tree, with each such face a plane leaf ([`super::saye`]). That is the
 //!   usual case where a drilled hole meets an STL face, and it is as accurate
 //!   as on analytic parts;
-//! - otherwise (another surface meets a mesh's edge or corner) the box is halved along its free axes, down to
+//! - otherwise (another surface, or another mesh, meets a mesh's edge or
+//!   corner) the box is halved along its free axes, down to
 //!   [`MAX_DEPTH`] levels, and each half gets its own rule by the same
 //!   choice. The boxes of size `h / 2^MAX_DEPTH` still left get a
 //!   **first-order rule**: the tensor Gauss points of the box that lie in the
