@@ -57,7 +57,7 @@ use crate::contact::vec3::{cross, sub};
 use crate::geometry::scalar::Dual;
 use crate::geometry::surface::normalize;
 use crate::geometry::surface::Leaf;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::{Aabb, Geometry, LocalSolid};
 use crate::grid::Grid;
 use crate::mesh::MeshSolid;
 use crate::quadrature::mixed::on_boundary;
@@ -268,7 +268,8 @@ fn add_leaf(grid: &Grid, geometry: &Geometry, leaf: &Leaf, out: &mut Triangulati
 }
 
 /// Appends the triangles of a mesh leaf of a CSG tree that bound the solid,
-/// turned to face out of it: each clipped triangle whole where its corners
+/// turned to face out of it: each clipped triangle whole where no other
+/// surface reaches its box ([`Geometry::local`]) or where its corners
 /// (nudged to its centroid) and centroid all bound it the same way
 /// ([`crate::quadrature::mixed::on_boundary`]), else split in four at its
 /// edges' midpoints down to edges of `h/4`, the smallest pieces kept by
@@ -293,6 +294,15 @@ fn add_mesh_piece(
     h: f64,
     out: &mut Triangulation,
 ) {
+    // Where no other surface reaches the piece's box, the solid there is the
+    // mesh's inside or outside as a whole: no winding numbers needed.
+    let lo = [0, 1, 2].map(|i| c[0][i].min(c[1][i]).min(c[2][i]));
+    let hi = [0, 1, 2].map(|i| c[0][i].max(c[1][i]).max(c[2][i]));
+    match geometry.local(&Aabb::new(lo, hi)) {
+        LocalSolid::Mesh(_) => return push_piece(c, true, tag, out),
+        LocalSolid::MeshOutside(_) => return push_piece(c, false, tag, out),
+        _ => {}
+    }
     let centroid = [0, 1, 2].map(|i| (c[0][i] + c[1][i] + c[2][i]) / 3.0);
     let side = |x: [f64; 3]| {
         let p = SurfacePoint { x, w: 0.0, n, tag };
@@ -315,9 +325,13 @@ fn add_mesh_piece(
         }
         return;
     }
-    let Some(facing_n) = at_centroid else {
-        return;
-    };
+    if let Some(facing_n) = at_centroid {
+        push_piece(c, facing_n, tag, out);
+    }
+}
+
+/// Appends the triangle `c` (turned over unless `facing_n`) with its tag.
+fn push_piece(c: [[f64; 3]; 3], facing_n: bool, tag: u16, out: &mut Triangulation) {
     let base = out.0.len() as u32;
     out.0.extend(c);
     out.1.push(if facing_n {

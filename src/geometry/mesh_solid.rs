@@ -3,9 +3,10 @@
 //!
 //! A geometry that is one mesh solid gets the exact polyhedral cut rules of
 //! [`crate::quadrature::polyhedral`] everywhere. A mesh combined with other
-//! solids gets them in the cells only its surface crosses, Saye's where only
-//! analytic surfaces cross, and a first-order rule where both meet
-//! ([`crate::quadrature::mixed`]).
+//! solids gets them (or their complement, for a cavity) in the cells only its
+//! surface crosses, Saye's where analytic surfaces cross it or flat faces of
+//! it, and a first-order rule in the small boxes where another surface
+//! crosses one of its edges ([`crate::quadrature::mixed`]).
 
 use std::sync::Arc;
 
