@@ -40,25 +40,39 @@ pub const MAX_DEPTH: u32 = 3;
 /// [`box_rule`]). A box that is split gets the fit samples of
 /// [`lattice_samples`]; one that is not keeps its rule's own.
 pub fn mixed_box_rule(g: &Geometry, b: &Aabb, free: &[usize], q: usize) -> BoxRule {
-    match g.local(b) {
-        LocalSolid::Analytic(local) => box_rule(&local, b, free, q),
-        LocalSolid::Mesh(mesh) => mesh_box_rule(&mesh, b, free, q),
-        LocalSolid::MeshOutside(mesh) => outside_rule(g, &mesh, b, free, q),
-        LocalSolid::Mixed { .. } => {
-            let mut parts = Vec::new();
-            for child in halves(b, free) {
-                collect(g, &child, free, q, 1, &mut parts);
-            }
-            let mut rule = BoxRule::default();
-            for part in parts {
-                rule.volume.extend(part.volume);
-                rule.surface.extend(part.surface);
-            }
-            if free.len() == 3 {
-                rule.samples = lattice_samples(g, b, q, &rule.surface);
-            }
-            rule
-        }
+    let local = g.local(b);
+    if let Some(rule) = whole_box_rule(g, &local, b, free, q) {
+        return rule;
+    }
+    let mut parts = Vec::new();
+    for child in halves(b, free) {
+        collect(g, &child, free, q, 1, &mut parts);
+    }
+    let mut rule = BoxRule::default();
+    for part in parts {
+        rule.volume.extend(part.volume);
+        rule.surface.extend(part.surface);
+    }
+    if free.len() == 3 {
+        rule.samples = lattice_samples(g, b, q, &rule.surface);
+    }
+    rule
+}
+
+/// The rule of a box that needs no split: Saye's, the polyhedral one or its
+/// complement; `None` for [`LocalSolid::Mixed`].
+fn whole_box_rule(
+    g: &Geometry,
+    local: &LocalSolid,
+    b: &Aabb,
+    free: &[usize],
+    q: usize,
+) -> Option<BoxRule> {
+    match local {
+        LocalSolid::Analytic(reduced) => Some(box_rule(reduced, b, free, q)),
+        LocalSolid::Mesh(mesh) => Some(mesh_box_rule(mesh, b, free, q)),
+        LocalSolid::MeshOutside(mesh) => Some(outside_rule(g, mesh, b, free, q)),
+        LocalSolid::Mixed { .. } => None,
     }
 }
 
@@ -135,18 +149,15 @@ fn lattice_samples(g: &Geometry, b: &Aabb, q: usize, surface: &[SurfacePoint]) -
 }
 
 fn collect(g: &Geometry, b: &Aabb, free: &[usize], q: usize, depth: u32, out: &mut Vec<BoxRule>) {
-    match g.local(b) {
-        LocalSolid::Analytic(local) => out.push(box_rule(&local, b, free, q)),
-        LocalSolid::Mesh(mesh) => out.push(mesh_box_rule(&mesh, b, free, q)),
-        LocalSolid::MeshOutside(mesh) => out.push(outside_rule(g, &mesh, b, free, q)),
-        LocalSolid::Mixed { .. } if depth < MAX_DEPTH => {
-            for child in halves(b, free) {
-                collect(g, &child, free, q, depth + 1, out);
-            }
+    let local = g.local(b);
+    if let Some(rule) = whole_box_rule(g, &local, b, free, q) {
+        out.push(rule);
+    } else if depth < MAX_DEPTH {
+        for child in halves(b, free) {
+            collect(g, &child, free, q, depth + 1, out);
         }
-        LocalSolid::Mixed { meshes, leaves } => {
-            out.push(membership_rule(g, b, free, q, &meshes, &leaves))
-        }
+    } else if let LocalSolid::Mixed { meshes, leaves } = local {
+        out.push(membership_rule(g, b, free, q, &meshes, &leaves));
     }
 }
 
