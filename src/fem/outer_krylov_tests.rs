@@ -115,12 +115,41 @@ fn reaches_the_paper_loops_answer_in_far_fewer_solves() {
 
 #[test]
 fn restarts_keep_converging() {
-    // θ = 0.9999 to 1e-13 needs more than one cycle of RESTART directions.
+    // θ = 0.9999 to 1e-13 needs more than one cycle of 20 directions.
     let theta = 0.9999;
-    let (u, report) = run_fgmres(theta, &options(1e-13, 500));
-    assert!(report.iterations > RESTART, "{}", report.iterations);
-    let r = true_residual(&Stencil7::laplacian(N), &load(), &u.unwrap(), theta);
+    let op = Stencil7::laplacian(N);
+    let mut solver = CpuSolver::new(&op);
+    let mut recovered = |u: &[f64]| -> Result<Vec<f64>> { Ok(shifted(u, theta)) };
+    let mut report = FixedPointReport::default();
+    let opts = options(1e-13, 500);
+    let u = Outer {
+        solver: &mut solver,
+        op: &op,
+        recovered: &mut recovered,
+        constant: Vec::new(),
+        opts: &opts,
+        report: &mut report,
+        progress: &Silent,
+        restart: MIN_RESTART,
+    }
+    .solve(&load());
+    assert!(report.iterations > MIN_RESTART, "{}", report.iterations);
+    let r = true_residual(&op, &load(), &u.unwrap(), theta);
     assert!(r <= 1e-13 * 1.01, "true residual {r:e}");
+    assert!(
+        (report.final_relative_residual - r).abs() <= 1e-15,
+        "{report:?}"
+    );
+}
+
+#[test]
+fn the_restart_length_fits_the_memory_bound() {
+    assert_eq!(restart_length(216), MAX_RESTART);
+    assert_eq!(restart_length(30_000_000), MIN_RESTART);
+    let n = 500_000;
+    let k = restart_length(n);
+    assert!(k > MIN_RESTART && k < MAX_RESTART);
+    assert!(2 * 8 * n * k <= BASIS_BYTES && 2 * 8 * n * (k + 1) > BASIS_BYTES);
 }
 
 #[test]
