@@ -17,9 +17,11 @@
 //! ```text
 //! q = ln(δ_n / δ_{n−1}) / ln(δ_{n−1} / δ_{n−2}),      C = δ_n / δ_{n−1}²
 //! ```
-//! (`q → 2` for quadratic convergence, 1 for linear; for `δ_{k+1} = C δ_k²`
-//! exactly, `q = ln(C δ_{n−1}) / ln(C δ_{n−2})`, a little below 2 until
-//! `C δ_{n−2} ≪ 1`.)
+//! (`q → 2` for quadratic convergence, 1 for linear. For `δ_{k+1} = C δ_k²`
+//! with one `C`, `q = 2` exactly; where the ratio `C_k = δ_{k+1}/δ_k²` moves
+//! from `C₁` to `C₂` over the two transitions,
+//! `q = 2 + ln(C₂/C₁) / ln(C₁ δ_{n−2})`: below 2 where it grows, above 2
+//! where it falls, by less the smaller `C₁ δ_{n−2}`.)
 
 /// Corrections at or below this relative size are round-off, not Newton:
 /// the correction at a state whose residual is at machine precision.
@@ -55,7 +57,7 @@ mod tests {
 
     #[test]
     fn a_quadratic_sequence_has_order_two_and_its_constant() {
-        // δ_{k+1} = 3 δ_k² from δ = 10⁻²: exactly q = ln(3δ₁)/ln(3δ₀).
+        // δ_{k+1} = 3 δ_k² from δ = 10⁻²: q = 2 exactly.
         let mut d = vec![1.0, 1e-2];
         while d.len() < 5 {
             let last = d[d.len() - 1];
@@ -63,8 +65,23 @@ mod tests {
         }
         let (q, c) = convergence_order(&energies(&d)).unwrap();
         assert!((c - 3.0).abs() < 1e-9, "{c}");
-        let expected = (3.0 * d[3]).ln() / (3.0 * d[2]).ln();
-        assert!((q - expected).abs() < 1e-9 && q > 1.9, "{q}");
+        assert!((q - 2.0).abs() < 1e-9, "{q}");
+    }
+
+    #[test]
+    fn a_quadratic_constant_that_grows_reads_below_two() {
+        // C = 14 then 71 from δ = 1.6e-4 (the annuli's lowest step, level 3):
+        // q = 2 + ln(71/14) / ln(14 · 1.6e-4) = 1.73.
+        let (c1, c2, d0) = (14.0, 71.0, 1.6e-4);
+        let d1 = c1 * d0 * d0;
+        let d = [1.0, d0, d1, c2 * d1 * d1];
+        let (q, c) = convergence_order(&energies(&d)).unwrap();
+        let expected = 2.0 + (c2 / c1).ln() / (c1 * d0).ln();
+        assert!(
+            (q - expected).abs() < 1e-9 && (q - 1.73).abs() < 0.01,
+            "{q}"
+        );
+        assert!((c - c2).abs() < 1e-9 * c2, "{c}");
     }
 
     #[test]
