@@ -126,6 +126,15 @@ fn surface(path: &Path) -> Vtp {
     (points, triangles, a)
 }
 
+/// Runs `cases/{file}` at `level` into `out`: the report and `surface.vtp`.
+fn run_shipped(file: &str, out: &Path, level: u32) -> (serde_json::Value, Vtp) {
+    let case = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(file);
+    let report = run(&case, out, &["--level", &level.to_string()]);
+    (report, surface(&out.join("surface.vtp")))
+}
+
 fn area(points: &[[f64; 3]], triangles: &[[usize; 3]]) -> f64 {
     let mut total = 0.0;
     for t in triangles {
@@ -319,10 +328,8 @@ fn surface_displacement_is_the_fe_solution_there() {
 #[test]
 fn stl_surface_is_the_mesh_with_the_fe_solution() {
     let dir = scratch("stl");
-    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/plate_holes.toml");
     let out = dir.join("out");
-    let report = run(&case, &out, &["--level", "4"]);
-    let (points, triangles, s) = surface(&out.join("surface.vtp"));
+    let (report, (points, triangles, s)) = run_shipped("plate_holes.toml", &out, 4);
     let mesh_area = report["bodies"][0]["mesh"]["area"].as_f64().unwrap();
     let written = area(&points, &triangles);
     assert!(
@@ -544,10 +551,7 @@ fn solution_vtu_carries_the_level_set_for_clipping() {
 #[test]
 fn a_drilled_stl_surface_keeps_the_facets_that_bound_it() {
     let dir = scratch("stl_drilled");
-    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/plate_drilled.toml");
-    let out = dir.join("out");
-    let report = run(&case, &out, &["--level", "5"]);
-    let (points, triangles, s) = surface(&out.join("surface.vtp"));
+    let (report, (points, triangles, s)) = run_shipped("plate_drilled.toml", &dir.join("out"), 5);
     let rules = report["bodies"][0]["domain"]["boundary_area"]
         .as_f64()
         .unwrap();
