@@ -20,6 +20,7 @@ use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with_progress;
 use cgfem_gpu::fem::surface_output::{write_surface, SurfaceFields};
+use cgfem_gpu::geometry::Aabb;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::BackendChoice;
 use cgfem_gpu::output::write_atomic;
@@ -58,14 +59,11 @@ fn write_deformed(
     mesh: &BoundaryMesh,
     fields: &SurfaceFields,
 ) -> anyhow::Result<()> {
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for x in &mesh.points {
-        for a in 0..3 {
-            lo[a] = lo[a].min(x[a]);
-            hi[a] = hi[a].max(x[a]);
-        }
-    }
-    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+    let b = Aabb::around(&mesh.points);
+    let diagonal = (0..3)
+        .map(|a| (b.hi[a] - b.lo[a]).powi(2))
+        .sum::<f64>()
+        .sqrt();
     let largest = fields
         .displacement
         .iter()

@@ -296,9 +296,7 @@ fn add_mesh_piece(
 ) {
     // Where no other surface reaches the piece's box, the solid there is the
     // mesh's inside or outside as a whole: no winding numbers needed.
-    let lo = [0, 1, 2].map(|i| c[0][i].min(c[1][i]).min(c[2][i]));
-    let hi = [0, 1, 2].map(|i| c[0][i].max(c[1][i]).max(c[2][i]));
-    match geometry.local(&Aabb::new(lo, hi)) {
+    match geometry.local(&Aabb::around(&c)) {
         LocalSolid::Mesh(_) => return push_piece(c, true, tag, out),
         LocalSolid::MeshOutside(_) => return push_piece(c, false, tag, out),
         _ => {}

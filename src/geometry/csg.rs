@@ -153,16 +153,13 @@ impl Geometry {
         self.bbox = if !b.is_finite() {
             Aabb::EVERYTHING
         } else {
-            let mut out = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-            for k in 0..8 {
-                let p = [0, 1, 2].map(|i| if k >> i & 1 == 1 { b.hi[i] } else { b.lo[i] });
-                for i in 0..3 {
-                    let q = r[0][i] * p[0] + r[1][i] * p[1] + r[2][i] * p[2] + s[i];
-                    out.lo[i] = out.lo[i].min(q);
-                    out.hi[i] = out.hi[i].max(q);
-                }
-            }
-            out
+            let corners: Vec<[f64; 3]> = (0..8)
+                .map(|k| {
+                    let p = [0, 1, 2].map(|i| if k >> i & 1 == 1 { b.hi[i] } else { b.lo[i] });
+                    [0, 1, 2].map(|i| r[0][i] * p[0] + r[1][i] * p[1] + r[2][i] * p[2] + s[i])
+                })
+                .collect();
+            Aabb::around(&corners)
         };
         // A solid that is one mesh takes its moved mesh's own box instead.
         self.move_meshes(r, s);

@@ -39,6 +39,17 @@ impl Aabb {
     pub fn new(lo: [f64; 3], hi: [f64; 3]) -> Self {
         Aabb { lo, hi }
     }
+    /// The smallest box holding `points` (empty for none).
+    pub fn around<'a>(points: impl IntoIterator<Item = &'a [f64; 3]>) -> Aabb {
+        let mut b = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in points {
+            for i in 0..3 {
+                b.lo[i] = b.lo[i].min(p[i]);
+                b.hi[i] = b.hi[i].max(p[i]);
+            }
+        }
+        b
+    }
     pub const EVERYTHING: Aabb = Aabb {
         lo: [f64::NEG_INFINITY; 3],
         hi: [f64::INFINITY; 3],

@@ -125,7 +125,7 @@ impl MeshSolid {
                 (vertices.len() - 1) as u32
             })
         };
-        let extent = bounding_box(triangles.iter().flatten());
+        let extent = Aabb::around(triangles.iter().flatten());
         let diag2: f64 = (0..3).map(|i| (extent.hi[i] - extent.lo[i]).powi(2)).sum();
         let mut kept: Vec<[u32; 3]> = Vec::with_capacity(triangles.len());
         let mut kept_tags = Vec::with_capacity(triangles.len());
@@ -211,7 +211,7 @@ impl MeshSolid {
             .collect();
         diagnostics.area = scaled.iter().map(|n| 0.5 * norm(*n)).sum();
         let normals = scaled.iter().map(|&n| n.map(|v| v / norm(n))).collect();
-        let bbox = bounding_box(corners.iter().flatten());
+        let bbox = Aabb::around(corners.iter().flatten());
         let bvh = Bvh::new(corners);
         let far = winding::far_fields(&bvh);
         MeshSolid {
@@ -408,17 +408,6 @@ fn count_edges(triangles: &[[u32; 3]], d: &mut MeshDiagnostics) {
             _ => d.non_manifold_edges += 1,
         }
     }
-}
-
-fn bounding_box<'a>(points: impl Iterator<Item = &'a [f64; 3]>) -> Aabb {
-    let mut b = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in points {
-        for i in 0..3 {
-            b.lo[i] = b.lo[i].min(p[i]);
-            b.hi[i] = b.hi[i].max(p[i]);
-        }
-    }
-    b
 }
 
 #[cfg(test)]
