@@ -5,6 +5,8 @@
 //! patch's cells, Q2 the complete quadratic, 10 terms, to the 3×3×3 ones); the recovered traction `t̂ = σ̂ n` at the Dirichlet points, and the
 //! reactions `λ_q = t̂_q − (β/h)(u_h(x_q) − g_q)`.
 
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
 
 use super::field::{stress_voigt, value_and_gradient};
@@ -13,7 +15,7 @@ use super::setup::Setup;
 use crate::cells::CellKind;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
-use crate::recovery::{recover_from_rings, Recovered, SprOptions};
+use crate::recovery::{recover_planned, FitPlans, Recovered, SprOptions};
 
 /// The Q1 vertex nodes of the cells holding Dirichlet points and of the cells
 /// whose flux correction uses the recovered stress (the patches the traction
@@ -69,14 +71,14 @@ pub fn sample_positions(
     }
 }
 
-/// SPR of the stress of `u` on the patches of `nodes`, each patch's fit
-/// starting at its ring in `rings` when given (see
-/// [`crate::recovery::recover_from_rings`]).
+/// SPR of the stress of `u` on the patches of `nodes`, reusing the fits of
+/// an earlier recovery on the same patches when `plans` holds them (see
+/// [`crate::recovery::recover_planned`]).
 pub fn recover_stress(
     setup: &Setup,
     u: &[f64],
     nodes: &[usize],
-    rings: Option<&[usize]>,
+    plans: Option<&OnceLock<FitPlans>>,
 ) -> Result<Recovered<6>> {
     let grid = &setup.grid;
     let dofs = &setup.op.dofs;
@@ -90,14 +92,14 @@ pub fn recover_stress(
             (x, stress_voigt(&g, lambda, mu))
         }));
     };
-    recover_from_rings(
+    recover_planned(
         grid,
         &setup.cells.kinds,
         nodes,
         dofs.order.degree(),
         &samples,
         &SprOptions::default(),
-        rings,
+        plans,
     )
 }
 

@@ -15,6 +15,7 @@ use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
 use crate::progress::{Event, Phase, Progress, Silent};
+use crate::recovery::FitPlans;
 use crate::solver::KrylovOptions;
 
 /// A converged solution.
@@ -103,20 +104,17 @@ pub fn solve_with_progress(
         phase: Phase::Recovery,
         total: None,
     });
-    let recovered = recover_stress(
-        setup,
-        &u,
-        &load.nodes,
-        load.stress_rings.get().map(Vec::as_slice),
-    )
-    .and_then(|sigma| {
-        let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
-        let extra =
-            setup
-                .flux
-                .dirichlet_densities(&setup.grid, &setup.cells, &sigma, &setup.dirichlet)?;
-        Ok((t_hat, extra))
-    });
+    let recovered =
+        recover_stress(setup, &u, &load.nodes, Some(&load.stress_plans)).and_then(|sigma| {
+            let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
+            let extra = setup.flux.dirichlet_densities(
+                &setup.grid,
+                &setup.cells,
+                &sigma,
+                &setup.dirichlet,
+            )?;
+            Ok((t_hat, extra))
+        });
     progress.event(&Event::Finish {
         phase: Phase::Recovery,
     });
@@ -144,16 +142,16 @@ pub fn solve_with_progress(
 /// when the S-term is on, `F_S(u)`. The system of the fixed point is
 /// `A U = fixed_rhs + RecoveredLoad::at(U)`.
 ///
-/// The first evaluation remembers each patch's accepted ring (of the stress
-/// and of the displacement recovery), and the later ones start their fits
-/// there ([`crate::recovery::recover_from_rings`]): the same coefficients
-/// without refitting the rings that were rejected.
+/// The first evaluation keeps each patch's accepted fit (of the stress and of
+/// the displacement recovery), and the later ones reuse it
+/// ([`crate::recovery::recover_planned`]): the same coefficients without the
+/// ring search, the stability checks and the factorisations.
 pub struct RecoveredLoad<'a> {
     setup: &'a Setup,
     /// The [`traction_patch_nodes`].
     nodes: Vec<usize>,
-    stress_rings: OnceLock<Vec<usize>>,
-    displacement_rings: OnceLock<Vec<usize>>,
+    stress_plans: OnceLock<FitPlans>,
+    displacement_plans: OnceLock<FitPlans>,
 }
 
 impl<'a> RecoveredLoad<'a> {
@@ -161,34 +159,23 @@ impl<'a> RecoveredLoad<'a> {
         RecoveredLoad {
             setup,
             nodes: traction_patch_nodes(setup),
-            stress_rings: OnceLock::new(),
-            displacement_rings: OnceLock::new(),
+            stress_plans: OnceLock::new(),
+            displacement_plans: OnceLock::new(),
         }
     }
 
     /// `F_T(u) (+ F_S(u))`.
     pub fn at(&self, u: &[f64]) -> Result<Vec<f64>> {
         let setup = self.setup;
-        let sigma = recover_stress(
-            setup,
-            u,
-            &self.nodes,
-            self.stress_rings.get().map(Vec::as_slice),
-        )?;
-        self.stress_rings.get_or_init(|| sigma.rings());
+        let sigma = recover_stress(setup, u, &self.nodes, Some(&self.stress_plans))?;
         let t = recovered_tractions(&setup.dirichlet, &sigma)?;
         let mut f = traction_rhs(&setup.grid, &setup.op.dofs, &setup.dirichlet, &t);
         setup
             .flux
             .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
         if setup.s_factor > 0.0 && !setup.omega_star.is_empty() {
-            let s = recover_displacement(
-                setup,
-                u,
-                &setup.omega_star,
-                self.displacement_rings.get().map(Vec::as_slice),
-            )?;
-            self.displacement_rings.get_or_init(|| s.rings());
+            let s =
+                recover_displacement(setup, u, &setup.omega_star, Some(&self.displacement_plans))?;
             let fs = s_rhs(
                 setup,
                 &setup.omega_star,

@@ -22,6 +22,8 @@
 //! equilibrium `σ(û) n = t` is collocated at the one nearest the patch node,
 //! as three more constraint rows.
 
+use std::sync::OnceLock;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::field::value_and_gradient;
@@ -36,8 +38,8 @@ use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::quadrature::saye::SurfacePoint;
 use crate::recovery::{
-    recover_from_rings, LinearConstraints, Monomials, Patch, PatchSamples, Recovered, Sample,
-    SprOptions,
+    recover_planned, FitPlans, LinearConstraints, Monomials, Patch, PatchSamples, Recovered,
+    Sample, SprOptions,
 };
 
 /// Pathological cells: cut cells with `0 < A_c < a`, ascending.
@@ -195,20 +197,20 @@ fn second_derivative_at_origin(e: [usize; 3], k: usize, l: usize) -> f64 {
 }
 
 /// The displacement recovery `S` of `u_h` on the patches of the vertex nodes
-/// of Ω*, each patch's fit starting at its ring in `rings` when given (see
-/// [`crate::recovery::recover_from_rings`]).
+/// of Ω*, reusing the fits of an earlier recovery on the same patches when
+/// `plans` holds them (see [`crate::recovery::recover_planned`]).
 pub fn recover_displacement(
     setup: &Setup,
     u: &[f64],
     omega_star: &[usize],
-    rings: Option<&[usize]>,
+    plans: Option<&OnceLock<FitPlans>>,
 ) -> Result<Recovered<3>> {
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
     recover_displacement_of(
         setup,
         omega_star,
         |cell, x| value_and_gradient(grid, dofs, u, cell, x).0,
-        rings,
+        plans,
     )
 }
 
@@ -219,7 +221,7 @@ pub fn recover_displacement_of<F>(
     setup: &Setup,
     omega_star: &[usize],
     value: F,
-    rings: Option<&[usize]>,
+    plans: Option<&OnceLock<FitPlans>>,
 ) -> Result<Recovered<3>>
 where
     F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
@@ -231,14 +233,14 @@ where
         rule: tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis()),
     };
     let degree = setup.op.dofs.order.degree() + 1;
-    recover_from_rings(
+    recover_planned(
         &setup.grid,
         &setup.cells.kinds,
         &nodes,
         degree,
         &samples,
         &SprOptions::default(),
-        rings,
+        plans,
     )
 }
 

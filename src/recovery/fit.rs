@@ -29,10 +29,11 @@
 //! (component `c`'s coefficients at `c·n_b .. (c+1)·n_b`), i.e.
 //! `C (I ⊗ T) b = d` on the centred ones. The constrained minimum of
 //! `½ Σ_c ‖A b_c − B_c‖²` is the stationary point of the Lagrangian, the KKT
-//! system `[[I ⊗ AᵀA, Cᵀ], [C, 0]] [b; λ] = [Aᵀ B; d]`, solved by LU with
-//! partial pivoting in the equilibrated unknowns (each constraint row
-//! normalised to unit length). It is regular when `C` has full row rank and
-//! `AᵀA` is positive definite (which the acceptance check ensures).
+//! system `[[I ⊗ AᵀA, Cᵀ], [C, 0]] [b; λ] = [Aᵀ B; d]`, solved through its
+//! Schur complement `C (I ⊗ (AᵀA)⁻¹) Cᵀ` in the equilibrated unknowns (each
+//! constraint row normalised to unit length). It is regular when `C` has full
+//! row rank and `AᵀA` is positive definite (which the acceptance check
+//! ensures).
 //!
 //! Both systems are solved with [`REFINEMENT_STEPS`] steps of iterative
 //! refinement on the residual computed from the samples,
@@ -42,8 +43,9 @@
 
 use std::fmt;
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn, SymmetricEigen, LU};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
+use super::kkt::{design_matrix, values_matrix, Design, Kkt};
 use super::{Monomials, Sample};
 
 /// Linear equality constraints `C a = d` on the stacked coefficients of all
@@ -131,74 +133,153 @@ pub fn fit_polynomial<const NC: usize>(
     constraints: Option<&LinearConstraints>,
     opts: &FitOptions,
 ) -> Result<Vec<f64>, FitFailure> {
-    let nb = basis.len();
-    let need = (opts.min_sample_ratio * nb as f64).ceil() as usize;
-    if samples.len() < need {
-        return Err(FitFailure::TooFewPoints {
-            have: samples.len(),
-            need,
-        });
-    }
-    if let Some(k) = constraints {
-        check_shape(k, NC * nb)?;
-    }
-    let (centroid, samples) = centered(samples);
-    let samples = &samples[..];
-    let shift = basis.translation(centroid);
-    let design = Design::new(basis, samples);
-    let mut m = design.normal_matrix();
-    let lambda = stability(
-        &m,
-        samples.len(),
-        &(shift.transpose() * box_gram(basis) * &shift),
-    );
-    let min = opts.stability.powi(basis.degree().max(1) as i32);
-    if lambda.is_nan() || lambda < min {
-        return Err(FitFailure::Unstable { lambda, min });
-    }
-    let s = equilibrate(&mut m);
-    let constraints = constraints.map(|k| LinearConstraints {
-        c: shifted_constraints(&k.c, &shift),
-        d: k.d.clone(),
-    });
-    let kkt = Kkt::new(&m, &s, NC, constraints.as_ref())?;
-    let first = kkt.residual_at_zero(&design);
-    let rhs = first.amax();
-    let mut x = kkt.solve(&first).ok_or(FitFailure::Singular)?;
-    for _ in 0..REFINEMENT_STEPS {
-        let res = kkt.residual(&design, &x);
-        x += kkt.solve(&res).ok_or(FitFailure::Singular)?;
-    }
-    // A near-singular KKT matrix (dependent or inconsistent rows) shows up as a
-    // residual far above round-off (the normal matrix alone is checked by
-    // `stability` above).
-    if kkt.c.nrows() > 0 {
-        let res = kkt.residual(&design, &x).amax();
-        if res.is_nan() || res > 1e-9 * (1.0 + rhs) {
-            return Err(FitFailure::Singular);
-        }
-    }
-    let centred = DMatrix::from_fn(nb, NC, |j, c| s[j] * x[c * nb + j]);
-    let a = (shift * centred).as_slice().to_vec();
-    if a.iter().any(|v| !v.is_finite()) {
-        return Err(FitFailure::NonFinite);
-    }
-    Ok(a)
+    fit_and_factor(basis, samples, constraints, opts).map(|(a, _)| a)
 }
 
-/// The centroid `ξ̄` of the sample points and the samples at `ξ − ξ̄`.
-fn centered<const NC: usize>(samples: &[Sample<NC>]) -> ([f64; 3], Vec<Sample<NC>>) {
+/// [`fit_polynomial`], and the fit's [`FitFactor`] for values at the same
+/// points.
+pub fn fit_and_factor<const NC: usize>(
+    basis: &Monomials,
+    samples: &[Sample<NC>],
+    constraints: Option<&LinearConstraints>,
+    opts: &FitOptions,
+) -> Result<(Vec<f64>, FitFactor), FitFailure> {
+    let points: Vec<[f64; 3]> = samples.iter().map(|(x, _)| *x).collect();
+    let (factor, design_matrix) = FitFactor::prepare(basis, &points, NC, constraints, opts)?;
+    let design = Design {
+        a: design_matrix,
+        b: values_matrix(samples),
+    };
+    let a = factor.solve(design)?;
+    Ok((a, factor))
+}
+
+/// The half of a patch fit that depends on the sample points and the
+/// constraints only, never on the values: the points' centroid, the shift
+/// back to the node's basis and the factored (KKT) system. A fixed-point loop
+/// recovers a new field on the same patches at every iteration;
+/// [`FitFactor::fit`] then skips the acceptance check and the factorisation
+/// and returns what [`fit_polynomial`] returns, bit for bit.
+pub struct FitFactor {
+    centroid: [f64; 3],
+    shift: DMatrix<f64>,
+    points: usize,
+    kkt: Kkt,
+}
+
+impl FitFactor {
+    /// Checks and factors the fit of `nc` components at `points` (scaled);
+    /// returns the factor and the design matrix in the centred coordinates.
+    fn prepare(
+        basis: &Monomials,
+        points: &[[f64; 3]],
+        nc: usize,
+        constraints: Option<&LinearConstraints>,
+        opts: &FitOptions,
+    ) -> Result<(FitFactor, DMatrix<f64>), FitFailure> {
+        let nb = basis.len();
+        let need = (opts.min_sample_ratio * nb as f64).ceil() as usize;
+        if points.len() < need {
+            return Err(FitFailure::TooFewPoints {
+                have: points.len(),
+                need,
+            });
+        }
+        if let Some(k) = constraints {
+            check_shape(k, nc * nb)?;
+        }
+        let centroid = centroid(points);
+        let shift = basis.translation(centroid);
+        let a = design_matrix(basis, centroid, points);
+        let mut m = a.tr_mul(&a);
+        let lambda = stability(
+            &m,
+            points.len(),
+            &(shift.transpose() * box_gram(basis) * &shift),
+        );
+        let min = opts.stability.powi(basis.degree().max(1) as i32);
+        if lambda.is_nan() || lambda < min {
+            return Err(FitFailure::Unstable { lambda, min });
+        }
+        let s = equilibrate(&mut m);
+        let constraints = constraints.map(|k| LinearConstraints {
+            c: shifted_constraints(&k.c, &shift),
+            d: k.d.clone(),
+        });
+        let kkt = Kkt::new(&m, &s, nc, constraints.as_ref())?;
+        let factor = FitFactor {
+            centroid,
+            shift,
+            points: points.len(),
+            kkt,
+        };
+        Ok((factor, a))
+    }
+
+    /// The fit of `samples` at the points this factor was made for (same
+    /// points, same order; `NC` its number of components).
+    ///
+    /// # Panics
+    /// When the number of samples or of components differs from the factor's.
+    pub fn fit<const NC: usize>(
+        &self,
+        basis: &Monomials,
+        samples: &[Sample<NC>],
+    ) -> Result<Vec<f64>, FitFailure> {
+        assert_eq!(samples.len(), self.points, "samples of a fit factor");
+        assert_eq!(
+            NC * basis.len(),
+            self.kkt.c.ncols(),
+            "components of a fit factor"
+        );
+        let points: Vec<[f64; 3]> = samples.iter().map(|(x, _)| *x).collect();
+        let design = Design {
+            a: design_matrix(basis, self.centroid, &points),
+            b: values_matrix(samples),
+        };
+        self.solve(design)
+    }
+
+    /// The constrained least-squares solve with iterative refinement, mapped
+    /// back to the node's basis.
+    fn solve(&self, design: Design) -> Result<Vec<f64>, FitFailure> {
+        let kkt = &self.kkt;
+        let nb = self.shift.nrows();
+        let nc = design.b.ncols();
+        let first = kkt.residual_at_zero(&design);
+        let rhs = first.amax();
+        let mut x = kkt.solve(&first);
+        for _ in 0..REFINEMENT_STEPS {
+            let res = kkt.residual(&design, &x);
+            x += kkt.solve(&res);
+        }
+        // A near-singular KKT matrix (dependent or inconsistent rows) shows up
+        // as a residual far above round-off (the normal matrix alone is
+        // checked by `stability` in `prepare`).
+        if kkt.c.nrows() > 0 {
+            let res = kkt.residual(&design, &x).amax();
+            if res.is_nan() || res > 1e-9 * (1.0 + rhs) {
+                return Err(FitFailure::Singular);
+            }
+        }
+        let centred = DMatrix::from_fn(nb, nc, |j, c| kkt.s[j] * x[c * nb + j]);
+        let a = (&self.shift * centred).as_slice().to_vec();
+        if a.iter().any(|v| !v.is_finite()) {
+            return Err(FitFailure::NonFinite);
+        }
+        Ok(a)
+    }
+}
+
+/// The centroid `ξ̄` of the sample points.
+fn centroid(points: &[[f64; 3]]) -> [f64; 3] {
     let mut c = [0.0; 3];
-    for (x, _) in samples {
+    for x in points {
         for k in 0..3 {
-            c[k] += x[k] / samples.len() as f64;
+            c[k] += x[k] / points.len() as f64;
         }
     }
-    let shifted = samples
-        .iter()
-        .map(|(x, v)| ([0, 1, 2].map(|k| x[k] - c[k]), *v))
-        .collect();
-    (c, shifted)
+    c
 }
 
 /// `C (I ⊗ T)`: constraints on the stacked coefficients in `ξ − ξ̄` from those
@@ -211,37 +292,6 @@ fn shifted_constraints(c: &DMatrix<f64>, t: &DMatrix<f64>) -> DMatrix<f64> {
         out.columns_mut(k * nb, nb).copy_from(&block);
     }
     out
-}
-
-/// The samples of one fit as dense matrices: the design matrix
-/// `A_{sj} = φ_j(ζ_s)` (`n_s × n_b`) and the values `B_{sc}` (`n_s × NC`),
-/// evaluated once per fit and read by the normal matrix and every refinement
-/// residual. Column-major, so that `AᵀA`, `Aᵀ R` and `A X` are products of
-/// contiguous columns.
-struct Design {
-    a: DMatrix<f64>,
-    b: DMatrix<f64>,
-}
-
-impl Design {
-    fn new<const NC: usize>(basis: &Monomials, samples: &[Sample<NC>]) -> Design {
-        let nb = basis.len();
-        let mut a = DMatrix::zeros(samples.len(), nb);
-        let mut row = vec![0.0; nb];
-        for (s, (x, _)) in samples.iter().enumerate() {
-            basis.values(*x, &mut row);
-            for (j, &v) in row.iter().enumerate() {
-                a[(s, j)] = v;
-            }
-        }
-        let b = DMatrix::from_fn(samples.len(), NC, |s, c| samples[s].1[c]);
-        Design { a, b }
-    }
-
-    /// `AᵀA` (`n_b × n_b`).
-    fn normal_matrix(&self) -> DMatrix<f64> {
-        self.a.tr_mul(&self.a)
-    }
 }
 
 /// Scales `m ← S m S` with `S = diag(1/√m_jj)` (0 for a zero column); returns
@@ -303,117 +353,6 @@ fn box_gram(basis: &Monomials) -> DMatrix<f64> {
     })
 }
 
-/// The factored (KKT) system of one fit in the equilibrated unknowns
-/// `x = [ã; λ]`, `ã = S⁻¹ a` stacked over components.
-struct Kkt {
-    s: Vec<f64>,
-    /// Constraints in the equilibrated unknowns, rows normalised: `C (I ⊗ S)`.
-    c: DMatrix<f64>,
-    d: DVector<f64>,
-    factor: Factor,
-}
-
-enum Factor {
-    /// No constraints: `M̃`, shared by the components.
-    Normal(Cholesky<f64, Dyn>),
-    /// `[[I ⊗ M̃, C̃ᵀ], [C̃, 0]]`.
-    Full(LU<f64, Dyn, Dyn>),
-}
-
-impl Kkt {
-    fn new(
-        m: &DMatrix<f64>,
-        s: &[f64],
-        nc: usize,
-        constraints: Option<&LinearConstraints>,
-    ) -> Result<Kkt, FitFailure> {
-        let nb = m.nrows();
-        let n = nb * nc;
-        let (c, d) = match constraints {
-            None => (DMatrix::zeros(0, n), DVector::zeros(0)),
-            Some(k) => scaled_constraints(k, s, n)?,
-        };
-        let factor = if c.nrows() == 0 {
-            let chol = m.clone().cholesky().ok_or(FitFailure::Singular)?;
-            Factor::Normal(chol)
-        } else {
-            let rows = c.nrows();
-            let mut kkt = DMatrix::zeros(n + rows, n + rows);
-            for k in 0..nc {
-                kkt.view_mut((k * nb, k * nb), (nb, nb)).copy_from(m);
-            }
-            kkt.view_mut((n, 0), (rows, n)).copy_from(&c);
-            kkt.view_mut((0, n), (n, rows)).copy_from(&c.transpose());
-            Factor::Full(kkt.lu())
-        };
-        Ok(Kkt {
-            s: s.to_vec(),
-            c,
-            d,
-            factor,
-        })
-    }
-
-    /// Unknowns: `NC · n_b` coefficients and one multiplier per constraint.
-    fn size(&self) -> usize {
-        self.c.ncols() + self.c.nrows()
-    }
-
-    /// `[S Aᵀ(B − A S ã) − C̃ᵀλ; d̃ − C̃ ã]` at `x = [ã; λ]`: the
-    /// residual from the samples, not from `AᵀA`.
-    fn residual(&self, design: &Design, x: &DVector<f64>) -> DVector<f64> {
-        let nb = self.s.len();
-        let nc = design.b.ncols();
-        let n = nb * nc;
-        let coeffs = DMatrix::from_fn(nb, nc, |j, c| self.s[j] * x[c * nb + j]);
-        let mut r = design.b.clone();
-        r.gemm(-1.0, &design.a, &coeffs, 1.0);
-        let lambda = x.rows(n, self.c.nrows());
-        let mut res = self.scaled_top(design, &r);
-        let top = self.c.tr_mul(&lambda);
-        for i in 0..n {
-            res[i] -= top[i];
-        }
-        let bottom = &self.d - &self.c * x.rows(0, n);
-        res.rows_mut(n, self.c.nrows()).copy_from(&bottom);
-        res
-    }
-
-    /// [`Kkt::residual`] at `x = 0`: `[S Aᵀ B; d̃]`.
-    fn residual_at_zero(&self, design: &Design) -> DVector<f64> {
-        let n = self.c.ncols();
-        let mut res = self.scaled_top(design, &design.b);
-        res.rows_mut(n, self.c.nrows()).copy_from(&self.d);
-        res
-    }
-
-    /// `S Aᵀ R` stacked by component (`R`: `n_s × NC`), in a vector of
-    /// [`Kkt::size`] whose multiplier rows are zero.
-    fn scaled_top(&self, design: &Design, r: &DMatrix<f64>) -> DVector<f64> {
-        let nb = self.s.len();
-        let atr = design.a.tr_mul(r);
-        let mut res = DVector::zeros(self.size());
-        for (i, v) in atr.iter().enumerate() {
-            res[i] = self.s[i % nb] * v;
-        }
-        res
-    }
-
-    /// The correction `K⁻¹ r`.
-    fn solve(&self, r: &DVector<f64>) -> Option<DVector<f64>> {
-        match &self.factor {
-            Factor::Normal(chol) => {
-                let nb = chol.l_dirty().nrows();
-                // Stacked components are the columns of an `n_b × NC` matrix.
-                let rhs = DMatrix::from_column_slice(nb, r.len() / nb, r.as_slice());
-                let x = chol.solve(&rhs);
-                Some(DVector::from_column_slice(x.as_slice()))
-            }
-            Factor::Full(lu) => lu.solve(r),
-        }
-    }
-}
-
 /// Checks that `k` has `n` columns and one right-hand side per row.
 fn check_shape(k: &LinearConstraints, n: usize) -> Result<(), FitFailure> {
     let rows = k.c.nrows();
@@ -427,27 +366,4 @@ fn check_shape(k: &LinearConstraints, n: usize) -> Result<(), FitFailure> {
             k.d.len()
         ),
     })
-}
-
-/// `C (I ⊗ S)` and `d` with each row scaled to unit length.
-fn scaled_constraints(
-    k: &LinearConstraints,
-    s: &[f64],
-    n: usize,
-) -> Result<(DMatrix<f64>, DVector<f64>), FitFailure> {
-    let rows = k.c.nrows();
-    let nb = s.len();
-    let mut c = DMatrix::from_fn(rows, n, |i, j| k.c[(i, j)] * s[j % nb]);
-    let mut d = k.d.clone();
-    for i in 0..rows {
-        let norm = c.row(i).norm();
-        if norm.is_nan() || norm <= 0.0 {
-            return Err(FitFailure::BadConstraints {
-                reason: format!("constraint row {i} is zero on the patch's basis"),
-            });
-        }
-        c.row_mut(i).scale_mut(1.0 / norm);
-        d[i] /= norm;
-    }
-    Ok((c, d))
 }

@@ -30,9 +30,12 @@
 //! it is defined on the whole cell box, also outside Ω (polynomial extension).
 
 mod fit;
+mod kkt;
 mod mirror;
 #[cfg(test)]
 mod mirror_tests;
+mod plan;
+mod recovered;
 mod sample_cache;
 mod spr;
 #[cfg(test)]
@@ -42,12 +45,11 @@ mod tests;
 
 use nalgebra::DMatrix;
 
-pub use fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
+pub use fit::{fit_polynomial, FitFactor, FitFailure, FitOptions, LinearConstraints};
 pub use mirror::Mirror;
-pub use spr::{
-    recover, recover_from_rings, CellBlend, Patch, PatchInfo, PatchSamples, Recovered,
-    RecoveryStats, SprOptions,
-};
+pub use plan::{recover_planned, FitPlans};
+pub use recovered::{CellBlend, Recovered};
+pub use spr::{recover, Patch, PatchInfo, PatchSamples, RecoveryStats, SprOptions};
 
 /// A sample: a point (physical, or scaled for [`fit_polynomial`]) and the `NC`
 /// field components there.

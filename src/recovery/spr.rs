@@ -1,6 +1,7 @@
 //! Patch recovery over the grid's Q1 vertex nodes: gathering a node's patch
-//! ring by ring, fitting it ([`super::fit_polynomial`]) in parallel over the
-//! requested nodes, and evaluating the CPE blend ([`Recovered::eval`]).
+//! ring by ring (or at the ring of its plan, [`super::recover_planned`]) and
+//! fitting it ([`super::fit_polynomial`]) in parallel over the requested
+//! nodes, into a [`Recovered`] field.
 //!
 //! The work is proportional to the number of requested nodes: each patch visits
 //! only the cells of its rings (8, 64, 216, … cells for rings 1, 2, 3), asks the
@@ -9,12 +10,13 @@
 
 use rayon::prelude::*;
 
-use super::fit::{fit_polynomial, FitFailure, FitOptions, LinearConstraints};
+use super::fit::{fit_and_factor, FitFactor, FitFailure, FitOptions, LinearConstraints};
 use super::mirror::{reflect_point, reflected_axes, ring_cells, Mirror};
+use super::recovered::Recovered;
 use super::sample_cache::SampleCache;
 use super::{Monomials, Sample};
 use crate::cells::CellKind;
-use crate::element::{shape_values, ElementOrder};
+use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 
@@ -68,7 +70,7 @@ impl Patch<'_> {
     }
 }
 
-fn scaled(center: [f64; 3], h: f64, x: [f64; 3]) -> [f64; 3] {
+pub(super) fn scaled(center: [f64; 3], h: f64, x: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|k| (x[k] - center[k]) / h)
 }
 
@@ -118,18 +120,6 @@ pub struct RecoveryStats {
     pub min_samples: usize,
 }
 
-/// The recovered field: one fitted polynomial per requested vertex node.
-#[derive(Clone, Debug)]
-pub struct Recovered<const NC: usize> {
-    grid: Grid,
-    basis: Monomials,
-    /// Requested nodes, ascending and distinct.
-    nodes: Vec<usize>,
-    /// Stacked coefficients, `NC · n_b` per node.
-    coeffs: Vec<f64>,
-    info: Vec<PatchInfo>,
-}
-
 /// Recovers an `NC`-component field by SPR of degree `degree` on the patches of
 /// the Q1 vertex nodes `nodes` (duplicates allowed) of `grid`, whose cell kinds
 /// are `kinds`. Patches are fitted in parallel; each starts at ring 1 and is
@@ -150,38 +140,45 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     samples: &S,
     opts: &SprOptions,
 ) -> Result<Recovered<NC>> {
-    recover_from_rings(grid, kinds, nodes, degree, samples, opts, None)
+    recover_with(grid, kinds, nodes, degree, samples, opts, Planning::Search).map(|(r, _)| r)
 }
 
-/// [`recover`], with each patch's first fitted ring taken from `rings` (one
-/// per node of the ascending, distinct `nodes`, as [`Recovered::rings`]
-/// returns them after an earlier recovery with the same nodes, sample
-/// positions and constraints); `None` starts every patch at ring 1.
-///
-/// A fit's acceptance depends on the sample positions and the constraint
-/// matrix only, never on the values, so a later recovery of another field on
-/// the same patches skips the fits that were rejected before and gives
-/// bit-identical coefficients (about half of the S-term's displacement
-/// patches on the sphere are enlarged).
-///
-/// # Panics
-/// As [`recover`]; and when `rings` does not have one entry per distinct node.
-pub fn recover_from_rings<const NC: usize, S: PatchSamples<NC>>(
+/// How [`recover_with`] treats each node's fit.
+#[derive(Clone, Copy)]
+pub(super) enum Planning<'a> {
+    /// Search the rings from 1.
+    Search,
+    /// Search, and return each accepted fit's plan (one per distinct node,
+    /// ascending).
+    SearchAndKeep,
+    /// Fit at each plan's ring with its factor (one per distinct node).
+    Follow(&'a [NodePlan]),
+}
+
+/// The recovery of [`recover`] and [`super::recover_planned`], each node's
+/// fit as `planning` says; returns the kept plans (empty unless
+/// [`Planning::SearchAndKeep`]).
+pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     grid: &Grid,
     kinds: &[CellKind],
     nodes: &[usize],
     degree: usize,
     samples: &S,
     opts: &SprOptions,
-    rings: Option<&[usize]>,
-) -> Result<Recovered<NC>> {
+    planning: Planning<'_>,
+) -> Result<(Recovered<NC>, Vec<NodePlan>)> {
     assert_eq!(kinds.len(), grid.num_cells(), "one kind per cell");
     let mut nodes = nodes.to_vec();
     nodes.sort_unstable();
     nodes.dedup();
-    if let Some(r) = rings {
-        assert_eq!(r.len(), nodes.len(), "one first ring per distinct node");
-    }
+    let plans = match planning {
+        Planning::Follow(p) => {
+            assert_eq!(p.len(), nodes.len(), "one plan per distinct node");
+            Some(p)
+        }
+        Planning::Search | Planning::SearchAndKeep => None,
+    };
+    let keep = matches!(planning, Planning::SearchAndKeep);
     let num_nodes = grid.num_nodes(ElementOrder::Q1);
     if let Some(&node) = nodes.iter().find(|&&n| n >= num_nodes) {
         return Err(Error::Recovery {
@@ -203,32 +200,47 @@ pub fn recover_from_rings<const NC: usize, S: PatchSamples<NC>>(
         } else {
             Mirror::none()
         },
+        keep,
     };
-    let fits: Vec<Result<(Vec<f64>, PatchInfo)>> = nodes
+    let fits: Vec<Result<NodeFit>> = nodes
         .par_iter()
         .enumerate()
         .map_init(
             || (Vec::new(), SampleCache::new()),
-            |(buf, cache), (slot, &node)| {
-                let first_ring = rings.map_or(1, |r| r[slot]);
-                ctx.fit_node(node, first_ring, buf, cache)
-            },
+            |(buf, cache), (slot, &node)| ctx.fit_node(node, plans.map(|p| &p[slot]), buf, cache),
         )
         .collect();
     let mut coeffs = Vec::with_capacity(nodes.len() * NC * basis.len());
     let mut info = Vec::with_capacity(nodes.len());
+    let mut kept = Vec::with_capacity(if keep { nodes.len() } else { 0 });
     for fit in fits {
-        let (a, i) = fit?;
-        coeffs.extend(a);
-        info.push(i);
+        let fit = fit?;
+        coeffs.extend(fit.coefficients);
+        info.push(fit.info);
+        kept.extend(fit.plan);
     }
-    Ok(Recovered {
+    let recovered = Recovered {
         grid: grid.clone(),
         basis,
         nodes,
         coeffs,
         info,
-    })
+    };
+    Ok((recovered, kept))
+}
+
+/// One node's accepted fit: the ring and the [`FitFactor`] of its samples.
+pub(super) struct NodePlan {
+    pub(super) ring: usize,
+    pub(super) factor: FitFactor,
+}
+
+/// What [`Context::fit_node`] returns.
+struct NodeFit {
+    coefficients: Vec<f64>,
+    info: PatchInfo,
+    /// The accepted fit, when the recovery keeps them.
+    plan: Option<NodePlan>,
 }
 
 /// What every patch fit reads.
@@ -241,19 +253,22 @@ struct Context<'a, S> {
     /// The faces patches continue across (none for a field that does not
     /// reflect).
     mirror: Mirror,
+    /// Whether each fit returns its [`NodePlan`] ([`Planning::SearchAndKeep`]).
+    keep: bool,
 }
 
 impl<S> Context<'_, S> {
-    /// Fits `node`'s patch from ring `first_ring` (the cells of the rings
-    /// inside it included), enlarging it up to the ring limit; `buf` is
-    /// scratch, `cache` the worker's memo of cell samples.
+    /// Fits `node`'s patch: at `plan`'s ring with its factor when given (the
+    /// cells of the rings inside it included), then, or without a plan, ring
+    /// by ring up to the ring limit; `buf` is scratch, `cache` the worker's
+    /// memo of cell samples.
     fn fit_node<const NC: usize>(
         &self,
         node: usize,
-        first_ring: usize,
+        plan: Option<&NodePlan>,
         buf: &mut Vec<Sample<NC>>,
         cache: &mut SampleCache<NC>,
-    ) -> Result<(Vec<f64>, PatchInfo)>
+    ) -> Result<NodeFit>
     where
         S: PatchSamples<NC>,
     {
@@ -262,8 +277,9 @@ impl<S> Context<'_, S> {
         let (mut patch_cells, mut cells) = (Vec::new(), Vec::new());
         buf.clear();
         let mut failure = None;
-        let first_ring = first_ring.min(self.opts.max_rings.max(1));
-        for ring in 1..=self.opts.max_rings.max(1) {
+        let max_rings = self.opts.max_rings.max(1);
+        let first_ring = plan.map_or(1, |p| p.ring.min(max_rings));
+        for ring in 1..=max_rings {
             let first = patch_cells.len();
             ring_cells(
                 self.grid,
@@ -286,22 +302,35 @@ impl<S> Context<'_, S> {
             if ring < first_ring {
                 continue;
             }
-            let patch = Patch {
-                node,
-                center,
-                h: self.grid.h,
-                ring,
-                cells: &cells,
+            let fitted = match plan.filter(|p| p.ring == ring) {
+                Some(p) => p.factor.fit(self.basis, buf).map(|a| (a, None)),
+                None => {
+                    let patch = Patch {
+                        node,
+                        center,
+                        h: self.grid.h,
+                        ring,
+                        cells: &cells,
+                    };
+                    let constraints = self.samples.constraints(&patch, self.basis);
+                    fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit)
+                        .map(|(a, f)| (a, Some(f)))
+                }
             };
-            let constraints = self.samples.constraints(&patch, self.basis);
-            match fit_polynomial(self.basis, buf, constraints.as_ref(), &self.opts.fit) {
-                Ok(a) => {
+            match fitted {
+                Ok((coefficients, factor)) => {
                     let info = PatchInfo {
                         ring,
                         cells: patch_cells.len(),
                         samples: buf.len(),
                     };
-                    return Ok((a, info));
+                    return Ok(NodeFit {
+                        coefficients,
+                        info,
+                        plan: factor
+                            .filter(|_| self.keep)
+                            .map(|factor| NodePlan { ring, factor }),
+                    });
                 }
                 Err(f) => failure = Some(f),
             }
@@ -309,8 +338,7 @@ impl<S> Context<'_, S> {
         Err(Error::Recovery {
             node,
             reason: format!(
-                "no acceptable patch fit within {} ring(s) of cells: {}",
-                self.opts.max_rings.max(1),
+                "no acceptable patch fit within {max_rings} ring(s) of cells: {}",
                 failure.map_or_else(String::new, |f: FitFailure| f.to_string())
             ),
         })
@@ -340,160 +368,3 @@ fn node_ijk(grid: &Grid, node: usize) -> [usize; 3] {
     let m = grid.nodes_per_axis(ElementOrder::Q1);
     [node % m[0], (node / m[0]) % m[1], node / (m[0] * m[1])]
 }
-
-impl<const NC: usize> Recovered<NC> {
-    /// The polynomial basis of the patches.
-    pub fn basis(&self) -> &Monomials {
-        &self.basis
-    }
-
-    /// The recovered nodes, ascending.
-    pub fn nodes(&self) -> &[usize] {
-        &self.nodes
-    }
-
-    fn slot(&self, node: usize) -> Result<usize> {
-        self.nodes
-            .binary_search(&node)
-            .map_err(|_| Error::Recovery {
-                node,
-                reason: "no patch was recovered for this node (it was not requested)".into(),
-            })
-    }
-
-    /// The accepted patch of `node`, if it was requested.
-    pub fn patch(&self, node: usize) -> Option<PatchInfo> {
-        self.slot(node).ok().map(|s| self.info[s])
-    }
-
-    /// Stacked coefficients of `node`'s polynomial in the scaled basis
-    /// (component `c`, term `j` at `c · n_b + j`).
-    pub fn coefficients(&self, node: usize) -> Result<&[f64]> {
-        let len = NC * self.basis.len();
-        let s = self.slot(node)?;
-        Ok(&self.coeffs[s * len..(s + 1) * len])
-    }
-
-    /// The accepted ring of each patch, in the order of [`Recovered::nodes`]
-    /// (the hint of [`recover_from_rings`]).
-    pub fn rings(&self) -> Vec<usize> {
-        self.info.iter().map(|i| i.ring).collect()
-    }
-
-    /// Counts of rings and samples over the patches.
-    pub fn stats(&self) -> RecoveryStats {
-        let max_ring = self.info.iter().map(|i| i.ring).max().unwrap_or(0);
-        let mut per_ring = vec![0; max_ring];
-        for i in &self.info {
-            per_ring[i.ring - 1] += 1;
-        }
-        RecoveryStats {
-            patches: self.info.len(),
-            enlarged: self.info.iter().filter(|i| i.ring > 1).count(),
-            per_ring,
-            min_samples: self.info.iter().map(|i| i.samples).min().unwrap_or(0),
-        }
-    }
-
-    /// `σ*_node(x)`, the patch polynomial of `node` at the physical point `x`
-    /// (any point: the polynomial extends beyond its patch).
-    pub fn eval_node_polynomial(&self, node: usize, x: [f64; 3]) -> Result<[f64; NC]> {
-        let a = self.coefficients(node)?;
-        let center = self.grid.node_position(ElementOrder::Q1, node);
-        let mut phi = vec![0.0; self.basis.len()];
-        Ok(polynomial_at(
-            self.basis(),
-            a,
-            center,
-            self.grid.h,
-            x,
-            &mut phi,
-        ))
-    }
-
-    /// The CPE blend `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` over the 8 vertices `i` of
-    /// `cell`, for `x` in the cell's box (also outside Ω). Error
-    /// [`Error::Recovery`] when a vertex of the cell was not recovered.
-    ///
-    /// # Panics
-    /// When `cell` is not a cell of the grid.
-    pub fn eval(&self, cell: usize, x: [f64; 3]) -> Result<[f64; NC]> {
-        Ok(self.cell_blend(cell)?.eval(x))
-    }
-
-    /// [`Recovered::eval`] on `cell` with the cell's vertices looked up once,
-    /// for callers that evaluate many points of one cell.
-    ///
-    /// # Panics
-    /// When `cell` is not a cell of the grid.
-    pub fn cell_blend(&self, cell: usize) -> Result<CellBlend<'_, NC>> {
-        assert!(cell < self.grid.num_cells(), "cell {cell} out of range");
-        let mut vertices = [0; 8];
-        self.grid.cell_nodes(ElementOrder::Q1, cell, &mut vertices);
-        let mut coeffs: [&[f64]; 8] = [&[]; 8];
-        for (slot, &node) in coeffs.iter_mut().zip(&vertices) {
-            *slot = self.coefficients(node)?;
-        }
-        Ok(CellBlend {
-            basis: &self.basis,
-            h: self.grid.h,
-            lo: self.grid.cell_box(cell).lo,
-            centers: vertices.map(|node| self.grid.node_position(ElementOrder::Q1, node)),
-            coeffs,
-        })
-    }
-}
-
-/// The CPE blend on one cell: its 8 vertices' positions and polynomials
-/// ([`Recovered::cell_blend`]).
-pub struct CellBlend<'a, const NC: usize> {
-    basis: &'a Monomials,
-    h: f64,
-    lo: [f64; 3],
-    centers: [[f64; 3]; 8],
-    coeffs: [&'a [f64]; 8],
-}
-
-impl<const NC: usize> CellBlend<'_, NC> {
-    /// `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` for `x` in the cell's box.
-    pub fn eval(&self, x: [f64; 3]) -> [f64; NC] {
-        let mut hat = [0.0; 8];
-        shape_values(ElementOrder::Q1, scaled(self.lo, self.h, x), &mut hat);
-        let nb = self.basis.len();
-        let mut small = [0.0; SMALL_BASIS];
-        let mut large = Vec::new();
-        let phi = if nb <= SMALL_BASIS {
-            &mut small[..nb]
-        } else {
-            large.resize(nb, 0.0);
-            &mut large[..]
-        };
-        let mut out = [0.0; NC];
-        for ((center, a), &w) in self.centers.iter().zip(&self.coeffs).zip(&hat) {
-            let s: [f64; NC] = polynomial_at(self.basis, a, *center, self.h, x, phi);
-            for c in 0..NC {
-                out[c] += w * s[c];
-            }
-        }
-        out
-    }
-}
-
-/// The patch polynomial with stacked coefficients `a` (component `c`, term
-/// `j` at `c · n_b + j`) of the vertex at `center` at the physical point `x`;
-/// `phi` is scratch of the basis's length.
-fn polynomial_at<const NC: usize>(
-    basis: &Monomials,
-    a: &[f64],
-    center: [f64; 3],
-    h: f64,
-    x: [f64; 3],
-    phi: &mut [f64],
-) -> [f64; NC] {
-    basis.values(scaled(center, h, x), phi);
-    let nb = phi.len();
-    std::array::from_fn(|c| (0..nb).map(|j| a[c * nb + j] * phi[j]).sum())
-}
-
-/// Basis sizes up to this (degree 3) are evaluated in a stack buffer.
-const SMALL_BASIS: usize = 20;

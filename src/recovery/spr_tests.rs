@@ -1,12 +1,15 @@
 //! Tests of patch recovery on a sphere: polynomial reproduction, convergence on
 //! the boundary, patch enlargement, typed errors and the constraint hook.
 
+use std::sync::OnceLock;
+
 use super::*;
 use crate::cells::{cut_rule_points, CellKind, Cells};
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Error;
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
+use crate::recovery::recover_planned;
 
 const CENTER: [f64; 3] = [0.031, -0.017, 0.009];
 
@@ -229,63 +232,58 @@ fn small_cut_patches_are_enlarged_and_stay_exact() {
     assert!(rec.patch(thinnest).unwrap().ring > 1);
 }
 
-/// Starting each fit at the ring an earlier recovery accepted gives the
-/// same patches and bit-identical coefficients for another field, constrained
-/// fits included; a hint of ring 1 everywhere is the plain recovery.
+/// Reusing the fits an earlier recovery accepted and factored gives the same
+/// patches and bit-identical coefficients for another field, constrained fits
+/// included; the planning recovery itself is the plain one.
 #[test]
-fn ring_hints_reproduce_the_recovery_bit_for_bit() {
+fn fit_plans_reproduce_the_recovery_bit_for_bit() {
     let (grid, cells) = sphere(4, 1.0, 0.9, ElementOrder::Q1);
     let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
     let opts = SprOptions::default();
-    let first = recover(
-        &grid,
-        &cells.kinds,
-        &nodes,
-        1,
-        &analytic(&grid, &cells, 2, |x| polynomial(1, x)),
-        &opts,
-    )
-    .unwrap();
-    let rings = first.rings();
+    let linear = analytic(&grid, &cells, 2, |x| {
+        let [a, b, _] = polynomial(1, x);
+        [a, b]
+    });
+    let plans = OnceLock::new();
+    let planning =
+        recover_planned(&grid, &cells.kinds, &nodes, 1, &linear, &opts, Some(&plans)).unwrap();
+    let first = recover(&grid, &cells.kinds, &nodes, 1, &linear, &opts).unwrap();
+    let rings = plans.get().unwrap().rings();
+    assert_eq!(rings, first.rings());
     assert!(rings.iter().any(|&r| r > 1), "no patch was enlarged");
     let field = analytic(&grid, &cells, 2, smooth);
     let plain = recover(&grid, &cells.kinds, &nodes, 1, &field, &opts).unwrap();
-    let hinted =
-        recover_from_rings(&grid, &cells.kinds, &nodes, 1, &field, &opts, Some(&rings)).unwrap();
-    let ones = vec![1; rings.len()];
-    let from_one =
-        recover_from_rings(&grid, &cells.kinds, &nodes, 1, &field, &opts, Some(&ones)).unwrap();
+    let planned =
+        recover_planned(&grid, &cells.kinds, &nodes, 1, &field, &opts, Some(&plans)).unwrap();
     for &node in plain.nodes() {
-        assert_eq!(plain.patch(node), hinted.patch(node), "node {node}");
+        assert_eq!(plain.patch(node), planned.patch(node), "node {node}");
         assert_eq!(
-            plain.coefficients(node).unwrap(),
-            hinted.coefficients(node).unwrap()
+            first.coefficients(node).unwrap(),
+            planning.coefficients(node).unwrap()
         );
         assert_eq!(
             plain.coefficients(node).unwrap(),
-            from_one.coefficients(node).unwrap()
+            planned.coefficients(node).unwrap()
         );
     }
     let pinned = PinnedAtNode {
         grid: &grid,
         cells: &cells,
     };
+    let constrained_plans = OnceLock::new();
     let constrained = recover(&grid, &cells.kinds, &nodes, 1, &pinned, &opts).unwrap();
-    let constrained_hinted = recover_from_rings(
-        &grid,
-        &cells.kinds,
-        &nodes,
-        1,
-        &pinned,
-        &opts,
-        Some(&constrained.rings()),
-    )
-    .unwrap();
+    let again = || {
+        let p = Some(&constrained_plans);
+        recover_planned(&grid, &cells.kinds, &nodes, 1, &pinned, &opts, p).unwrap()
+    };
+    let (planning, planned) = (again(), again());
     for &node in constrained.nodes() {
-        assert_eq!(
-            constrained.coefficients(node).unwrap(),
-            constrained_hinted.coefficients(node).unwrap()
-        );
+        for rec in [&planning, &planned] {
+            assert_eq!(
+                constrained.coefficients(node).unwrap(),
+                rec.coefficients(node).unwrap()
+            );
+        }
     }
 }
 

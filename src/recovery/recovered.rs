@@ -1,0 +1,177 @@
+//! The recovered field ([`Recovered`]): one patch polynomial per vertex node,
+//! its look-ups and statistics, and the CPE blend of a cell's 8 vertex
+//! polynomials ([`CellBlend`]).
+
+use super::spr::{scaled, PatchInfo, RecoveryStats};
+use super::Monomials;
+use crate::element::{shape_values, ElementOrder};
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+
+/// The recovered field: one fitted polynomial per requested vertex node.
+#[derive(Clone, Debug)]
+pub struct Recovered<const NC: usize> {
+    pub(super) grid: Grid,
+    pub(super) basis: Monomials,
+    /// Requested nodes, ascending and distinct.
+    pub(super) nodes: Vec<usize>,
+    /// Stacked coefficients, `NC · n_b` per node.
+    pub(super) coeffs: Vec<f64>,
+    pub(super) info: Vec<PatchInfo>,
+}
+
+impl<const NC: usize> Recovered<NC> {
+    /// The polynomial basis of the patches.
+    pub fn basis(&self) -> &Monomials {
+        &self.basis
+    }
+
+    /// The recovered nodes, ascending.
+    pub fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+
+    fn slot(&self, node: usize) -> Result<usize> {
+        self.nodes
+            .binary_search(&node)
+            .map_err(|_| Error::Recovery {
+                node,
+                reason: "no patch was recovered for this node (it was not requested)".into(),
+            })
+    }
+
+    /// The accepted patch of `node`, if it was requested.
+    pub fn patch(&self, node: usize) -> Option<PatchInfo> {
+        self.slot(node).ok().map(|s| self.info[s])
+    }
+
+    /// Stacked coefficients of `node`'s polynomial in the scaled basis
+    /// (component `c`, term `j` at `c · n_b + j`).
+    pub fn coefficients(&self, node: usize) -> Result<&[f64]> {
+        let len = NC * self.basis.len();
+        let s = self.slot(node)?;
+        Ok(&self.coeffs[s * len..(s + 1) * len])
+    }
+
+    /// The accepted ring of each patch, in the order of [`Recovered::nodes`].
+    pub fn rings(&self) -> Vec<usize> {
+        self.info.iter().map(|i| i.ring).collect()
+    }
+
+    /// Counts of rings and samples over the patches.
+    pub fn stats(&self) -> RecoveryStats {
+        let max_ring = self.info.iter().map(|i| i.ring).max().unwrap_or(0);
+        let mut per_ring = vec![0; max_ring];
+        for i in &self.info {
+            per_ring[i.ring - 1] += 1;
+        }
+        RecoveryStats {
+            patches: self.info.len(),
+            enlarged: self.info.iter().filter(|i| i.ring > 1).count(),
+            per_ring,
+            min_samples: self.info.iter().map(|i| i.samples).min().unwrap_or(0),
+        }
+    }
+
+    /// `σ*_node(x)`, the patch polynomial of `node` at the physical point `x`
+    /// (any point: the polynomial extends beyond its patch).
+    pub fn eval_node_polynomial(&self, node: usize, x: [f64; 3]) -> Result<[f64; NC]> {
+        let a = self.coefficients(node)?;
+        let center = self.grid.node_position(ElementOrder::Q1, node);
+        let mut phi = vec![0.0; self.basis.len()];
+        Ok(polynomial_at(
+            self.basis(),
+            a,
+            center,
+            self.grid.h,
+            x,
+            &mut phi,
+        ))
+    }
+
+    /// The CPE blend `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` over the 8 vertices `i` of
+    /// `cell`, for `x` in the cell's box (also outside Ω). Error
+    /// [`Error::Recovery`] when a vertex of the cell was not recovered.
+    ///
+    /// # Panics
+    /// When `cell` is not a cell of the grid.
+    pub fn eval(&self, cell: usize, x: [f64; 3]) -> Result<[f64; NC]> {
+        Ok(self.cell_blend(cell)?.eval(x))
+    }
+
+    /// [`Recovered::eval`] on `cell` with the cell's vertices looked up once,
+    /// for callers that evaluate many points of one cell.
+    ///
+    /// # Panics
+    /// When `cell` is not a cell of the grid.
+    pub fn cell_blend(&self, cell: usize) -> Result<CellBlend<'_, NC>> {
+        assert!(cell < self.grid.num_cells(), "cell {cell} out of range");
+        let mut vertices = [0; 8];
+        self.grid.cell_nodes(ElementOrder::Q1, cell, &mut vertices);
+        let mut coeffs: [&[f64]; 8] = [&[]; 8];
+        for (slot, &node) in coeffs.iter_mut().zip(&vertices) {
+            *slot = self.coefficients(node)?;
+        }
+        Ok(CellBlend {
+            basis: &self.basis,
+            h: self.grid.h,
+            lo: self.grid.cell_box(cell).lo,
+            centers: vertices.map(|node| self.grid.node_position(ElementOrder::Q1, node)),
+            coeffs,
+        })
+    }
+}
+
+/// The CPE blend on one cell: its 8 vertices' positions and polynomials
+/// ([`Recovered::cell_blend`]).
+pub struct CellBlend<'a, const NC: usize> {
+    basis: &'a Monomials,
+    h: f64,
+    lo: [f64; 3],
+    centers: [[f64; 3]; 8],
+    coeffs: [&'a [f64]; 8],
+}
+
+impl<const NC: usize> CellBlend<'_, NC> {
+    /// `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` for `x` in the cell's box.
+    pub fn eval(&self, x: [f64; 3]) -> [f64; NC] {
+        let mut hat = [0.0; 8];
+        shape_values(ElementOrder::Q1, scaled(self.lo, self.h, x), &mut hat);
+        let nb = self.basis.len();
+        let mut small = [0.0; SMALL_BASIS];
+        let mut large = Vec::new();
+        let phi = if nb <= SMALL_BASIS {
+            &mut small[..nb]
+        } else {
+            large.resize(nb, 0.0);
+            &mut large[..]
+        };
+        let mut out = [0.0; NC];
+        for ((center, a), &w) in self.centers.iter().zip(&self.coeffs).zip(&hat) {
+            let s: [f64; NC] = polynomial_at(self.basis, a, *center, self.h, x, phi);
+            for c in 0..NC {
+                out[c] += w * s[c];
+            }
+        }
+        out
+    }
+}
+
+/// The patch polynomial with stacked coefficients `a` (component `c`, term
+/// `j` at `c · n_b + j`) of the vertex at `center` at the physical point `x`;
+/// `phi` is scratch of the basis's length.
+fn polynomial_at<const NC: usize>(
+    basis: &Monomials,
+    a: &[f64],
+    center: [f64; 3],
+    h: f64,
+    x: [f64; 3],
+    phi: &mut [f64],
+) -> [f64; NC] {
+    basis.values(scaled(center, h, x), phi);
+    let nb = phi.len();
+    std::array::from_fn(|c| (0..nb).map(|j| a[c * nb + j] * phi[j]).sum())
+}
+
+/// Basis sizes up to this (degree 3) are evaluated in a stack buffer.
+const SMALL_BASIS: usize = 20;
