@@ -14,6 +14,7 @@ use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
+use cgfem_gpu::solver::{KrylovOptions, KrylovStats};
 
 fn sphere_q2(level: u32) -> (Case, Setup) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/cases/sphere_q2.toml");
@@ -61,8 +62,40 @@ fn max_relative_difference(a: &[f64], b: &[f64]) -> f64 {
     diff / scale
 }
 
-/// Level 2 (2,187 dofs), host and device scalars: the same solution to
-/// 1e-10, the same iterations within 2 per solve, the same energy error.
+/// A CPU solver that keeps every system it is asked to solve (right-hand
+/// side, initial guess, options) with its iteration count.
+struct Recording<'a> {
+    cpu: CpuSolver<'a>,
+    systems: Vec<(Vec<f64>, Vec<f64>, KrylovOptions, usize)>,
+}
+
+impl LinearSolver for Recording<'_> {
+    fn solve(
+        &mut self,
+        rhs: &[f64],
+        u: &mut Vec<f64>,
+        opts: &KrylovOptions,
+    ) -> cgfem_gpu::error::Result<KrylovStats> {
+        let start = u.clone();
+        let stats = self.cpu.solve(rhs, u, opts)?;
+        self.systems
+            .push((rhs.to_vec(), start, opts.clone(), stats.iterations));
+        Ok(stats)
+    }
+}
+
+/// Level 2 (2,187 dofs), host and device scalars: the whole run gives the
+/// same solution to 1e-10 and the same energy error; and each of the CPU
+/// run's systems, solved again on the GPU from the same right-hand side and
+/// initial guess, takes the same iterations within 2 to the same
+/// tolerance. (The iterations of the two whole runs are not
+/// compared solve by solve: each solve's right-hand side inherits the
+/// round-off of the solves before it, and a CG + Jacobi solve that ends on
+/// a plateau of its residual moves by several iterations under such
+/// perturbations: with the S-term's constrained fits solved through the
+/// Schur complement instead of an LU, which changes the recovered load in
+/// the last digits, the GPU run's fourth solve took 134 iterations against
+/// 126, while the CPU's counts moved by at most 1.)
 /// Measured once at level 3 (12,099 dofs, host scalars, about 4 minutes of
 /// lavapipe on two busy cores, too slow for CI): max relative difference
 /// 1.3e-12, iterations within 1 per solve over 13 solves.
@@ -73,7 +106,11 @@ fn q2_sphere_solves_on_the_gpu_in_f64_like_on_the_cpu() {
     };
     for (level, scalars) in [(2, Scalars::Host), (2, Scalars::Device)] {
         let (case, setup) = sphere_q2(level);
-        let (u_cpu, it_cpu, _, e_cpu) = solve(&case, &setup, &mut CpuSolver::new(&setup.op));
+        let mut recording = Recording {
+            cpu: CpuSolver::new(&setup.op),
+            systems: Vec::new(),
+        };
+        let (u_cpu, it_cpu, _, e_cpu) = solve(&case, &setup, &mut recording);
         let mut gpu = GpuSolver::new(ctx.clone(), &setup.op, scalars).unwrap();
         let (u, it, res, e) = solve(&case, &setup, &mut gpu);
         let diff = max_relative_difference(&u, &u_cpu);
@@ -82,10 +119,20 @@ fn q2_sphere_solves_on_the_gpu_in_f64_like_on_the_cpu() {
         );
         assert!(diff <= 1e-10, "level {level}: {diff:e}");
         assert_eq!(it.len(), it_cpu.len(), "{it:?} vs {it_cpu:?}");
-        for (a, b) in it.iter().zip(&it_cpu) {
-            assert!(a.abs_diff(*b) <= 2, "{it:?} vs {it_cpu:?}");
-        }
         assert!(res <= case.spec.solver.rel_tol, "residual {res:e}");
         assert!((e / e_cpu - 1.0).abs() < 1e-8);
+        for (k, (rhs, start, opts, cpu_its)) in recording.systems.iter().enumerate() {
+            let mut u_gpu = start.clone();
+            let stats = gpu.solve(rhs, &mut u_gpu, opts).unwrap();
+            println!(
+                "  system {k}: GPU {} iterations, CPU {cpu_its}, true residual {:.2e}",
+                stats.iterations, stats.true_relative_residual
+            );
+            assert!(stats.iterations.abs_diff(*cpu_its) <= 2, "system {k}");
+            assert!(
+                stats.true_relative_residual <= 2.0 * opts.rel_tol,
+                "system {k}"
+            );
+        }
     }
 }
