@@ -31,12 +31,12 @@ impl FitPlans {
     }
 }
 
-/// [`super::recover`], reusing the plans in `plans` when it holds them (from an
-/// earlier call with the same nodes, degree, sample positions and
+/// [`super::recover`], reusing the plans in `plans` when it holds them (from
+/// an earlier call with the same nodes, degree, sample positions and
 /// constraints), and otherwise searching every patch's ring and leaving the
-/// accepted fits' plans there for the next call; `None`: [`super::recover`]. A planned fit that fails on
-/// its values (non-finite samples) searches the larger rings as
-/// [`super::recover`] does.
+/// accepted fits' plans there for the next call; `None`: [`super::recover`].
+/// A planned fit that fails on its values (non-finite samples) searches the
+/// larger rings as [`super::recover`] does.
 ///
 /// # Panics
 /// As [`super::recover`]; and when the plans were made for another number of
