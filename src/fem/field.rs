@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::dofs::DofMap;
 use crate::cells::{CellKind, Cells};
-use crate::element::{shape_gradients, shape_values, tensor_gauss_rule};
+use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
 use crate::expr::VectorExpr;
 use crate::grid::Grid;
 
@@ -25,27 +25,59 @@ pub fn value_and_gradient(
     cell: usize,
     x: [f64; 3],
 ) -> ([f64; 3], [[f64; 3]; 3]) {
-    let npc = dofs.order.nodes_per_cell();
-    let mut nodes = [0usize; 27];
-    let mut n = [0.0; 27];
-    let mut dn = [[0.0; 3]; 27];
-    dofs.cell_active_nodes(grid, cell, &mut nodes[..npc]);
-    let x0 = grid.cell_box(cell).lo;
-    let xi = [0, 1, 2].map(|a| (x[a] - x0[a]) / grid.h);
-    shape_values(dofs.order, xi, &mut n[..npc]);
-    shape_gradients(dofs.order, xi, &mut dn[..npc]);
-    let mut val = [0.0; 3];
-    let mut grad = [[0.0; 3]; 3];
-    for a in 0..npc {
-        for i in 0..3 {
-            let ui = u[3 * nodes[a] + i];
-            val[i] += n[a] * ui;
-            for j in 0..3 {
-                grad[i][j] += dn[a][j] / grid.h * ui;
-            }
+    CellField::new(grid, dofs, u, cell).value_and_gradient(x)
+}
+
+/// `u_h` on one cell: its nodal values and box gathered once, for callers
+/// that evaluate many points of the cell ([`value_and_gradient`] is one
+/// point).
+pub struct CellField {
+    order: ElementOrder,
+    lo: [f64; 3],
+    h: f64,
+    nodes_per_cell: usize,
+    values: [[f64; 3]; 27],
+}
+
+impl CellField {
+    pub fn new(grid: &Grid, dofs: &DofMap, u: &[f64], cell: usize) -> CellField {
+        let npc = dofs.order.nodes_per_cell();
+        let mut nodes = [0usize; 27];
+        dofs.cell_active_nodes(grid, cell, &mut nodes[..npc]);
+        let mut values = [[0.0; 3]; 27];
+        for (v, &node) in values.iter_mut().zip(&nodes[..npc]) {
+            *v = [0, 1, 2].map(|i| u[3 * node + i]);
+        }
+        CellField {
+            order: dofs.order,
+            lo: grid.cell_box(cell).lo,
+            h: grid.h,
+            nodes_per_cell: npc,
+            values,
         }
     }
-    (val, grad)
+
+    /// `u_h(x)` and `∇u_h(x)` at a point `x` of the cell.
+    pub fn value_and_gradient(&self, x: [f64; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+        let npc = self.nodes_per_cell;
+        let mut n = [0.0; 27];
+        let mut dn = [[0.0; 3]; 27];
+        let xi = [0, 1, 2].map(|a| (x[a] - self.lo[a]) / self.h);
+        shape_values(self.order, xi, &mut n[..npc]);
+        shape_gradients(self.order, xi, &mut dn[..npc]);
+        let mut val = [0.0; 3];
+        let mut grad = [[0.0; 3]; 3];
+        for a in 0..npc {
+            for i in 0..3 {
+                let ui = self.values[a][i];
+                val[i] += n[a] * ui;
+                for j in 0..3 {
+                    grad[i][j] += dn[a][j] / self.h * ui;
+                }
+            }
+        }
+        (val, grad)
+    }
 }
 
 /// Stress `σ = λ tr(ε) I + 2μ ε` of a displacement gradient, in Voigt order
@@ -126,12 +158,13 @@ fn error_norms_of<const N: usize>(
     let vol = grid.h.powi(3);
     // Per field: [energy of e, energy of u, L2 of e, L2 of u], weighted.
     type Sums<const N: usize> = [[f64; 4]; N];
-    let point = |cell: usize, x: [f64; 3], w: f64| -> Sums<N> {
+    let cell_fields = |cell: usize| fields.map(|u_h| CellField::new(grid, dofs, u_h, cell));
+    let point = |cell_fields: &[CellField; N], x: [f64; 3], w: f64| -> Sums<N> {
         let (ue, ge) = exact.value_and_gradient(x);
         let energy_u = w * energy_density(&ge, lambda, mu);
         let ul2: f64 = (0..3).map(|i| ue[i].powi(2)).sum();
-        fields.map(|u_h| {
-            let (v, g) = value_and_gradient(grid, dofs, u_h, cell, x);
+        cell_fields.each_ref().map(|field| {
+            let (v, g) = field.value_and_gradient(x);
             let e: [[f64; 3]; 3] =
                 std::array::from_fn(|i| std::array::from_fn(|j| ge[i][j] - g[i][j]));
             let el2: f64 = (0..3).map(|i| (ue[i] - v[i]).powi(2)).sum();
@@ -152,19 +185,21 @@ fn error_norms_of<const N: usize>(
         .filter(|&c| cells.kinds[c] == CellKind::Inside)
         .map(|c| {
             let lo = grid.cell_box(c).lo;
+            let fields = cell_fields(c);
             rule.iter().fold(zero, |acc, (xi, w)| {
                 let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-                add(acc, point(c, x, w * vol))
+                add(acc, point(&fields, x, w * vol))
             })
         })
         .reduce(|| zero, add);
     let cut = (0..cells.cut.len())
         .into_par_iter()
         .map(|i| {
+            let fields = cell_fields(cells.cut[i]);
             cells
                 .volume_points(i)
                 .iter()
-                .fold(zero, |acc, q| add(acc, point(cells.cut[i], q.x, q.w)))
+                .fold(zero, |acc, q| add(acc, point(&fields, q.x, q.w)))
         })
         .reduce(|| zero, add);
     // `NaN.max(0.0)` is 0 in Rust: keep a NaN a NaN (null in the report).

@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::field::{stress_voigt, value_and_gradient};
+use super::field::{stress_voigt, value_and_gradient, CellField};
 use super::rhs::DirichletPoint;
 use super::setup::Setup;
 use crate::cells::CellKind;
@@ -87,8 +87,9 @@ pub fn recover_stress(
     let samples = |cell: usize, out: &mut Vec<([f64; 3], [f64; 6])>| {
         let mut xs = Vec::new();
         sample_positions(setup, cell, &rule, &mut xs);
+        let field = CellField::new(grid, dofs, u, cell);
         out.extend(xs.into_iter().map(|x| {
-            let (_, g) = value_and_gradient(grid, dofs, u, cell, x);
+            let (_, g) = field.value_and_gradient(x);
             (x, stress_voigt(&g, lambda, mu))
         }));
     };

@@ -26,7 +26,7 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::field::value_and_gradient;
+use super::field::{value_and_gradient, CellField};
 use super::problem::Boundary;
 use super::recovery::{sample_positions, vertex_nodes_of};
 use super::rhs::add_point_load;
@@ -265,10 +265,11 @@ pub fn s_rhs(
     for &c in omega_star {
         let lo = grid.cell_box(c).lo;
         let blend = s.cell_blend(c)?;
+        let field = CellField::new(grid, dofs, u, c);
         for (xi, w) in &rule {
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
             let sx = blend.eval(x);
-            let ux = value_and_gradient(grid, dofs, u, c, x).0;
+            let ux = field.value_and_gradient(x).0;
             fit.add(x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a]));
             values.push((c, x, w * vol, sx));
         }
