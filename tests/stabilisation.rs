@@ -56,7 +56,8 @@ fn s_reproduces_the_exact_field(file: &str, overrides: &[String], level: u32, po
     let setup = Setup::new(&case, Some(level)).unwrap();
     let exact = setup.problem.exact.clone().unwrap();
     assert!(!setup.omega_star.is_empty());
-    let s = recover_displacement_of(&setup, &setup.omega_star, |_, x| exact.eval(x), None).unwrap();
+    let on_cell = |_| |x| exact.eval(x);
+    let s = recover_displacement_of(&setup, &setup.omega_star, on_cell, None).unwrap();
     let (mut worst, mut outside, mut inside) = (0.0f64, 0, 0);
     for &c in &setup.omega_star {
         let lo = setup.grid.cell_box(c).lo;
@@ -162,7 +163,8 @@ k2 = 0.01
     let case = Case::from_str("neumann_sphere.toml", &text).unwrap();
     let setup = Setup::new(&case, None).unwrap();
     let exact = setup.problem.exact.clone().unwrap();
-    let s = recover_displacement_of(&setup, &setup.omega_star, |_, x| exact.eval(x), None).unwrap();
+    let on_cell = |_| |x| exact.eval(x);
+    let s = recover_displacement_of(&setup, &setup.omega_star, on_cell, None).unwrap();
     let mut worst = 0.0f64;
     for &c in &setup.omega_star {
         let lo = setup.grid.cell_box(c).lo;

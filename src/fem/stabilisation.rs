@@ -26,7 +26,7 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::field::{value_and_gradient, CellField};
+use super::field::CellField;
 use super::problem::Boundary;
 use super::recovery::{sample_positions, vertex_nodes_of};
 use super::rhs::add_point_load;
@@ -65,22 +65,25 @@ pub fn cell_s_matrix(order: ElementOrder, factor: f64, h: f64) -> Vec<f64> {
     out
 }
 
-/// Samples of a displacement field (`value(cell, x)`, normally `u_h`) for the
-/// displacement fit, with the equilibrium constraint.
+/// Samples of a displacement field (`on_cell(cell)` evaluates it on one
+/// cell, normally `u_h`) for the displacement fit, with the equilibrium
+/// constraint.
 struct DisplacementSamples<'a, F> {
     setup: &'a Setup,
-    value: F,
+    on_cell: F,
     rule: Vec<([f64; 3], f64)>,
 }
 
-impl<F> PatchSamples<3> for DisplacementSamples<'_, F>
+impl<F, G> PatchSamples<3> for DisplacementSamples<'_, F>
 where
-    F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+    F: Fn(usize) -> G + Sync,
+    G: Fn([f64; 3]) -> [f64; 3],
 {
     fn samples(&self, cell: usize, out: &mut Vec<Sample<3>>) {
         let mut xs = Vec::new();
         sample_positions(self.setup, cell, &self.rule, &mut xs);
-        out.extend(xs.into_iter().map(|x| (x, (self.value)(cell, x))));
+        let value = (self.on_cell)(cell);
+        out.extend(xs.into_iter().map(|x| (x, value(x))));
     }
 
     /// `h² (∇·σ(û))(x_node) = −h² b(x_node)`: three rows on the stacked
@@ -206,30 +209,31 @@ pub fn recover_displacement(
     plans: Option<&OnceLock<FitPlans>>,
 ) -> Result<Recovered<3>> {
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
-    recover_displacement_of(
-        setup,
-        omega_star,
-        |cell, x| value_and_gradient(grid, dofs, u, cell, x).0,
-        plans,
-    )
+    let on_cell = |cell| {
+        let field = CellField::new(grid, dofs, u, cell);
+        move |x| field.value_and_gradient(x).0
+    };
+    recover_displacement_of(setup, omega_star, on_cell, plans)
 }
 
-/// The displacement recovery `S` of any field sampled as `value(cell, x)` at
-/// the SPR sample points of the patches of the vertex nodes of Ω* (the
-/// solver passes `u_h`; tests pass an exact field to check reproduction).
-pub fn recover_displacement_of<F>(
+/// The displacement recovery `S` of any field at the SPR sample points of
+/// the patches of the vertex nodes of Ω*, `on_cell(cell)` evaluating it on
+/// one cell (the solver passes `u_h`, gathered once per cell; tests pass an
+/// exact field to check reproduction).
+pub fn recover_displacement_of<F, G>(
     setup: &Setup,
     omega_star: &[usize],
-    value: F,
+    on_cell: F,
     plans: Option<&OnceLock<FitPlans>>,
 ) -> Result<Recovered<3>>
 where
-    F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
+    F: Fn(usize) -> G + Sync,
+    G: Fn([f64; 3]) -> [f64; 3],
 {
     let nodes = vertex_nodes_of(setup, omega_star);
     let samples = DisplacementSamples {
         setup,
-        value,
+        on_cell,
         rule: tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis()),
     };
     let degree = setup.op.dofs.order.degree() + 1;

@@ -163,7 +163,8 @@ pub fn fit_and_factor<const NC: usize>(
 pub struct FitFactor {
     centroid: [f64; 3],
     shift: DMatrix<f64>,
-    points: usize,
+    /// Sample points the factor was made for.
+    num_points: usize,
     kkt: Kkt,
 }
 
@@ -190,7 +191,7 @@ impl FitFactor {
         }
         let centroid = centroid(points);
         let shift = basis.translation(centroid);
-        let a = design_matrix(basis, centroid, points);
+        let a = design_matrix(basis, centroid, points.iter().copied());
         let mut m = a.tr_mul(&a);
         let lambda = stability(
             &m,
@@ -210,7 +211,7 @@ impl FitFactor {
         let factor = FitFactor {
             centroid,
             shift,
-            points: points.len(),
+            num_points: points.len(),
             kkt,
         };
         Ok((factor, a))
@@ -226,15 +227,14 @@ impl FitFactor {
         basis: &Monomials,
         samples: &[Sample<NC>],
     ) -> Result<Vec<f64>, FitFailure> {
-        assert_eq!(samples.len(), self.points, "samples of a fit factor");
+        assert_eq!(samples.len(), self.num_points, "samples of a fit factor");
         assert_eq!(
             NC * basis.len(),
             self.kkt.c.ncols(),
             "components of a fit factor"
         );
-        let points: Vec<[f64; 3]> = samples.iter().map(|(x, _)| *x).collect();
         let design = Design {
-            a: design_matrix(basis, self.centroid, &points),
+            a: design_matrix(basis, self.centroid, samples.iter().map(|(x, _)| *x)),
             b: values_matrix(samples),
         };
         self.solve(design)

@@ -22,12 +22,12 @@ pub(super) struct Design {
 pub(super) fn design_matrix(
     basis: &Monomials,
     centroid: [f64; 3],
-    points: &[[f64; 3]],
+    points: impl ExactSizeIterator<Item = [f64; 3]>,
 ) -> DMatrix<f64> {
     let nb = basis.len();
     let mut a = DMatrix::zeros(points.len(), nb);
     let mut row = vec![0.0; nb];
-    for (s, x) in points.iter().enumerate() {
+    for (s, x) in points.enumerate() {
         basis.values([0, 1, 2].map(|k| x[k] - centroid[k]), &mut row);
         for (j, &v) in row.iter().enumerate() {
             a[(s, j)] = v;
