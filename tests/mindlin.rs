@@ -1,13 +1,14 @@
 //! Cattaneo–Mindlin partial slip against its closed form (issue 19):
 //! `cases/mindlin.toml` (a sphere pressed onto a block, then sheared below
-//! μN; a half model) at level 3. At every shear step up to `Q = 0.7 μN` the
-//! stick radius over the contact radius is Mindlin's
+//! μN; a half model) at the case's level 4. At every shear step (up to
+//! `Q = 0.83 μN`) the stick radius over the contact radius is Mindlin's
 //! `c/a = (1 − Q/(μN))^(1/3)` within 10 %, with `Q` and `N` the run's own
 //! tangential and normal contact forces and both radii from the report's
-//! areas (`sqrt(2 · area / π)`, half model). Beyond 0.7 μN the stick zone
-//! is under two cells across (`c < 0.15`, `h = 1/16` at level 4) and its
-//! radius is printed, not asserted (docs/verification.md has the figures).
-//! `CGFEM_MINDLIN_LEVEL=4` runs the case's own level (about 5 minutes).
+//! areas (`sqrt(2 · area / π)`, half model); docs/verification.md has the
+//! figures. It takes about a minute on two cores. `CGFEM_MINDLIN_LEVEL=3`
+//! runs level 3 (half a minute): there the largest error is +9.9%, at the
+//! second shear step, where the stick zone is one ring of points short of
+//! the whole contact (a/h = 2).
 
 use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::Case;
@@ -22,10 +23,12 @@ fn radius(half_area: f64) -> f64 {
 
 #[test]
 fn the_stick_radius_follows_mindlin() {
-    let level = std::env::var("CGFEM_MINDLIN_LEVEL").map_or(3, |l| l.parse().unwrap());
+    let level = std::env::var("CGFEM_MINDLIN_LEVEL")
+        .ok()
+        .map(|l| l.parse::<u32>().unwrap());
     let text = include_str!("../cases/mindlin.toml");
     let case = Case::from_str_with("cases/mindlin.toml", text, &[]).unwrap();
-    let out = run(&case, Some(level), None, &Silent).unwrap();
+    let out = run(&case, level, None, &Silent).unwrap();
     out.result.as_ref().unwrap();
     assert_eq!(out.report.load.as_ref().unwrap().converged_steps, 10);
     let rows = &out.report.contact;

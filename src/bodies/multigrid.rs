@@ -27,7 +27,8 @@
 //! It sees neither the deformation nor the contact coupling, but at the
 //! strains of the cases it is spectrally close to the tangent, and its apply
 //! costs a fraction of the tangent's (no stress update per quadrature
-//! point). Measured on `cases/mindlin.toml` at level 3 (docs/multigrid.md,
+//! point). Measured on `cases/mindlin.toml` at level 3, contact penalty 3
+//! then (docs/multigrid.md,
 //! "Newton tangents"): a V-cycle whose finest level smoothed the true
 //! tangent (contact included) took 1 256 BiCGStab iterations and 73 s, this
 //! one 1 311 and 24 s, Jacobi 8 697 and 58 s; the contact forces of all
