@@ -78,16 +78,22 @@
 
 use std::cell::Cell;
 
+mod history;
+mod line_search;
+mod options;
+mod tangent_solver;
+
+pub use history::{HyperSolution, PassReport, StepReport};
+use line_search::{line_search, NON_MONOTONE_STEPS};
+pub use options::{NewtonOptions, RecoveryMode};
+pub use tangent_solver::{CpuTangentSolver, TangentSolver};
+
 use super::problem::HyperProblem;
 use super::residual::residual;
 use super::tangent::TangentOperator;
-use crate::backend::{CpuBackend, LinearOperator};
+use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
 use crate::progress::{Event, Progress};
-use crate::solver::{
-    solve, solve_preconditioned, ApplyInverse, KrylovMethod, KrylovOptions, KrylovStats,
-    Preconditioner,
-};
 
 /// A nonlinear problem for [`solve_load_steps`]: the residual `R(u, t)` at
 /// load factor `t` and its tangent `∂R/∂u`.
@@ -123,230 +129,6 @@ impl NonlinearProblem for HyperProblem {
 
     fn refresh_recovered(&self, u: &[f64], _t: f64) -> Result<bool> {
         self.refresh_s_term(u)
-    }
-}
-
-/// Solves `K_T Δu = rhs` on some backend, warm-started at `du`.
-pub trait TangentSolver {
-    fn solve(
-        &mut self,
-        tangent: &dyn LinearOperator,
-        rhs: &[f64],
-        du: &mut Vec<f64>,
-        opts: &KrylovOptions,
-    ) -> Result<KrylovStats>;
-}
-
-/// The CPU backend with the matrix-free tangent: Jacobi (its diagonal per
-/// tangent) or none, and the multigrid preconditioner when one is given
-/// ([`crate::bodies::multigrid`]); a multigrid option without one is refused
-/// by the solve ([`crate::Error::InvalidSolverOptions`]).
-#[derive(Clone, Default)]
-pub struct CpuTangentSolver<'a> {
-    be: CpuBackend,
-    multigrid: Option<&'a dyn ApplyInverse<CpuBackend>>,
-}
-
-impl<'a> CpuTangentSolver<'a> {
-    /// The solver with `multigrid` as the preconditioner of
-    /// `preconditioner = "multigrid"`.
-    pub fn with_multigrid(multigrid: &'a dyn ApplyInverse<CpuBackend>) -> Self {
-        CpuTangentSolver {
-            be: CpuBackend::new(),
-            multigrid: Some(multigrid),
-        }
-    }
-}
-
-impl TangentSolver for CpuTangentSolver<'_> {
-    fn solve(
-        &mut self,
-        tangent: &dyn LinearOperator,
-        rhs: &[f64],
-        du: &mut Vec<f64>,
-        opts: &KrylovOptions,
-    ) -> Result<KrylovStats> {
-        let rhs = rhs.to_vec();
-        if let (Some(mg), Preconditioner::Multigrid | Preconditioner::Auto) =
-            (self.multigrid, opts.preconditioner)
-        {
-            return solve_preconditioned(&self.be, tangent, mg, &rhs, du, opts);
-        }
-        let diag = (opts.preconditioner == Preconditioner::Jacobi).then(|| tangent.diagonal());
-        solve(&self.be, tangent, diag.as_ref(), &rhs, du, opts)
-    }
-}
-
-/// Settings of the nonlinear solve.
-#[derive(Clone, Debug, PartialEq)]
-pub struct NewtonOptions {
-    /// Number of nominal load steps (≥ 1).
-    pub steps: usize,
-    /// Newton iterations allowed per step.
-    pub max_iterations: usize,
-    /// Relative residual tolerance (see the module doc).
-    pub residual_tol: f64,
-    /// Relative energy-norm tolerance of the increment.
-    pub energy_tol: f64,
-    /// Halvings allowed per increment before the solve fails.
-    pub max_cuts: usize,
-    /// Backtracking halvings per line search.
-    pub max_backtracks: usize,
-    /// `false`: take the full Newton step (`α = 1`) without checking that the
-    /// residual decreases.
-    pub line_search: bool,
-    /// The inner linear solves.
-    pub krylov: KrylovOptions,
-    /// Tolerance of `ε_k` between fixed-point passes (recovered terms only).
-    pub fixed_point_tol: f64,
-    /// Newton passes allowed per step when the problem has recovered terms.
-    pub max_fixed_point: usize,
-    /// How recovered terms are brought up to date (module doc).
-    pub recovery: RecoveryMode,
-}
-
-/// When the recovered terms are re-evaluated (module doc, *Recovered terms*).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RecoveryMode {
-    /// Between whole Newton solves (passes): each pass converges
-    /// quadratically; the passes repeat until `u` settles.
-    #[default]
-    Passes,
-    /// After every Newton update, inside one Newton loop (the paper's fixed
-    /// point embedded in the solver): fewer linear solves, but the lagged
-    /// terms make the last iterations linear.
-    Embedded,
-    /// Once per step attempt, at the last converged `u`, and held for the
-    /// whole step (the terms lag one load step; no extra Newton work).
-    Step,
-}
-
-impl Default for NewtonOptions {
-    fn default() -> Self {
-        NewtonOptions {
-            steps: 1,
-            max_iterations: 25,
-            residual_tol: 1e-8,
-            energy_tol: 1e-12,
-            max_cuts: 5,
-            max_backtracks: 10,
-            line_search: true,
-            krylov: KrylovOptions {
-                method: KrylovMethod::BiCgStab,
-                preconditioner: Preconditioner::Jacobi,
-                rel_tol: 1e-10,
-                max_iterations: 20_000,
-            },
-            fixed_point_tol: 1e-6,
-            max_fixed_point: 30,
-            recovery: RecoveryMode::Passes,
-        }
-    }
-}
-
-impl NewtonOptions {
-    /// Checks the ranges (a step count of zero is bad input).
-    pub fn validate(&self) -> Result<()> {
-        let bad = |what: &str, reason: String| {
-            Err(Error::InvalidSolverOptions {
-                what: what.into(),
-                reason,
-            })
-        };
-        if self.steps == 0 {
-            return bad("steps", "must be at least 1".into());
-        }
-        if self.max_iterations == 0 {
-            return bad("max_iterations", "must be at least 1".into());
-        }
-        if self.max_fixed_point == 0 {
-            return bad("max_fixed_point", "must be at least 1".into());
-        }
-        for (name, v) in [
-            ("residual_tol", self.residual_tol),
-            ("energy_tol", self.energy_tol),
-            ("fixed_point_tol", self.fixed_point_tol),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(name, format!("must be finite and positive, got {v}"));
-            }
-        }
-        self.krylov.validate()
-    }
-}
-
-/// One attempt at a load step, converged or not.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct StepReport {
-    /// Load factor at the start and at the end of the step.
-    pub from: f64,
-    pub to: f64,
-    /// Halvings of the nominal increment at this attempt.
-    pub cuts: usize,
-    pub converged: bool,
-    /// `‖R(u_k)‖ / ‖R(u_0)‖`, from `k = 0` (= 1).
-    pub residuals: Vec<f64>,
-    /// `|Δu_k · R(u_k)| / |Δu_0 · R(u_0)|` per linear solve.
-    pub energies: Vec<f64>,
-    /// Line-search step length per update `u_k → u_{k+1}`.
-    pub alphas: Vec<f64>,
-    /// Krylov iterations per linear solve (a failed solve's included, as
-    /// the last entry of a failed attempt).
-    pub krylov_iterations: Vec<usize>,
-    /// The Newton passes of the fixed point on recovered terms (one pass
-    /// without such terms); the histories above are theirs, concatenated.
-    pub passes: Vec<PassReport>,
-    /// Why the attempt failed.
-    pub failure: Option<String>,
-}
-
-/// One Newton pass of a step (see the module doc, *Recovered terms*).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
-pub struct PassReport {
-    /// Newton updates of the pass (its entries of `alphas`).
-    pub newton_iterations: usize,
-    /// Krylov iterations of the pass, summed.
-    pub krylov_iterations: usize,
-    /// `ε_k` after the pass (`None` without recovered terms).
-    pub change: Option<f64>,
-}
-
-/// The state of a nonlinear solve: the last converged displacement and load
-/// factor, and every step attempt.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct HyperSolution {
-    pub u: Vec<f64>,
-    pub load_factor: f64,
-    /// Converged steps so far.
-    pub converged_steps: usize,
-    pub attempts: Vec<StepReport>,
-}
-
-impl HyperSolution {
-    /// The undeformed start of `problem`.
-    pub fn zero(problem: &dyn NonlinearProblem) -> HyperSolution {
-        HyperSolution {
-            u: vec![0.0; problem.ndofs()],
-            ..HyperSolution::default()
-        }
-    }
-
-    /// Newton iterations of the converged steps.
-    pub fn newton_iterations(&self) -> usize {
-        self.attempts
-            .iter()
-            .filter(|a| a.converged)
-            .map(|a| a.alphas.len())
-            .sum()
-    }
-
-    /// Krylov iterations of every attempt (failed ones included: they were spent).
-    pub fn krylov_iterations(&self) -> usize {
-        self.attempts
-            .iter()
-            .flat_map(|a| &a.krylov_iterations)
-            .sum()
     }
 }
 
@@ -682,57 +464,4 @@ fn newton_step(
         opts.max_iterations,
         report.residuals.last().copied().unwrap_or(f64::NAN)
     )))
-}
-
-/// Newton iterations of one solve that may take a step without a decrease of
-/// `‖R‖` (module doc, *Newton–Raphson*).
-const NON_MONOTONE_STEPS: usize = 3;
-
-/// A point of the line search: `α`, `R(u + α du)`, and whether it passed
-/// the Armijo test.
-struct Trial {
-    alpha: f64,
-    residual: Vec<f64>,
-    decreased: bool,
-}
-
-/// Backtracking on `‖R‖`: the first `α = 2^-j` with
-/// `‖R(u + α du)‖ ≤ (1 − 10⁻⁴ α) ‖R(u)‖`; if none passes, the trial with
-/// the smallest `‖R‖` (`decreased = false`). Without backtracking (`None`)
-/// the full step is taken wherever `R` is defined. `None` when `R` is
-/// undefined (an inverted element) at every trial.
-fn line_search(
-    p: &dyn NonlinearProblem,
-    t: f64,
-    u: &[f64],
-    du: &[f64],
-    r: &[f64],
-    max_backtracks: Option<usize>,
-) -> Option<Trial> {
-    let r_norm = norm(r);
-    let mut alpha = 1.0;
-    let mut best: Option<(f64, Trial)> = None;
-    for _ in 0..=max_backtracks.unwrap_or(0) {
-        let trial: Vec<f64> = u.iter().zip(du).map(|(x, d)| x + alpha * d).collect();
-        if let Some(residual) = p.residual(&trial, t) {
-            let size = norm(&residual);
-            if max_backtracks.is_none() || size <= (1.0 - 1e-4 * alpha) * r_norm {
-                return Some(Trial {
-                    alpha,
-                    residual,
-                    decreased: true,
-                });
-            }
-            if best.as_ref().is_none_or(|(b, _)| size < *b) {
-                let trial = Trial {
-                    alpha,
-                    residual,
-                    decreased: false,
-                };
-                best = Some((size, trial));
-            }
-        }
-        alpha *= 0.5;
-    }
-    best.map(|(_, trial)| trial)
 }
