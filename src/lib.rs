@@ -6,6 +6,9 @@
 // Kernels are written with explicit index loops, to read side by side with
 // their WGSL twins and the formulas they implement.
 #![allow(clippy::needless_range_loop)]
+// The docs are the developers' (`cargo doc --document-private-items`): a
+// public item's doc may point at the private helper that does the work.
+#![allow(rustdoc::private_intra_doc_links)]
 
 pub mod backend;
 pub mod bench;

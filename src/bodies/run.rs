@@ -46,7 +46,7 @@ pub fn run(
 }
 
 /// [`run`] with the bodies' inside-cell tangents on `device` when given
-/// ([`crate::bodies::BodiesProblem::use_device`]).
+/// ([`crate::bodies::problem::BodiesProblem::use_device`]).
 pub fn run_on(
     case: &Case,
     level: Option<u32>,

@@ -47,7 +47,7 @@ pub(super) fn values_matrix<const NC: usize>(samples: &[Sample<NC>]) -> DMatrix<
 /// `y = (I ⊗ M̃⁻¹) r₁` the multipliers solve
 /// `(C̃ (I ⊗ M̃⁻¹) C̃ᵀ) λ = C̃ y − r₂`, then `ã = y − (I ⊗ M̃⁻¹) C̃ᵀ λ`. It keeps
 /// `n_b² + m²` numbers instead of the `(NC n_b + m)²` of the whole matrix's
-/// LU, which matters when the fits are kept ([`FitFactor`]); the iterative
+/// LU, which matters when the fits are kept ([`super::fit::FitFactor`]); the iterative
 /// refinement on the samples' residual makes up for the Schur complement's
 /// weaker conditioning.
 pub(super) struct Kkt {

@@ -209,7 +209,7 @@ pub struct BodyReport {
     /// The same norms for the nodal interpolant of the exact field (the
     /// best-approximation reference): absent without an exact field,
     /// `Some(None)` (`null`) where they would mean nothing, with the reason
-    /// in `interpolant_error_note` ([`crate::fem::field::interpolant_error`]).
+    /// in `interpolant_error_note` ([`crate::fem::field::solution_and_interpolant_errors`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interpolant_error: Option<Option<crate::fem::field::ErrorNorms>>,
     /// Why `interpolant_error` is `null`.

@@ -153,7 +153,7 @@ pub fn offsets(n: usize, seed: u64) -> Vec<[f64; 3]> {
 }
 
 /// Runs the sweep and writes the files; returns the summary rows.
-/// Each run is reported to `progress` ([`Phase::Runs`]).
+/// Each run is reported to `progress` ([`crate::progress::Phase::Runs`]).
 pub fn cut_sweep(
     case: &Case,
     opts: &CutSweepOptions,

@@ -71,7 +71,7 @@ fn element_name(e: ElementOrder) -> String {
 }
 
 /// Runs every curve and writes the files.
-/// Each run is reported to `progress` ([`Phase::Runs`]).
+/// Each run is reported to `progress` ([`crate::progress::Phase::Runs`]).
 pub fn fig3(
     curves: &[Fig3Curves<'_>],
     out: &Path,

@@ -2,14 +2,14 @@
 //! figures, each as `DIR/<what>.json` (rows), `DIR/<what>.md` and
 //! `DIR/<what>.svg` (DESIGN §8).
 //!
-//! - [`table1`]: κ of the sphere with and without the S-term (Table 1);
-//! - [`fig3`]: energy-norm convergence of the sphere with and without it (Figure 3);
-//! - [`cut_sweep`]: κ and Krylov iterations over random grid offsets;
-//! - [`table2`]: accumulated Krylov iterations of the contact problem
+//! - [`table1()`]: κ of the sphere with and without the S-term (Table 1);
+//! - [`fig3()`]: energy-norm convergence of the sphere with and without it (Figure 3);
+//! - [`cut_sweep()`]: κ and Krylov iterations over random grid offsets;
+//! - [`table2()`]: accumulated Krylov iterations of the contact problem
 //!   (Problem 2) with and without the S-term (Table 2).
 //!
 //! The first three run the paper's Problem 1 through one routine,
-//! [`run_sphere`]; [`table2`] runs the multi-body solve of [`crate::bodies`].
+//! [`run_sphere`]; [`table2()`] runs the multi-body solve of [`crate::bodies`].
 
 pub mod cut_sweep;
 pub mod fig3;

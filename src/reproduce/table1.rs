@@ -57,7 +57,7 @@ pub const CONFIGS: [(f64, f64); 5] = [
 ];
 
 /// Runs the rows for `levels` on `case` (the sphere) and writes the files.
-/// Each run is reported to `progress` ([`Phase::Runs`]).
+/// Each run is reported to `progress` ([`crate::progress::Phase::Runs`]).
 pub fn table1(
     case: &Case,
     levels: &[u32],
