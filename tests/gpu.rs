@@ -336,6 +336,50 @@ fn apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, tol: f64) {
         op.apply(&x, &mut host);
         assert_close("apply vs host", &y, &host, 10.0 * tol.max(1e-12));
     }
+    q1_apply_matches(ctx, be, setup, &x, tol);
+}
+
+/// The Q1 plan (`q1_cells` then `q1_nodes`, which `GpuOperator::new` picks
+/// for Q1) against its mirrors on the same data, and the host operator.
+fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64], tol: f64) {
+    use cgfem_gpu::gpu::kernels::Q1Params;
+    use cgfem_gpu::gpu::q1_operator::{packed_cut_matrices, segments, stencil_values};
+    use cgfem_gpu::gpu::q1_terms::{pack, SEGMENT_WORDS};
+    let op = &setup.op;
+    let n = op.nrows();
+    let gop = GpuOperator::new(be, op).unwrap();
+    let Some(plan) = op.fast_apply() else {
+        assert!(gop.q1().is_none(), "Q2 runs on the gather");
+        return;
+    };
+    assert!(gop.q1().is_some(), "a Q1 operator runs on its plan");
+    let mut y = be.zeros(n);
+    be.apply(&gop, &be.upload(x), &mut y);
+    let y = be.download(&y);
+    let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
+    let links: Vec<u32> = plan.links().iter().flatten().copied().collect();
+    let segs = segments(plan.runs());
+    let prm = Q1Params {
+        n_segments: (segs.len() / SEGMENT_WORDS) as u32,
+        n_boundary: plan.boundary().len() as u32,
+        n_cut: op.own_cells().len() as u32,
+        n_cells: (cell_nodes.len() / 8) as u32,
+        ..Default::default()
+    };
+    assert_eq!(gop.q1().unwrap().params(), prm);
+    let k_cut = as_device(ctx, packed_cut_matrices(op).unwrap());
+    let k_in = as_device(ctx, pack(op.inside_matrix()).to_vec());
+    let stencil = as_device(ctx, stencil_values(op).unwrap());
+    let mut z = vec![0.0; 24 * prm.n_cells as usize + 3];
+    mirror::q1_cells(&prm, &cell_nodes, &k_cut, &k_in, x, &mut z);
+    let z = as_device(ctx, z);
+    let mut want = vec![0.0; n];
+    let bnd = plan.boundary();
+    mirror::q1_nodes(&prm, &stencil, &segs, bnd, &links, &z, x, &mut want);
+    assert_close("q1 apply", &y, &want, tol);
+    let mut host = vec![0.0; n];
+    op.apply(x, &mut host);
+    assert_close("q1 apply vs host", &y, &host, 10.0 * tol.max(1e-12));
 }
 
 /// Solves the sphere with `solver`; (u, iterations per solve, final true

@@ -182,6 +182,34 @@ impl FastApply {
         self.runs.iter().map(|r| r.len as usize).sum()
     }
 
+    /// The interior stencil.
+    pub fn stencil(&self) -> &Stencil {
+        &self.stencil
+    }
+
+    /// The runs of interior nodes, ascending.
+    pub fn runs(&self) -> &[Run] {
+        &self.runs
+    }
+
+    /// The active indices of the boundary nodes, ascending.
+    pub fn boundary(&self) -> &[u32] {
+        &self.boundary
+    }
+
+    /// Per boundary node, the offsets in `z` of its 8 cells' triples (cut
+    /// cells in slot order, then rim cells, 24 entries each; a link to no
+    /// cell points at the zero triple after them).
+    pub fn links(&self) -> &[[u32; 8]] {
+        &self.links
+    }
+
+    /// The active indices of the 8 nodes (local order) of each cut cell,
+    /// in slot order, then of each rim cell.
+    pub fn cell_nodes(&self) -> impl Iterator<Item = &[u32; 8]> {
+        self.cut_nodes.iter().chain(&self.rim_nodes)
+    }
+
     /// Number of rim cells (inside cells with a boundary node).
     pub fn num_rim(&self) -> usize {
         self.rim_nodes.len()

@@ -78,7 +78,7 @@ macro_rules! each_slice {
 
 /// Whether `S_d[i][j]` is structurally nonzero, with `d = (shift, r mod 3,
 /// r / 3) − 1`: always for `i = j`, else when `d_i ≠ 0` and `d_j ≠ 0`.
-const fn coupled(i: usize, j: usize, r: usize, shift: usize) -> bool {
+pub const fn coupled(i: usize, j: usize, r: usize, shift: usize) -> bool {
     let d = [shift, r % 3, r / 3];
     i == j || (d[i] != 1 && d[j] != 1)
 }
@@ -130,6 +130,12 @@ impl Stencil {
             }
         }
         Stencil { values }
+    }
+
+    /// `values()[27 j + 3 r + shift][i] = S_d[i][j]`, `d = (shift, r mod 3,
+    /// r / 3) − 1`; zero where not [`coupled`].
+    pub fn values(&self) -> &[[f64; 3]; 81] {
+        &self.values
     }
 
     /// Bytes of stencil data.

@@ -17,7 +17,8 @@ pub const WG: u32 = 256;
 /// Entries per thread of the first reduction pass (one workgroup reduces
 /// `WG · PER` entries). Keep in sync with `PER` in dot.wgsl, dot2.wgsl.
 pub const PER: u32 = 8;
-/// Workgroup size of `apply`. Keep in sync with apply.wgsl.
+/// Workgroup size of `apply`, `q1_cells`, `q1_nodes`. Keep in sync with
+/// their shaders.
 pub const APPLY_WG: u32 = 64;
 
 /// Params of the element-wise kernels (`copy` … `bicgstab_update_p`): the
@@ -76,6 +77,23 @@ pub struct ApplyParams {
     pub pad2: u32,
 }
 
+/// Params of `q1_cells` and `q1_nodes`: interior segments, boundary nodes,
+/// cut cells, cut + rim cells, and the 2D row stride (in workgroups for
+/// `q1_nodes`, invocations for `q1_cells`).
+/// Keep in sync with `Q1Params` in q1_cells.wgsl, q1_nodes.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Q1Params {
+    pub n_segments: u32,
+    pub n_boundary: u32,
+    pub n_cut: u32,
+    pub n_cells: u32,
+    pub stride: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
 /// Params of the one-invocation kernels `scalar_ratio`, `krylov_check`: slots
 /// and the flags `roll` and `positive` (see scalar_ratio.wgsl).
 /// Keep in sync with `ScalParams` in scalar_ratio.wgsl, krylov_check.wgsl.
@@ -112,13 +130,15 @@ pub enum Kernel {
     Dot2,
     Reduce,
     Apply,
+    Q1Cells,
+    Q1Nodes,
     ScalarRatio,
     KrylovCheck,
 }
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 15] = [
+    pub const ALL: [Kernel; 17] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -132,6 +152,8 @@ impl Kernel {
         Kernel::Dot2,
         Kernel::Reduce,
         Kernel::Apply,
+        Kernel::Q1Cells,
+        Kernel::Q1Nodes,
         Kernel::ScalarRatio,
         Kernel::KrylovCheck,
     ];
@@ -152,6 +174,8 @@ impl Kernel {
             Kernel::Dot2 => "dot2",
             Kernel::Reduce => "reduce",
             Kernel::Apply => "apply",
+            Kernel::Q1Cells => "q1_cells",
+            Kernel::Q1Nodes => "q1_nodes",
             Kernel::ScalarRatio => "scalar_ratio",
             Kernel::KrylovCheck => "krylov_check",
         }
@@ -188,14 +212,17 @@ impl Kernel {
             Kernel::Dot2 => include_str!("../../shaders/dot2.wgsl"),
             Kernel::Reduce => include_str!("../../shaders/reduce.wgsl"),
             Kernel::Apply => include_str!("../../shaders/apply.wgsl"),
+            Kernel::Q1Cells => include_str!("../../shaders/q1_cells.wgsl"),
+            Kernel::Q1Nodes => include_str!("../../shaders/q1_nodes.wgsl"),
             Kernel::ScalarRatio => include_str!("../../shaders/scalar_ratio.wgsl"),
             Kernel::KrylovCheck => include_str!("../../shaders/krylov_check.wgsl"),
         }
     }
 
-    /// The WGSL source for `precision`.
+    /// The WGSL source for `precision`, unrolled bodies generated
+    /// ([`super::q1_terms::expand`]).
     pub fn source(self, precision: Precision) -> String {
-        let src = self.source_f64();
+        let src = super::q1_terms::expand(self.source_f64());
         match precision {
             Precision::F64 => src.to_string(),
             Precision::F32 => src.replacen(ALIAS_F64, "alias real = f32;", 1),

@@ -6,7 +6,8 @@
 // Index loops, not slice methods, to read like the shaders.
 #![allow(clippy::manual_memcpy)]
 
-use super::kernels::{ApplyParams, RedParams, ScalParams, VecParams, PER, WG};
+use super::kernels::{ApplyParams, Q1Params, RedParams, ScalParams, VecParams, PER, WG};
+use super::q1_terms::{packed_index, stencil_terms, SEG, SEGMENT_WORDS, TILE_WIDTH};
 use crate::fem::operator::{INSIDE, OUTSIDE};
 
 /// `dst = src`.
@@ -251,6 +252,101 @@ pub fn apply(
             }
         }
         y[3 * a..3 * a + 3].copy_from_slice(&acc);
+    }
+}
+
+/// `z[24 c ..][.. 24] = K_c x_c` for cells `c < n_cells`: packed matrix
+/// entry `e` of a cut cell at `k_cut[e n_cut + c]`, of a rim cell at
+/// `k_inside[e]`; row `r` summed over columns in order.
+pub fn q1_cells(
+    prm: &Q1Params,
+    cell_nodes: &[u32],
+    k_cut: &[f64],
+    k_inside: &[f64],
+    x: &[f64],
+    z: &mut [f64],
+) {
+    let n_cut = prm.n_cut as usize;
+    for c in 0..prm.n_cells as usize {
+        let kk = |e: usize| {
+            if c < n_cut {
+                k_cut[e * n_cut + c]
+            } else {
+                k_inside[e]
+            }
+        };
+        let mut u = [0.0; 24];
+        for m in 0..8 {
+            let n = 3 * cell_nodes[8 * c + m] as usize;
+            for j in 0..3 {
+                u[3 * m + j] = x[n + j];
+            }
+        }
+        let mut zc = [0.0; 24];
+        for r in 0..24 {
+            for col in r..24 {
+                let k = kk(packed_index(r, col));
+                zc[r] += k * u[col];
+                if r != col {
+                    zc[col] += k * u[r];
+                }
+            }
+        }
+        for r in 0..24 {
+            z[24 * c + r] = zc[r];
+        }
+    }
+}
+
+/// `y = A x` at every active node from the interior stencil (`stencil`, the
+/// uniform's values) over each segment's tile, and for the boundary nodes
+/// the sum of their 8 linked triples of `z`.
+#[allow(clippy::too_many_arguments)]
+pub fn q1_nodes(
+    prm: &Q1Params,
+    stencil: &[f64],
+    segments: &[u32],
+    boundary: &[u32],
+    links: &[u32],
+    z: &[f64],
+    x: &[f64],
+    y: &mut [f64],
+) {
+    let terms = stencil_terms();
+    let mut tile = vec![0.0; 27 * TILE_WIDTH];
+    for g in 0..prm.n_segments as usize {
+        let s = &segments[SEGMENT_WORDS * g..SEGMENT_WORDS * (g + 1)];
+        let (start, len) = (s[0] as usize, s[1] as usize);
+        for r in 0..9 {
+            let b = s[2 + r] as usize;
+            for q in 0..len + 2 {
+                for j in 0..3 {
+                    tile[(3 * r + j) * TILE_WIDTH + q] = x[3 * (b + q) + j];
+                }
+            }
+        }
+        for t in 0..len.min(SEG) {
+            let mut acc = [0.0; 3];
+            for term in &terms {
+                acc[term.i] += stencil[term.k] * tile[term.slice * TILE_WIDTH + term.shift + t];
+            }
+            for i in 0..3 {
+                y[3 * (start + t) + i] = acc[i];
+            }
+        }
+    }
+    for b in 0..prm.n_boundary as usize {
+        let mut acc = [0.0; 3];
+        for cc in 0..8 {
+            let o = links[8 * b + cc] as usize;
+            for i in 0..3 {
+                acc[i] += z[o + i];
+            }
+        }
+        let a = boundary[b] as usize;
+        for i in 0..3 {
+            y[3 * a + i] = acc[i];
+        }
     }
 }
 

@@ -16,6 +16,8 @@ pub mod kernels;
 pub mod linear;
 pub mod mirror;
 pub mod operator;
+pub mod q1_operator;
+pub mod q1_terms;
 mod record;
 #[cfg(test)]
 mod tests;

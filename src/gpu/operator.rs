@@ -1,6 +1,9 @@
-//! [`GpuOperator`]: an [`ElasticOperator`] resident on the device — the index
-//! maps (active ↔ lattice node, cell slots), the shared inside matrix and the
-//! cut cells' own matrices — applied by `apply.wgsl`.
+//! [`GpuOperator`]: an [`ElasticOperator`] resident on the device. A Q1
+//! operator that fits single bindings runs on its plan ([`Q1Device`]: the
+//! interior stencil and the packed cut cells); anything else (Q2, arrays
+//! beyond one binding) on the node-centred gather of `apply.wgsl` over the
+//! index maps (active ↔ lattice node, cell slots), the shared inside matrix
+//! and the cut cells' own matrices, described below.
 //!
 //! # Arrays over several bindings
 //! One storage binding holds at most `max_storage_buffer_binding_size` bytes
@@ -23,6 +26,7 @@ use crate::fem::operator::ElasticOperator;
 
 use super::backend::GpuBackend;
 use super::kernels::{grid_2d, ApplyParams, Kernel, APPLY_WG};
+use super::q1_operator::Q1Device;
 use super::record::{whole, window};
 use super::windows::{apply_windows, own_slots, ApplyWindow, Lattice};
 
@@ -44,6 +48,19 @@ struct Window {
 /// diagonal and its shape.
 pub struct GpuOperator<'o> {
     host: &'o ElasticOperator,
+    path: Path,
+}
+
+/// How the device applies the operator.
+enum Path {
+    /// The Q1 plan ([`Q1Device`]).
+    Q1(Q1Device),
+    /// The node-centred gather of `apply.wgsl`, any order, any size.
+    Generic(Generic),
+}
+
+/// The data of the node-centred gather.
+struct Generic {
     active_to_node: wgpu::Buffer,
     node_to_active: wgpu::Buffer,
     slots: wgpu::Buffer,
@@ -80,16 +97,23 @@ fn own_chunks(
 }
 
 impl<'o> GpuOperator<'o> {
-    /// Uploads `op` to the device of `be`. [`crate::error::Error::DeviceTooSmall`]
-    /// when an array exceeds the largest buffer or an apply window's halo
-    /// exceeds one binding.
+    /// Uploads `op` to the device of `be`: the Q1 plan where it applies
+    /// ([`Q1Device::new`]), else the node-centred gather.
+    /// [`crate::error::Error::DeviceTooSmall`] when an array exceeds the
+    /// largest buffer or an apply window's halo exceeds one binding.
     pub fn new(be: &GpuBackend, op: &'o ElasticOperator) -> Result<Self> {
+        if let Some(q1) = Q1Device::new(be, op)? {
+            return Ok(GpuOperator {
+                host: op,
+                path: Path::Q1(q1),
+            });
+        }
         let entries = be.bindings().max_bytes / be.precision().bytes();
         Self::with_chunk_entries(be, op, entries)
     }
 
-    /// Like [`GpuOperator::new`] with own-matrix chunks of at most
-    /// `max_entries` entries (tests force several chunks with it).
+    /// The node-centred gather, with own-matrix chunks of at most
+    /// `max_entries` entries (tests force it, and several chunks, with it).
     pub fn with_chunk_entries(
         be: &GpuBackend,
         op: &'o ElasticOperator,
@@ -130,8 +154,7 @@ impl<'o> GpuOperator<'o> {
             ne: ne as u32,
             ..Default::default()
         };
-        Ok(GpuOperator {
-            host: op,
+        let generic = Generic {
             active_to_node: u32s("active_to_node", a2n),
             node_to_active: u32s("node_to_active", n2a),
             slots: u32s("slots", op.cell_slots()),
@@ -139,6 +162,10 @@ impl<'o> GpuOperator<'o> {
             own,
             windows,
             params,
+        };
+        Ok(GpuOperator {
+            host: op,
+            path: Path::Generic(generic),
         })
     }
 
@@ -147,14 +174,28 @@ impl<'o> GpuOperator<'o> {
         self.host.nrows()
     }
 
-    /// Number of own-matrix chunks.
+    /// Number of own-matrix chunks of the gather (0 on the Q1 plan).
     pub fn chunks(&self) -> usize {
-        self.own.len()
+        match &self.path {
+            Path::Generic(g) => g.own.len(),
+            Path::Q1(_) => 0,
+        }
     }
 
-    /// Number of apply windows.
+    /// Number of apply windows of the gather (1 on the Q1 plan).
     pub fn windows(&self) -> usize {
-        self.windows.len()
+        match &self.path {
+            Path::Generic(g) => g.windows.len(),
+            Path::Q1(_) => 1,
+        }
+    }
+
+    /// The Q1 plan, where the operator runs on it.
+    pub fn q1(&self) -> Option<&Q1Device> {
+        match &self.path {
+            Path::Q1(q1) => Some(q1),
+            Path::Generic(_) => None,
+        }
     }
 
     /// The host operator this was uploaded from.
@@ -167,9 +208,24 @@ impl<'o> GpuOperator<'o> {
         self.host.diagonal()
     }
 
-    /// Records `y = A x`: per window, one `apply` pass per own-matrix chunk
-    /// its cells refer to.
+    /// Records `y = A x`: the Q1 plan's two kernels, or per window one
+    /// `apply` pass per own-matrix chunk its cells refer to.
     pub(super) fn record_apply(
+        &self,
+        be: &GpuBackend,
+        enc: &mut wgpu::CommandEncoder,
+        x: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+    ) {
+        match &self.path {
+            Path::Q1(q1) => q1.record(be, enc, x, y),
+            Path::Generic(g) => g.record(be, enc, x, y),
+        }
+    }
+}
+
+impl Generic {
+    fn record(
         &self,
         be: &GpuBackend,
         enc: &mut wgpu::CommandEncoder,

@@ -9,7 +9,8 @@ use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 use super::context::Precision;
 use super::kernels::{
-    grid_2d, reduction_groups, ApplyParams, Kernel, RedParams, ScalParams, VecParams, ALIAS_F64,
+    grid_2d, reduction_groups, ApplyParams, Kernel, Q1Params, RedParams, ScalParams, VecParams,
+    ALIAS_F64,
 };
 use super::mirror;
 
@@ -101,11 +102,14 @@ fn params_structs_match_their_wgsl_twins() {
         pad1,
         pad2
     );
+    let q1 =
+        rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, pad0, pad1, pad2);
     for k in Kernel::ALL {
         let m = validate(k, Precision::F64);
         let (name, rust) = match k {
             Kernel::Dot | Kernel::Dot2 | Kernel::Reduce => ("RedParams", &red),
             Kernel::Apply => ("ApplyParams", &apply),
+            Kernel::Q1Cells | Kernel::Q1Nodes => ("Q1Params", &q1),
             Kernel::ScalarRatio | Kernel::KrylovCheck => ("ScalParams", &scal),
             _ => ("VecParams", &vec),
         };
@@ -209,6 +213,52 @@ fn apply_mirror_equals_the_host_operator_in_one_or_several_chunks() {
         let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, b) in y.iter().zip(&expected) {
             assert!((a - b).abs() <= 1e-12 * scale, "chunk {chunk}: {a} vs {b}");
+        }
+    }
+}
+
+/// The Q1 plan's two mirrors (`q1_cells`, then `q1_nodes`) on the data
+/// the device would get equal the host operator's fast apply: the sphere
+/// (S-term on) and the shell octant, whose rollers add partial-mask
+/// penalties to its cut cells.
+#[test]
+fn q1_mirrors_equal_the_host_operator() {
+    use super::q1_operator::{packed_cut_matrices, segments, stencil_values};
+    use super::q1_terms::{pack, SEGMENT_WORDS};
+    use crate::backend::LinearOperator;
+    for name in ["sphere", "shell_pressure"] {
+        let path = format!("{}/cases/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+        let set = ["stabilisation.k2=0.01".to_string()];
+        let case = crate::case::Case::from_file_with(std::path::Path::new(&path), &set).unwrap();
+        let setup = crate::fem::setup::Setup::new(&case, Some(4)).unwrap();
+        let op = &setup.op;
+        let plan = op.fast_apply().unwrap();
+        let n = op.nrows();
+        let x: Vec<f64> = (0..n).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
+        let mut expected = vec![0.0; n];
+        op.apply(&x, &mut expected);
+        let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
+        let links: Vec<u32> = plan.links().iter().flatten().copied().collect();
+        let segs = segments(plan.runs());
+        let prm = Q1Params {
+            n_segments: (segs.len() / SEGMENT_WORDS) as u32,
+            n_boundary: plan.boundary().len() as u32,
+            n_cut: op.own_cells().len() as u32,
+            n_cells: (cell_nodes.len() / 8) as u32,
+            ..Default::default()
+        };
+        assert!(prm.n_segments > 10 && prm.n_boundary > 10 && prm.n_cut > 10);
+        let k_cut = packed_cut_matrices(op).expect("symmetric cut-cell matrices");
+        let k_in = pack(op.inside_matrix());
+        let mut z = vec![0.0; 24 * prm.n_cells as usize + 3];
+        mirror::q1_cells(&prm, &cell_nodes, &k_cut, &k_in, &x, &mut z);
+        let mut y = vec![f64::NAN; n];
+        let stencil = stencil_values(op).unwrap();
+        let bnd = plan.boundary();
+        mirror::q1_nodes(&prm, &stencil, &segs, bnd, &links, &z, &x, &mut y);
+        let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (a, b) in y.iter().zip(&expected) {
+            assert!((a - b).abs() <= 1e-12 * scale, "{name}: {a} vs {b}");
         }
     }
 }

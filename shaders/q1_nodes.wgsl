@@ -1,0 +1,85 @@
+// q1_nodes: y = A x at every active node of a Q1 operator, from the interior
+// stencil and the cell products of `q1_cells` (src/fem/fast_apply.rs, the
+// CPU's plan, is the same split). Workgroup g (2D: g = wid.x + wid.y stride):
+// - g < n_segments: segment g, up to SEG consecutive interior nodes of one
+//   run; its 9 neighbour rows (SEG + 2 nodes × 3 components each) are
+//   loaded once into workgroup memory, then node t of the segment sums the
+//   structurally nonzero stencil terms, unrolled (generated at the marker):
+//       y[3(start + t) + i] = Σ S[3(27 j + 3 r + shift) + i] x[3(bases[r] + t + shift) + j]
+// - else: boundary nodes (g − n_segments) SEG + t, each the sum of its 8
+//   cells' triples in z (a missing cell links to a zero triple).
+// Each invocation writes only its own node: no atomics.
+// CPU mirror: `cgfem_gpu::gpu::mirror::q1_nodes` (same name, same binding order).
+// Written for `real = f64`; the host swaps the alias line to build the f32 twin.
+alias real = f64;
+
+// Keep in sync with `Q1Params` in src/gpu/kernels.rs.
+struct Q1Params {
+    n_segments: u32, n_boundary: u32, n_cut: u32, n_cells: u32,
+    stride: u32, pad0: u32, pad1: u32, pad2: u32,
+}
+// Keep in sync with `SEG`, `SEGMENT_WORDS` in src/gpu/q1_terms.rs.
+const SEG: u32 = 64u;
+const TW: u32 = 66u;
+const SEGMENT_WORDS: u32 = 12u;
+
+@group(0) @binding(0) var<uniform> prm: Q1Params;
+@group(0) @binding(1) var<uniform> stencil: array<vec4<real>, 61>;
+@group(0) @binding(2) var<storage, read> segments: array<u32>;
+@group(0) @binding(3) var<storage, read> boundary: array<u32>;
+@group(0) @binding(4) var<storage, read> links: array<u32>;
+@group(0) @binding(5) var<storage, read> z: array<real>;
+@group(0) @binding(6) var<storage, read> x: array<real>;
+@group(0) @binding(7) var<storage, read_write> y: array<real>;
+
+// Slice 3 r + j: component j of neighbour row r, nodes bases[r] + q.
+var<workgroup> tile: array<real, 1782>;
+
+fn st(k: u32) -> real {
+    return stencil[k / 4u][k % 4u];
+}
+
+fn interior(g: u32, t: u32) {
+    let s = SEGMENT_WORDS * g;
+    let start = segments[s];
+    let len = segments[s + 1u];
+    for (var r = 0u; r < 9u; r++) {
+        let b = segments[s + 2u + r];
+        for (var q = t; q < len + 2u; q += SEG) {
+            for (var j = 0u; j < 3u; j++) {
+                tile[(3u * r + j) * TW + q] = x[3u * (b + q) + j];
+            }
+        }
+    }
+    workgroupBarrier();
+    if (t >= len) { return; }
+    var y0: real = 0.0;
+    var y1: real = 0.0;
+    var y2: real = 0.0;
+    // @stencil
+    let a = start + t;
+    y[3u * a] = y0;
+    y[3u * a + 1u] = y1;
+    y[3u * a + 2u] = y2;
+}
+
+fn boundary_node(b: u32) {
+    if (b >= prm.n_boundary) { return; }
+    var acc = array<real, 3>(0.0, 0.0, 0.0);
+    for (var cc = 0u; cc < 8u; cc++) {
+        let o = links[8u * b + cc];
+        for (var i = 0u; i < 3u; i++) { acc[i] += z[o + i]; }
+    }
+    let a = boundary[b];
+    for (var i = 0u; i < 3u; i++) { y[3u * a + i] = acc[i]; }
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) t: u32) {
+    let g = wid.x + wid.y * prm.stride;
+    if (g < prm.n_segments) {
+        interior(g, t);
+    } else {
+        boundary_node((g - prm.n_segments) * SEG + t);
+    }
+}

@@ -1,0 +1,230 @@
+//! [`Q1Device`]: a Q1 operator's plan on the device, the GPU twin of the
+//! CPU's fast apply ([`crate::fem::fast_apply`], whose plan it uploads):
+//! 1. `q1_cells`: `z_c = K_c x_c` for the cut cells (their matrices packed
+//!    symmetric, 300 entries, stored entry-major so a warp's reads are
+//!    contiguous; stabilisation and partial-mask penalties included) and the
+//!    rim cells (the packed inside matrix, shared);
+//! 2. `q1_nodes`: the interior nodes in segments of up to
+//!    [`SEG`] nodes of one run, the 27-point stencil from a uniform over a
+//!    workgroup tile of the 9 neighbour rows; the boundary nodes the sum of
+//!    their cells' triples of `z`.
+//!
+//! Two dispatches per apply, no atomics, no per-node index lookups in the
+//! interior. The plan needs every array in one storage binding and symmetric
+//! cut-cell matrices; otherwise [`Q1Device::new`] declines and the operator
+//! runs on the node-centred gather ([`super::operator`]).
+
+use rayon::prelude::*;
+use wgpu::util::DeviceExt;
+
+use crate::backend::LinearOperator;
+use crate::error::Result;
+use crate::fem::operator::ElasticOperator;
+use crate::fem::stencil::Run;
+
+use super::backend::GpuBackend;
+use super::kernels::{grid_2d, Kernel, Q1Params, APPLY_WG};
+use super::q1_terms::{asymmetry, pack, PACKED, SEG, SEGMENT_WORDS, STENCIL_LEN};
+use super::record::whole;
+
+/// Largest `|K − Kᵀ|` (relative to the largest entry) of a cut-cell matrix
+/// the packed form accepts: round-off of a symmetric matrix.
+const SYMMETRY_TOL: f64 = 1e-12;
+
+/// A Q1 operator's plan on the device.
+pub struct Q1Device {
+    stencil: wgpu::Buffer,
+    segments: wgpu::Buffer,
+    boundary: wgpu::Buffer,
+    links: wgpu::Buffer,
+    cell_nodes: wgpu::Buffer,
+    k_cut: wgpu::Buffer,
+    k_inside: wgpu::Buffer,
+    z: wgpu::Buffer,
+    params: Q1Params,
+    num_active: usize,
+}
+
+/// The runs cut into segments of at most [`SEG`] nodes, [`SEGMENT_WORDS`]
+/// words each: start, length, the 9 row bases of its first node, padding.
+pub fn segments(runs: &[Run]) -> Vec<u32> {
+    let mut out = Vec::new();
+    for run in runs {
+        let mut t0 = 0;
+        while t0 < run.len {
+            let len = (run.len - t0).min(SEG as u32);
+            out.extend([run.start + t0, len]);
+            out.extend(run.bases.map(|b| b + t0));
+            out.push(0);
+            t0 += len;
+        }
+    }
+    out
+}
+
+/// The cut cells' matrices packed ([`pack`]) and stored entry-major (entry
+/// `e` of slot `s` at `e · count + s`), or `None` when one is not symmetric.
+pub fn packed_cut_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
+    let cells = op.own_cells();
+    let packed: Option<Vec<[f64; PACKED]>> = cells
+        .par_iter()
+        .map(|&cell| {
+            let k = op.cell_matrix(cell)?;
+            (asymmetry(&k) <= SYMMETRY_TOL).then(|| pack(&k))
+        })
+        .collect();
+    let packed = packed?;
+    let count = packed.len();
+    let mut out = vec![0.0; PACKED * count];
+    out.par_chunks_mut(count.max(1))
+        .enumerate()
+        .for_each(|(e, row)| {
+            for (s, v) in row.iter_mut().enumerate() {
+                *v = packed[s][e];
+            }
+        });
+    Some(out)
+}
+
+/// The stencil values in the uniform's order (`81 · 3`, zero-padded to
+/// [`STENCIL_LEN`]).
+pub fn stencil_values(op: &ElasticOperator) -> Option<Vec<f64>> {
+    let plan = op.fast_apply()?;
+    let mut v: Vec<f64> = plan.stencil().values().iter().flatten().copied().collect();
+    v.resize(STENCIL_LEN, 0.0);
+    Some(v)
+}
+
+impl Q1Device {
+    /// The plan of `op` on the device of `be`, or `None` where it does not
+    /// apply: not Q1 (no fast plan), a cut-cell matrix not symmetric, or an
+    /// array (the vectors included) larger than one storage binding.
+    pub fn new(be: &GpuBackend, op: &ElasticOperator) -> Result<Option<Q1Device>> {
+        let (Some(plan), Some(stencil)) = (op.fast_apply(), stencil_values(op)) else {
+            return Ok(None);
+        };
+        let bytes = be.precision().bytes();
+        let max = be.bindings().max_bytes;
+        let n_cut = op.own_cells().len();
+        let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
+        let n_cells = cell_nodes.len() / 8;
+        let segments = segments(plan.runs());
+        let links: Vec<u32> = plan.links().iter().flatten().copied().collect();
+        let sizes = [
+            op.nrows() as u64 * bytes,
+            (24 * n_cells as u64 + 3) * bytes,
+            (PACKED * n_cut) as u64 * bytes,
+            4 * segments.len() as u64,
+            4 * links.len() as u64,
+            4 * cell_nodes.len() as u64,
+            4 * plan.boundary().len() as u64,
+        ];
+        if sizes.iter().any(|&s| s > max) {
+            return Ok(None);
+        }
+        let Some(k_cut) = packed_cut_matrices(op) else {
+            return Ok(None);
+        };
+        let ctx = be.context();
+        ctx.check_buffer(
+            "the packed cut-cell matrices",
+            (PACKED * n_cut) as u64 * bytes,
+        )?;
+        let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
+        let stencil = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("stencil"),
+                contents: &be.to_bytes(&stencil),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let z = be.buffer_init("z", &be.to_bytes(&vec![0.0; 24 * n_cells + 3]));
+        let params = Q1Params {
+            n_segments: (segments.len() / SEGMENT_WORDS) as u32,
+            n_boundary: plan.boundary().len() as u32,
+            n_cut: n_cut as u32,
+            n_cells: n_cells as u32,
+            ..Default::default()
+        };
+        Ok(Some(Q1Device {
+            stencil,
+            segments: u32s("segments", &segments),
+            boundary: u32s("boundary", plan.boundary()),
+            links: u32s("links", &links),
+            cell_nodes: u32s("cell nodes", &cell_nodes),
+            k_cut: be.buffer_init("k_cut", &be.to_bytes(&k_cut)),
+            k_inside: be.buffer_init("k_inside", &be.to_bytes(&pack(op.inside_matrix()))),
+            z,
+            params,
+            num_active: op.dofs.num_active(),
+        }))
+    }
+
+    /// The counts: segments, boundary nodes, cut cells, cut + rim cells.
+    pub fn params(&self) -> Q1Params {
+        self.params
+    }
+
+    /// Bytes one apply moves to and from device memory, modelled: `x` read
+    /// and `y` written once per active node (the neighbour rows of a
+    /// segment's tile and the cells' gathers of `x` hit the cache), the
+    /// segment table, the packed cut matrices, the cells' node indices,
+    /// gathers of `x` and products `z` (written, then read by the
+    /// boundary nodes), and the boundary nodes' indices and links.
+    pub fn modelled_traffic(&self, bytes: u64) -> u64 {
+        let p = &self.params;
+        let vectors = 2 * 3 * self.num_active as u64 * bytes;
+        let segments = 4 * SEGMENT_WORDS as u64 * p.n_segments as u64;
+        let cut = PACKED as u64 * bytes * p.n_cut as u64;
+        let cells = (32 + 2 * 24 * bytes) * p.n_cells as u64;
+        let boundary = (4 + 32) * p.n_boundary as u64;
+        vectors + segments + cut + cells + boundary
+    }
+
+    /// Records `y = A x`: `q1_cells`, then `q1_nodes`.
+    pub(super) fn record(
+        &self,
+        be: &GpuBackend,
+        enc: &mut wgpu::CommandEncoder,
+        x: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+    ) {
+        let max_dim = be.context().limits.max_compute_workgroups_per_dimension;
+        let p = self.params;
+        let (cx, cy, stride) = grid_2d(p.n_cells, APPLY_WG, max_dim);
+        let cells = Q1Params { stride, ..p };
+        let binds = [
+            whole(&self.cell_nodes),
+            whole(&self.k_cut),
+            whole(&self.k_inside),
+            whole(x),
+            whole(&self.z),
+        ];
+        be.record(
+            enc,
+            Kernel::Q1Cells,
+            bytemuck::bytes_of(&cells),
+            &binds,
+            (cx, cy),
+        );
+        let groups = p.n_segments + p.n_boundary.div_ceil(SEG as u32);
+        let (nx, ny, stride) = grid_2d(groups, 1, max_dim);
+        let nodes = Q1Params { stride, ..p };
+        let binds = [
+            whole(&self.stencil),
+            whole(&self.segments),
+            whole(&self.boundary),
+            whole(&self.links),
+            whole(&self.z),
+            whole(x),
+            whole(y),
+        ];
+        be.record(
+            enc,
+            Kernel::Q1Nodes,
+            bytemuck::bytes_of(&nodes),
+            &binds,
+            (nx, ny),
+        );
+    }
+}
