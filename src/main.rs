@@ -141,6 +141,10 @@ enum Command {
         /// Skip the end-to-end solves.
         #[arg(long)]
         no_solve: bool,
+        /// Skip the assembled-matrix rows (cpu-csr, cpu-csr-rayon): their
+        /// assembly needs about 10 GB at level 7 and 80 GB at level 8.
+        #[arg(long)]
+        no_csr: bool,
         /// Levels at which to cut a 131 072-facet STL sphere against the
         /// analytic one (load, classification and rules; none by default).
         #[arg(long = "stl-level")]
@@ -285,6 +289,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             threads,
             solve_levels,
             no_solve,
+            no_csr,
             stl_levels,
             budget,
             backend,
@@ -314,6 +319,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 },
                 solve_levels,
                 budget,
+                csr: !no_csr,
                 gpu: backend != BackendChoice::Cpu,
                 elements: if elements.is_empty() {
                     vec![ElementOrder::Q1]

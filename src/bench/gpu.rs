@@ -3,10 +3,16 @@
 //! it has `SHADER_F64`, and f32):
 //! - `bandwidth`: the device copy kernel over one storage binding's worth of
 //!   entries (at most 2^24), `bytes_per_dof` = bytes read + written per entry;
-//! - `apply`: the device-resident operator, `y = A x`, waited for;
+//! - `apply`: the device-resident operator as runs pick it (the Q1 plan,
+//!   [`crate::gpu::q1_operator`], where it applies), `y = A x`, waited for;
+//!   `bytes_per_dof` is the traffic model's bytes moved per dof
+//!   ([`crate::gpu::q1_operator::Q1Device::modelled_traffic`]);
+//! - `apply_gather`: the node-centred gather of `apply.wgsl` on the same
+//!   operator, `bytes_per_dof` its data plus `x` and `y` (what it would move
+//!   if every cached re-read were free);
 //! - `cg_iter`, `cgs_iter`: `(t(K+2) − t(2)) / K` of device-scalar iterations
 //!   ([`crate::gpu::device_krylov::run_iterations`]), residual read back at the
-//!   end of each run.
+//!   end of each run; the dispatches per iteration go to stderr.
 //!
 //! No adapter is not an error here: the bench says so and has no GPU rows.
 
@@ -102,7 +108,12 @@ pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result
         .collect();
     let x = be.upload(&host);
     let mut y = be.zeros(n);
-    let bytes_per_dof = device_operator_bytes(be, &setup.op) as f64 / n as f64;
+    let vb = be.precision().bytes();
+    let gather_bytes = (device_operator_bytes(be, &setup.op) + 2 * vb as usize * n) as f64;
+    let bytes_per_dof = match op.q1() {
+        Some(q1) => q1.modelled_traffic(vb) as f64 / n as f64,
+        None => gather_bytes / n as f64,
+    };
     let apply = seconds_per_call(opts.budget, || {
         be.apply(&op, &x, &mut y);
         be.finish();
@@ -111,6 +122,17 @@ pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result
         bytes_per_dof,
         ..row(be, "apply", level, n, apply)
     }];
+    if op.q1().is_some() {
+        let gather = GpuOperator::new_gather(be, &setup.op)?;
+        let seconds = seconds_per_call(opts.budget, || {
+            be.apply(&gather, &x, &mut y);
+            be.finish();
+        });
+        rows.push(Row {
+            bytes_per_dof: gather_bytes / n as f64,
+            ..row(be, "apply_gather", level, n, seconds)
+        });
+    }
     let mut b = be.zeros(n);
     be.apply(&op, &x, &mut b);
     for (what, method) in [
@@ -127,6 +149,18 @@ pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result
         let short = timed(2);
         let long = timed(2 + ITERATIONS);
         let seconds = ((long - short) / ITERATIONS as f64).max(f64::MIN_POSITIVE);
+        let counted = |iterations: usize| {
+            let mut u = be.zeros(n);
+            let before = be.dispatches();
+            run_iterations(be, &op, method, &b, &mut u, iterations);
+            be.dispatches() - before
+        };
+        let per_iteration = (counted(2 + ITERATIONS) - counted(2)) as f64 / ITERATIONS as f64;
+        eprintln!(
+            "bench: {} {} level {level}: {per_iteration} dispatches per {what}",
+            name(be),
+            precision(be),
+        );
         rows.push(Row {
             bytes_per_dof,
             ..row(be, what, level, n, seconds)

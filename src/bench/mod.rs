@@ -93,6 +93,8 @@ pub struct BenchOptions {
     pub solve_levels: Vec<u32>,
     /// Seconds spent on each timed measurement.
     pub budget: f64,
+    /// Also bench the assembled matrix (`cpu-csr`, `cpu-csr-rayon`).
+    pub csr: bool,
     /// Also bench the preferred GPU adapter (f64 where it can, and f32).
     pub gpu: bool,
     /// Element orders, each run at every level.
@@ -228,15 +230,16 @@ fn row(what: &str, backend: &str, level: u32, dofs: usize, threads: usize, secon
 /// Apply and Krylov-iteration rows of every backend and thread count.
 fn throughput(setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
     let level = setup.grid.level;
-    let csc = AssembledOperator(setup.op.assemble());
-    let rayon_csr = RayonCsr(&csc);
     let n = setup.op.nrows();
     let per_dof = |bytes: usize| bytes as f64 / n as f64;
-    let backends: [(&str, &(dyn LinearOperator + Sync), f64); 3] = [
-        ("cpu-mf", &setup.op, per_dof(setup.op.bytes())),
-        ("cpu-csr", &csc, per_dof(csr_bytes(&csc))),
-        ("cpu-csr-rayon", &rayon_csr, per_dof(csr_bytes(&csc))),
-    ];
+    let csc = opts.csr.then(|| AssembledOperator(setup.op.assemble()));
+    let rayon_csr = csc.as_ref().map(RayonCsr);
+    let mut backends: Vec<(&str, &(dyn LinearOperator + Sync), f64)> =
+        vec![("cpu-mf", &setup.op, per_dof(setup.op.bytes()))];
+    if let (Some(csc), Some(rayon_csr)) = (&csc, &rayon_csr) {
+        backends.push(("cpu-csr", csc, per_dof(csr_bytes(csc))));
+        backends.push(("cpu-csr-rayon", rayon_csr, per_dof(csr_bytes(csc))));
+    }
     let x: Vec<f64> = (0..n)
         .map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0)
         .collect();

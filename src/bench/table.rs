@@ -6,8 +6,10 @@
 //!   threads) for `solve`;
 //! - `×1t`: the rate over the same row at one thread;
 //! - `its` (`solve` rows of the Krylov methods): iterations to the tolerance;
-//! - `%bw` (applies): `(bytes_per_dof + 16) · dofs_per_s` over the triad's
-//!   bytes per second at the same thread count.
+//! - `%bw` (applies): bytes moved per second over the triad's at the same
+//!   thread count (CPU) or the copy kernel's (GPU, same precision): on the
+//!   CPU `(bytes_per_dof + 16) · dofs_per_s`, operator data plus `x` and
+//!   `y`; a GPU row's `bytes_per_dof` already counts `x` and `y`.
 
 use std::fmt::Write;
 use std::path::Path;
@@ -53,9 +55,13 @@ fn bandwidth(rows: &[Row], r: &Row) -> String {
             .find(|q| q.what == "bandwidth" && q.backend == "cpu" && q.threads == r.threads)
     };
     match (r.what.as_str(), reference) {
-        ("apply", Some(q)) => {
+        ("apply" | "apply_gather", Some(q)) => {
             let value_bytes = if r.precision == "f32" { 4.0 } else { 8.0 };
-            let moved = (r.bytes_per_dof + 2.0 * value_bytes) * r.dofs_per_s;
+            let vectors = match r.backend.starts_with("gpu:") {
+                true => 0.0,
+                false => 2.0 * value_bytes,
+            };
+            let moved = (r.bytes_per_dof + vectors) * r.dofs_per_s;
             format!("{:.0}%", 100.0 * moved / (q.dofs_per_s * q.bytes_per_dof))
         }
         _ => "-".into(),
@@ -67,7 +73,7 @@ pub fn format_table(rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8} {:>5}",
+        "{:<12} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9} {:>7} {:>6} {:>5} {:>8} {:>10} {:>8} {:>5}",
         "what",
         "backend",
         "el",
@@ -94,7 +100,7 @@ pub fn format_table(rows: &[Row]) -> String {
         });
         let _ = writeln!(
             s,
-            "{:<9} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0} {:>5}",
+            "{:<12} {:<14} {:<3} {:>3} {:>9} {:>3} {:>9.2} {:>7} {:>6} {:>5} {:>8.1} {:>10.3e} {:>8.0} {:>5}",
             r.what,
             r.backend,
             r.element,

@@ -12,7 +12,7 @@
 //! are read back. The device-scalar solvers ([`super::device_krylov`]) use the
 //! same kernels with slots that other kernels wrote.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::sync::Arc;
 
 use wgpu::util::DeviceExt;
@@ -45,6 +45,8 @@ pub struct GpuBackend {
     pub(super) partials: RefCell<Option<wgpu::Buffer>>,
     /// The windows' binding size ([`super::windows`]).
     pub(super) bindings: BindingLimits,
+    /// Kernels recorded so far ([`GpuBackend::dispatches`]).
+    pub(super) dispatches: Cell<u64>,
 }
 
 fn check_len(kernel: &str, n: usize, others: &[usize]) {
@@ -79,6 +81,7 @@ impl GpuBackend {
             scal,
             partials: RefCell::new(None),
             bindings,
+            dispatches: Cell::new(0),
         }
     }
 
@@ -95,6 +98,12 @@ impl GpuBackend {
     /// The device precision.
     pub fn precision(&self) -> Precision {
         self.ctx.precision
+    }
+
+    /// Kernel dispatches recorded since the backend was made (the bench
+    /// counts them per Krylov iteration).
+    pub fn dispatches(&self) -> u64 {
+        self.dispatches.get()
     }
 
     /// Blocks until every submitted command has run (for timing).

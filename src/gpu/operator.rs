@@ -108,6 +108,12 @@ impl<'o> GpuOperator<'o> {
                 path: Path::Q1(q1),
             });
         }
+        Self::new_gather(be, op)
+    }
+
+    /// The node-centred gather, whatever the order (the bench compares it
+    /// with the Q1 plan).
+    pub fn new_gather(be: &GpuBackend, op: &'o ElasticOperator) -> Result<Self> {
         let entries = be.bindings().max_bytes / be.precision().bytes();
         Self::with_chunk_entries(be, op, entries)
     }

@@ -37,6 +37,7 @@ impl GpuBackend {
         binds: &[wgpu::BindingResource<'_>],
         groups: (u32, u32),
     ) {
+        self.dispatches.set(self.dispatches.get() + 1);
         let dev = &self.ctx.device;
         let uniform = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
