@@ -43,14 +43,9 @@ fn interior(g: u32, t: u32) {
     let s = SEGMENT_WORDS * g;
     let start = segments[s];
     let len = segments[s + 1u];
-    for (var r = 0u; r < 9u; r++) {
-        let b = segments[s + 2u + r];
-        for (var q = t; q < len + 2u; q += SEG) {
-            for (var j = 0u; j < 3u; j++) {
-                tile[(3u * r + j) * TW + q] = x[3u * (b + q) + j];
-            }
-        }
-    }
+    // The tile, q = t and q = t + SEG < len + 2: all 27 loads of a q are
+    // issued before their stores (generated).
+    // @tile
     workgroupBarrier();
     if (t >= len) { return; }
     var y0: real = 0.0;

@@ -165,7 +165,19 @@ enum Command {
     },
 }
 
+/// Turns off Mesa's Vulkan device-select layer, which only orders adapters
+/// for a desktop compositor (we pick the adapter ourselves) and, on a machine
+/// with no desktop session, prints `error: XDG_RUNTIME_DIR is invalid or not
+/// set` once per instance before a run that succeeds. Set before any thread
+/// starts; a value the user set is kept.
+fn quiet_vulkan_layers() {
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_vulkan_layers();
     let cli = Cli::parse();
     let terminal = Terminal::new(cli.quiet);
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()

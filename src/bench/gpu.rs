@@ -7,6 +7,7 @@
 //!   [`crate::gpu::q1_operator`], where it applies), `y = A x`, waited for;
 //!   `bytes_per_dof` is the traffic model's bytes moved per dof
 //!   ([`crate::gpu::q1_operator::Q1Device::modelled_traffic`]);
+//! - `q1_cells`, `q1_nodes`: the Q1 plan's two kernels timed apart;
 //! - `apply_gather`: the node-centred gather of `apply.wgsl` on the same
 //!   operator, `bytes_per_dof` its data plus `x` and `y` (what it would move
 //!   if every cached re-read were free);
@@ -24,6 +25,7 @@ use crate::error::{Error, Result};
 use crate::fem::operator::ElasticOperator;
 use crate::fem::setup::Setup;
 use crate::gpu::device_krylov::run_iterations;
+use crate::gpu::q1_operator::Q1Kernel;
 use crate::gpu::{GpuBackend, GpuContext, GpuOperator, Precision, PrecisionChoice};
 use crate::solver::KrylovMethod;
 
@@ -122,7 +124,22 @@ pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result
         bytes_per_dof,
         ..row(be, "apply", level, n, apply)
     }];
-    if op.q1().is_some() {
+    if let Some(q1) = op.q1() {
+        for (what, kernel) in [("q1_cells", Q1Kernel::Cells), ("q1_nodes", Q1Kernel::Nodes)] {
+            let seconds = seconds_per_call(opts.budget / 2.0, || {
+                be.apply_q1_kernel(q1, kernel, &x, &y);
+                be.finish();
+            });
+            rows.push(row(be, what, level, n, seconds));
+        }
+        let p = q1.params();
+        eprintln!(
+            "bench: level {level}: {} interior segments, {} boundary nodes, {} cut and {} rim cells",
+            p.n_segments,
+            p.n_boundary,
+            p.n_cut,
+            p.n_cells - p.n_cut
+        );
         let gather = GpuOperator::new_gather(be, &setup.op)?;
         let seconds = seconds_per_call(opts.budget, || {
             be.apply(&gather, &x, &mut y);

@@ -256,25 +256,17 @@ pub fn apply(
 }
 
 /// `z[24 c ..][.. 24] = K_c x_c` for cells `c < n_cells`: packed matrix
-/// entry `e` of a cut cell at `k_cut[e n_cut + c]`, of a rim cell at
-/// `k_inside[e]`; row `r` summed over columns in order.
-pub fn q1_cells(
-    prm: &Q1Params,
-    cell_nodes: &[u32],
-    k_cut: &[f64],
-    k_inside: &[f64],
-    x: &[f64],
-    z: &mut [f64],
-) {
+/// entry `e` of a cut cell at `k_cells[e n_cut + c]`, of a rim cell at
+/// `k_cells[300 n_cut + e]`; row `r` summed over columns in order.
+pub fn q1_cells(prm: &Q1Params, cell_nodes: &[u32], k_cells: &[f64], x: &[f64], z: &mut [f64]) {
     let n_cut = prm.n_cut as usize;
     for c in 0..prm.n_cells as usize {
-        let kk = |e: usize| {
-            if c < n_cut {
-                k_cut[e * n_cut + c]
-            } else {
-                k_inside[e]
-            }
+        let (base, step) = if c < n_cut {
+            (c, n_cut)
+        } else {
+            (300 * n_cut, 1)
         };
+        let kk = |e: usize| k_cells[base + e * step];
         let mut u = [0.0; 24];
         for m in 0..8 {
             let n = 3 * cell_nodes[8 * c + m] as usize;

@@ -3,7 +3,7 @@
 //! 1. `q1_cells`: `z_c = K_c x_c` for the cut cells (their matrices packed
 //!    symmetric, 300 entries, stored entry-major so a warp's reads are
 //!    contiguous; stabilisation and partial-mask penalties included) and the
-//!    rim cells (the packed inside matrix, shared);
+//!    rim cells (the packed inside matrix, shared, stored after them);
 //! 2. `q1_nodes`: the interior nodes in segments of up to
 //!    [`SEG`] nodes of one run, the 27-point stencil from a uniform over a
 //!    workgroup tile of the 9 neighbour rows; the boundary nodes the sum of
@@ -22,7 +22,7 @@ use crate::error::Result;
 use crate::fem::operator::ElasticOperator;
 use crate::fem::stencil::Run;
 
-use super::backend::GpuBackend;
+use super::backend::{GpuBackend, GpuVector};
 use super::kernels::{grid_2d, Kernel, Q1Params, APPLY_WG};
 use super::q1_terms::{asymmetry, pack, PACKED, SEG, SEGMENT_WORDS, STENCIL_LEN};
 use super::record::whole;
@@ -31,6 +31,25 @@ use super::record::whole;
 /// the packed form accepts: round-off of a symmetric matrix.
 const SYMMETRY_TOL: f64 = 1e-12;
 
+/// One of the plan's two kernels (the bench times them apart).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Q1Kernel {
+    /// `q1_cells`: the cut and rim cells' products into `z`.
+    Cells,
+    /// `q1_nodes`: the interior stencil and the boundary gather into `y`.
+    Nodes,
+}
+
+impl GpuBackend {
+    /// Runs one kernel of `q1`'s apply, submitted (`Nodes` reads the `z`
+    /// that the last `Cells` left).
+    pub fn apply_q1_kernel(&self, q1: &Q1Device, kernel: Q1Kernel, x: &GpuVector, y: &GpuVector) {
+        let mut enc = self.encoder();
+        q1.record_kernel(self, &mut enc, kernel, &x.buf, &y.buf);
+        self.submit(enc);
+    }
+}
+
 /// A Q1 operator's plan on the device.
 pub struct Q1Device {
     stencil: wgpu::Buffer,
@@ -38,8 +57,7 @@ pub struct Q1Device {
     boundary: wgpu::Buffer,
     links: wgpu::Buffer,
     cell_nodes: wgpu::Buffer,
-    k_cut: wgpu::Buffer,
-    k_inside: wgpu::Buffer,
+    k_cells: wgpu::Buffer,
     z: wgpu::Buffer,
     params: Q1Params,
     num_active: usize,
@@ -63,8 +81,9 @@ pub fn segments(runs: &[Run]) -> Vec<u32> {
 }
 
 /// The cut cells' matrices packed ([`pack`]) and stored entry-major (entry
-/// `e` of slot `s` at `e · count + s`), or `None` when one is not symmetric.
-pub fn packed_cut_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
+/// `e` of slot `s` at `e · count + s`), then the packed inside matrix; or
+/// `None` when a cut cell's matrix is not symmetric.
+pub fn packed_cell_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
     let cells = op.own_cells();
     let packed: Option<Vec<[f64; PACKED]>> = cells
         .par_iter()
@@ -75,14 +94,16 @@ pub fn packed_cut_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
         .collect();
     let packed = packed?;
     let count = packed.len();
-    let mut out = vec![0.0; PACKED * count];
-    out.par_chunks_mut(count.max(1))
+    let mut out = vec![0.0; PACKED * (count + 1)];
+    let (cut, inside) = out.split_at_mut(PACKED * count);
+    cut.par_chunks_mut(count.max(1))
         .enumerate()
         .for_each(|(e, row)| {
             for (s, v) in row.iter_mut().enumerate() {
                 *v = packed[s][e];
             }
         });
+    inside.copy_from_slice(&pack(op.inside_matrix()));
     Some(out)
 }
 
@@ -113,7 +134,7 @@ impl Q1Device {
         let sizes = [
             op.nrows() as u64 * bytes,
             (24 * n_cells as u64 + 3) * bytes,
-            (PACKED * n_cut) as u64 * bytes,
+            (PACKED * (n_cut + 1)) as u64 * bytes,
             4 * segments.len() as u64,
             4 * links.len() as u64,
             4 * cell_nodes.len() as u64,
@@ -122,13 +143,13 @@ impl Q1Device {
         if sizes.iter().any(|&s| s > max) {
             return Ok(None);
         }
-        let Some(k_cut) = packed_cut_matrices(op) else {
+        let Some(k_cells) = packed_cell_matrices(op) else {
             return Ok(None);
         };
         let ctx = be.context();
         ctx.check_buffer(
             "the packed cut-cell matrices",
-            (PACKED * n_cut) as u64 * bytes,
+            (PACKED * (n_cut + 1)) as u64 * bytes,
         )?;
         let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
         let stencil = ctx
@@ -152,8 +173,7 @@ impl Q1Device {
             boundary: u32s("boundary", plan.boundary()),
             links: u32s("links", &links),
             cell_nodes: u32s("cell nodes", &cell_nodes),
-            k_cut: be.buffer_init("k_cut", &be.to_bytes(&k_cut)),
-            k_inside: be.buffer_init("k_inside", &be.to_bytes(&pack(op.inside_matrix()))),
+            k_cells: be.buffer_init("cell matrices", &be.to_bytes(&k_cells)),
             z,
             params,
             num_active: op.dofs.num_active(),
@@ -189,24 +209,39 @@ impl Q1Device {
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
     ) {
+        self.record_kernel(be, enc, Q1Kernel::Cells, x, y);
+        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y);
+    }
+
+    /// Records one of the plan's kernels.
+    fn record_kernel(
+        &self,
+        be: &GpuBackend,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: Q1Kernel,
+        x: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+    ) {
         let max_dim = be.context().limits.max_compute_workgroups_per_dimension;
         let p = self.params;
-        let (cx, cy, stride) = grid_2d(p.n_cells, APPLY_WG, max_dim);
-        let cells = Q1Params { stride, ..p };
-        let binds = [
-            whole(&self.cell_nodes),
-            whole(&self.k_cut),
-            whole(&self.k_inside),
-            whole(x),
-            whole(&self.z),
-        ];
-        be.record(
-            enc,
-            Kernel::Q1Cells,
-            bytemuck::bytes_of(&cells),
-            &binds,
-            (cx, cy),
-        );
+        if kernel == Q1Kernel::Cells {
+            let (cx, cy, stride) = grid_2d(p.n_cells, APPLY_WG, max_dim);
+            let cells = Q1Params { stride, ..p };
+            let binds = [
+                whole(&self.cell_nodes),
+                whole(&self.k_cells),
+                whole(x),
+                whole(&self.z),
+            ];
+            be.record(
+                enc,
+                Kernel::Q1Cells,
+                bytemuck::bytes_of(&cells),
+                &binds,
+                (cx, cy),
+            );
+            return;
+        }
         let groups = p.n_segments + p.n_boundary.div_ceil(SEG as u32);
         let (nx, ny, stride) = grid_2d(groups, 1, max_dim);
         let nodes = Q1Params { stride, ..p };

@@ -93,6 +93,7 @@ pub fn expand(src: &str) -> String {
     for line in src.lines() {
         match line.trim() {
             "// @stencil" => out.push_str(&interior_terms()),
+            "// @tile" => out.push_str(&tile_loads()),
             "// @product" => out.push_str(&cell_terms()),
             "// @gather" => out.push_str(&cell_gather()),
             "// @store" => out.push_str(&cell_store()),
@@ -119,6 +120,29 @@ fn interior_terms() -> String {
         .collect()
 }
 
+fn tile_loads() -> String {
+    let mut s = String::new();
+    for r in 0..9 {
+        s += &format!("    let b{r} = segments[s + {}u];\n", 2 + r);
+    }
+    for (q, guard) in [("t", "t < len + 2u"), ("t + SEG", "t + SEG < len + 2u")] {
+        s += &format!("    if ({guard}) {{\n");
+        for r in 0..9 {
+            for j in 0..3 {
+                s += &format!("        let v{r}_{j} = x[3u * (b{r} + {q}) + {j}u];\n");
+            }
+        }
+        for r in 0..9 {
+            for j in 0..3 {
+                let slice = 3 * r + j;
+                s += &format!("        tile[{slice}u * TW + {q}] = v{r}_{j};\n");
+            }
+        }
+        s += "    }\n";
+    }
+    s
+}
+
 fn cell_gather() -> String {
     let mut s = String::new();
     for m in 0..8 {
@@ -138,7 +162,7 @@ fn cell_terms() -> String {
     for r in 0..24 {
         for c in r..24 {
             let e = packed_index(r, c);
-            s += &format!("    {{ let k = kk({e}u, c); z{r} += k * u{c};");
+            s += &format!("    {{ let k = k_cells[base + {e}u * step]; z{r} += k * u{c};");
             if r != c {
                 s += &format!(" z{c} += k * u{r};");
             }

@@ -223,8 +223,8 @@ fn apply_mirror_equals_the_host_operator_in_one_or_several_chunks() {
 /// penalties to its cut cells.
 #[test]
 fn q1_mirrors_equal_the_host_operator() {
-    use super::q1_operator::{packed_cut_matrices, segments, stencil_values};
-    use super::q1_terms::{pack, SEGMENT_WORDS};
+    use super::q1_operator::{packed_cell_matrices, segments, stencil_values};
+    use super::q1_terms::SEGMENT_WORDS;
     use crate::backend::LinearOperator;
     for name in ["sphere", "shell_pressure"] {
         let path = format!("{}/cases/{name}.toml", env!("CARGO_MANIFEST_DIR"));
@@ -248,10 +248,9 @@ fn q1_mirrors_equal_the_host_operator() {
             ..Default::default()
         };
         assert!(prm.n_segments > 10 && prm.n_boundary > 10 && prm.n_cut > 10);
-        let k_cut = packed_cut_matrices(op).expect("symmetric cut-cell matrices");
-        let k_in = pack(op.inside_matrix());
+        let k_cells = packed_cell_matrices(op).expect("symmetric cut-cell matrices");
         let mut z = vec![0.0; 24 * prm.n_cells as usize + 3];
-        mirror::q1_cells(&prm, &cell_nodes, &k_cut, &k_in, &x, &mut z);
+        mirror::q1_cells(&prm, &cell_nodes, &k_cells, &x, &mut z);
         let mut y = vec![f64::NAN; n];
         let stencil = stencil_values(op).unwrap();
         let bnd = plan.boundary();
