@@ -2,9 +2,10 @@
 // stencil and the cell products of `q1_cells` (src/fem/fast_apply.rs, the
 // CPU's plan, is the same split). Workgroup g (2D: g = wid.x + wid.y stride):
 // - g < n_segments: segment g, up to SEG consecutive interior nodes of one
-//   run; its 9 neighbour rows (SEG + 2 nodes × 3 components each) are
-//   loaded once into workgroup memory, then node t of the segment sums the
-//   structurally nonzero stencil terms, unrolled (generated at the marker):
+//   run; node t of the segment sums the structurally nonzero stencil terms,
+//   unrolled (generated at the marker), reading its 27 neighbours from the
+//   segment's 9 neighbour rows (contiguous runs of x, so a warp's reads
+//   coalesce and the rows' re-reads by neighbouring segments hit the caches):
 //       y[3(start + t) + i] = Σ S[3(27 j + 3 r + shift) + i] x[3(bases[r] + t + shift) + j]
 // - else: boundary nodes (g − n_segments) SEG + t, each the sum of its 8
 //   cells' triples in z (a missing cell links to a zero triple).
@@ -20,7 +21,6 @@ struct Q1Params {
 }
 // Keep in sync with `SEG`, `SEGMENT_WORDS` in src/gpu/q1_terms.rs.
 const SEG: u32 = 64u;
-const TW: u32 = 66u;
 const SEGMENT_WORDS: u32 = 12u;
 
 @group(0) @binding(0) var<uniform> prm: Q1Params;
@@ -32,9 +32,6 @@ const SEGMENT_WORDS: u32 = 12u;
 @group(0) @binding(6) var<storage, read> x: array<real>;
 @group(0) @binding(7) var<storage, read_write> y: array<real>;
 
-// Slice 3 r + j: component j of neighbour row r, nodes bases[r] + q.
-var<workgroup> tile: array<real, 1782>;
-
 fn st(k: u32) -> real {
     return stencil[k / 4u][k % 4u];
 }
@@ -43,11 +40,8 @@ fn interior(g: u32, t: u32) {
     let s = SEGMENT_WORDS * g;
     let start = segments[s];
     let len = segments[s + 1u];
-    // The tile, q = t and q = t + SEG < len + 2: all 27 loads of a q are
-    // issued before their stores (generated).
-    // @tile
-    workgroupBarrier();
     if (t >= len) { return; }
+    // @bases
     var y0: real = 0.0;
     var y1: real = 0.0;
     var y2: real = 0.0;

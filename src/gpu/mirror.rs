@@ -7,7 +7,7 @@
 #![allow(clippy::manual_memcpy)]
 
 use super::kernels::{ApplyParams, Q1Params, RedParams, ScalParams, VecParams, PER, WG};
-use super::q1_terms::{packed_index, stencil_terms, SEG, SEGMENT_WORDS, TILE_WIDTH};
+use super::q1_terms::{packed_index, stencil_terms, SEGMENT_WORDS};
 use crate::fem::operator::{INSIDE, OUTSIDE};
 
 /// `dst = src`.
@@ -291,8 +291,8 @@ pub fn q1_cells(prm: &Q1Params, cell_nodes: &[u32], k_cells: &[f64], x: &[f64], 
 }
 
 /// `y = A x` at every active node from the interior stencil (`stencil`, the
-/// uniform's values) over each segment's tile, and for the boundary nodes
-/// the sum of their 8 linked triples of `z`.
+/// uniform's values) over each segment's neighbour rows, and for the
+/// boundary nodes the sum of their 8 linked triples of `z`.
 #[allow(clippy::too_many_arguments)]
 pub fn q1_nodes(
     prm: &Q1Params,
@@ -305,22 +305,14 @@ pub fn q1_nodes(
     y: &mut [f64],
 ) {
     let terms = stencil_terms();
-    let mut tile = vec![0.0; 27 * TILE_WIDTH];
     for g in 0..prm.n_segments as usize {
         let s = &segments[SEGMENT_WORDS * g..SEGMENT_WORDS * (g + 1)];
         let (start, len) = (s[0] as usize, s[1] as usize);
-        for r in 0..9 {
-            let b = s[2 + r] as usize;
-            for q in 0..len + 2 {
-                for j in 0..3 {
-                    tile[(3 * r + j) * TILE_WIDTH + q] = x[3 * (b + q) + j];
-                }
-            }
-        }
-        for t in 0..len.min(SEG) {
+        for t in 0..len {
             let mut acc = [0.0; 3];
             for term in &terms {
-                acc[term.i] += stencil[term.k] * tile[term.slice * TILE_WIDTH + term.shift + t];
+                let b = s[2 + term.r] as usize + t;
+                acc[term.i] += stencil[term.k] * x[3 * (b + term.shift) + term.j];
             }
             for i in 0..3 {
                 y[3 * (start + t) + i] = acc[i];

@@ -4,10 +4,10 @@
 //!    symmetric, 300 entries, stored entry-major so a warp's reads are
 //!    contiguous; stabilisation and partial-mask penalties included) and the
 //!    rim cells (the packed inside matrix, shared, stored after them);
-//! 2. `q1_nodes`: the interior nodes in segments of up to
-//!    [`SEG`] nodes of one run, the 27-point stencil from a uniform over a
-//!    workgroup tile of the 9 neighbour rows; the boundary nodes the sum of
-//!    their cells' triples of `z`.
+//! 2. `q1_nodes`: the interior nodes in segments of up to [`SEG`] nodes of
+//!    one run, the 27-point stencil (coefficients in a uniform, terms
+//!    unrolled) over the segment's 9 neighbour rows of `x`; the boundary
+//!    nodes the sum of their cells' triples of `z`.
 //!
 //! Two dispatches per apply, no atomics, no per-node index lookups in the
 //! interior. The plan needs every array in one storage binding and symmetric
@@ -186,11 +186,11 @@ impl Q1Device {
     }
 
     /// Bytes one apply moves to and from device memory, modelled: `x` read
-    /// and `y` written once per active node (the neighbour rows of a
-    /// segment's tile and the cells' gathers of `x` hit the cache), the
-    /// segment table, the packed cut matrices, the cells' node indices,
-    /// gathers of `x` and products `z` (written, then read by the
-    /// boundary nodes), and the boundary nodes' indices and links.
+    /// and `y` written once per active node (the re-reads of a neighbour
+    /// row by nearby segments and the cells' gathers of `x` hit the
+    /// caches), the segment table, the packed cut matrices, each cell's
+    /// node indices and product `z` (written, then read by the boundary
+    /// nodes), and the boundary nodes' indices and links.
     pub fn modelled_traffic(&self, bytes: u64) -> u64 {
         let p = &self.params;
         let vectors = 2 * 3 * self.num_active as u64 * bytes;

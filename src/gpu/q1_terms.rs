@@ -12,21 +12,19 @@ pub const SEG: usize = 64;
 /// Words per segment: start, length, the 9 row bases, padding.
 /// Keep in sync with `SEGMENT_WORDS` in q1_nodes.wgsl.
 pub const SEGMENT_WORDS: usize = 12;
-/// Width of a slice of the workgroup tile: a segment and its two neighbours.
-pub const TILE_WIDTH: usize = SEG + 2;
 /// Entries of a packed symmetric 24 × 24 matrix.
 pub const PACKED: usize = 300;
 /// Stencil values in the uniform (`81 · 3`, padded to whole `vec4`s).
 pub const STENCIL_LEN: usize = 244;
 
-/// One stencil term: `y_i += S[k] · tile[slice][t + shift]`.
+/// One stencil term: `y_i += S[k] · x[3 (bases[r] + t + shift) + j]`.
 #[derive(Clone, Copy, Debug)]
 pub struct StencilTerm {
     pub i: usize,
     /// `k = 3 (27 j + 3 r + shift) + i`.
     pub k: usize,
-    /// `3 r + j`.
-    pub slice: usize,
+    pub j: usize,
+    pub r: usize,
     pub shift: usize,
 }
 
@@ -39,12 +37,7 @@ pub fn stencil_terms() -> Vec<StencilTerm> {
                 for i in 0..3 {
                     if coupled(i, j, r, shift) {
                         let k = 3 * (27 * j + 3 * r + shift) + i;
-                        out.push(StencilTerm {
-                            i,
-                            k,
-                            slice: 3 * r + j,
-                            shift,
-                        });
+                        out.push(StencilTerm { i, k, j, r, shift });
                     }
                 }
             }
@@ -93,7 +86,7 @@ pub fn expand(src: &str) -> String {
     for line in src.lines() {
         match line.trim() {
             "// @stencil" => out.push_str(&interior_terms()),
-            "// @tile" => out.push_str(&tile_loads()),
+            "// @bases" => out.push_str(&row_bases()),
             "// @product" => out.push_str(&cell_terms()),
             "// @gather" => out.push_str(&cell_gather()),
             "// @store" => out.push_str(&cell_store()),
@@ -111,36 +104,17 @@ fn interior_terms() -> String {
         .iter()
         .map(|t| {
             format!(
-                "    y{} += st({}u) * tile[{}u + t];\n",
-                t.i,
-                t.k,
-                t.slice * TILE_WIDTH + t.shift
+                "    y{} += st({}u) * x[3u * (b{} + {}u) + {}u];\n",
+                t.i, t.k, t.r, t.shift, t.j
             )
         })
         .collect()
 }
 
-fn tile_loads() -> String {
-    let mut s = String::new();
-    for r in 0..9 {
-        s += &format!("    let b{r} = segments[s + {}u];\n", 2 + r);
-    }
-    for (q, guard) in [("t", "t < len + 2u"), ("t + SEG", "t + SEG < len + 2u")] {
-        s += &format!("    if ({guard}) {{\n");
-        for r in 0..9 {
-            for j in 0..3 {
-                s += &format!("        let v{r}_{j} = x[3u * (b{r} + {q}) + {j}u];\n");
-            }
-        }
-        for r in 0..9 {
-            for j in 0..3 {
-                let slice = 3 * r + j;
-                s += &format!("        tile[{slice}u * TW + {q}] = v{r}_{j};\n");
-            }
-        }
-        s += "    }\n";
-    }
-    s
+fn row_bases() -> String {
+    (0..9)
+        .map(|r| format!("    let b{r} = segments[s + {}u] + t;\n", 2 + r))
+        .collect()
 }
 
 fn cell_gather() -> String {
