@@ -3,7 +3,8 @@
 # and 8, GPU in f64 and f32 beside the CPU's matrix-free apply) and an
 # end-to-end table for --backend gpu and --backend cpu (sphere Q1 L7, Q2 L5,
 # Hertz L4, sphere Q1 L8). Items run in that order; one that would start
-# past DEADLINE seconds (default 450) is listed as skipped.
+# past DEADLINE seconds (default 450) is listed as skipped, as is a run
+# named in SKIP (e.g. SKIP="hertz-L4 sphere-L8").
 #
 #   scripts/device-check.sh [BIN] [OUT_DIR]
 #
@@ -19,7 +20,8 @@ START=$(date +%s)
 mkdir -p "$OUT_DIR"
 left() { echo $((DEADLINE - ($(date +%s) - START))); }
 
-echo "== device check $(date -u +%FT%TZ), commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'), $THREADS threads"
+COMMIT=${COMMIT:-$(git rev-parse --short HEAD 2>/dev/null || echo '?')}
+echo "== device check $(date -u +%FT%TZ), commit $COMMIT, $THREADS threads"
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>/dev/null
 "$BIN" info 2>&1 | grep -v XDG_RUNTIME_DIR
 
@@ -38,6 +40,10 @@ RUNS=(
 for spec in "${RUNS[@]}"; do
   read -r name case level sets <<<"$spec"
   for backend in gpu cpu; do
+    if [[ " ${SKIP:-} " == *" $name "* ]]; then
+      echo "skipped: $name $backend (SKIP)"
+      continue
+    fi
     if [ "$(left)" -lt 20 ]; then
       echo "skipped: $name $backend (deadline)"
       continue
