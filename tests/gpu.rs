@@ -169,6 +169,86 @@ fn vector_kernels_match_their_mirrors(ctx: Arc<GpuContext>) {
     }
 }
 
+/// `cg_update` against its mirror (with and without a diagonal), and the
+/// dots it reduces against `reduce` of the mirror's partials.
+fn cg_update_matches_its_mirror(ctx: Arc<GpuContext>) {
+    use cgfem_gpu::gpu::kernels::UpdateParams;
+    let tol = tolerance(&ctx);
+    let be = GpuBackend::new(ctx.clone());
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    for n in SIZES.into_iter().filter(|&n| n > 0) {
+        let mut v = || as_device(&ctx, random(&mut rng, n));
+        let (p, q, d, x, r) = (v(), v(), v(), v(), v());
+        let alpha = as_device(&ctx, vec![0.625])[0];
+        for precond in [false, true] {
+            let (mut gx, mut gr, mut gz) = (be.upload(&x), be.upload(&r), be.zeros(n));
+            let gd = be.upload(&d);
+            let (gp, gq) = (be.upload(&p), be.upload(&q));
+            let got = be.cg_update(
+                alpha,
+                &gp,
+                &gq,
+                precond.then_some(&gd),
+                &mut gx,
+                &mut gr,
+                &mut gz,
+            );
+            let (g1, g2) = got.expect("one window");
+            let groups = reduction_groups(n as u32);
+            let prm = UpdateParams {
+                n: n as u32,
+                groups,
+                ia: 0,
+                ib: 1,
+                precond: u32::from(precond),
+                ..Default::default()
+            };
+            let (mut ex, mut er, mut ez) = (x.clone(), r.clone(), vec![0.0; n]);
+            let mut partials = vec![0.0; 2 * groups as usize];
+            let scal = [alpha, -alpha];
+            mirror::cg_update(
+                &prm,
+                &scal,
+                &p,
+                &q,
+                &d,
+                &mut ex,
+                &mut er,
+                &mut ez,
+                &mut partials,
+            );
+            let what = format!("cg_update n={n} precond={precond}");
+            assert_close(&format!("{what}: x"), &be.download(&gx), &ex, tol);
+            assert_close(&format!("{what}: r"), &be.download(&gr), &er, tol);
+            if precond {
+                assert_close(&format!("{what}: z"), &be.download(&gz), &ez, tol);
+            }
+            let second = RedParams {
+                n: groups,
+                groups: 1,
+                comps: 2,
+                ..Default::default()
+            };
+            let mut s = vec![0.0; 2];
+            mirror::reduce(&second, &partials, &mut s);
+            let zr = if precond { &ez } else { &er };
+            let mag: f64 = er.iter().map(|a| a * a).sum::<f64>() + 1e-300;
+            let mag2: f64 = er.iter().zip(zr).map(|(a, b)| (a * b).abs()).sum::<f64>() + 1e-300;
+            assert!((g1 - s[0]).abs() <= tol * mag, "{what}: {g1} vs {}", s[0]);
+            assert!((g2 - s[1]).abs() <= tol * mag2, "{what}: {g2} vs {}", s[1]);
+        }
+    }
+}
+
+#[test]
+fn cg_update_matches_its_mirror_f64_and_f32() {
+    for precision in [PrecisionChoice::F64, PrecisionChoice::F32] {
+        if let Some(ctx) = context_or_skip(precision) {
+            cg_update_matches_its_mirror(ctx);
+        }
+    }
+}
+
 #[test]
 fn vector_kernels_match_their_mirrors_f64() {
     if let Some(ctx) = context_or_skip(PrecisionChoice::F64) {
@@ -342,39 +422,27 @@ fn apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, tol: f64) {
 /// The Q1 plan (`q1_cells` then `q1_nodes`, which `GpuOperator::new` picks
 /// for Q1) against its mirrors on the same data, and the host operator.
 fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64], tol: f64) {
-    use cgfem_gpu::gpu::kernels::Q1Params;
-    use cgfem_gpu::gpu::q1_operator::{packed_cell_matrices, segments, stencil_values};
-    use cgfem_gpu::gpu::q1_terms::SEGMENT_WORDS;
+    use cgfem_gpu::gpu::q1_operator::Q1Arrays;
     let op = &setup.op;
     let n = op.nrows();
     let gop = GpuOperator::new(be, op).unwrap();
-    let Some(plan) = op.fast_apply() else {
+    let Some(a) = Q1Arrays::new(op) else {
+        assert!(op.fast_apply().is_none(), "Q1 with symmetric cut cells");
         assert!(gop.q1().is_none(), "Q2 runs on the gather");
         return;
     };
-    assert!(gop.q1().is_some(), "a Q1 operator runs on its plan");
+    assert_eq!(gop.q1().expect("Q1 runs on its plan").params(), a.params);
     let mut y = be.zeros(n);
     be.apply(&gop, &be.upload(x), &mut y);
     let y = be.download(&y);
-    let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
-    let links: Vec<u32> = plan.links().iter().flatten().copied().collect();
-    let segs = segments(plan.runs());
-    let prm = Q1Params {
-        n_segments: (segs.len() / SEGMENT_WORDS) as u32,
-        n_boundary: plan.boundary().len() as u32,
-        n_cut: op.own_cells().len() as u32,
-        n_cells: (cell_nodes.len() / 8) as u32,
-        ..Default::default()
-    };
-    assert_eq!(gop.q1().unwrap().params(), prm);
-    let k_cells = as_device(ctx, packed_cell_matrices(op).unwrap());
-    let stencil = as_device(ctx, stencil_values(op).unwrap());
-    let mut z = vec![0.0; 24 * prm.n_cells as usize + 3];
-    mirror::q1_cells(&prm, &cell_nodes, &k_cells, x, &mut z);
+    let k_cells = as_device(ctx, a.k_cells.clone());
+    let stencil = as_device(ctx, a.stencil.clone());
+    let mut z = vec![0.0; a.z_len()];
+    mirror::q1_cells(&a.params, &a.cell_nodes, &k_cells, x, &mut z);
     let z = as_device(ctx, z);
     let mut want = vec![0.0; n];
-    let bnd = plan.boundary();
-    mirror::q1_nodes(&prm, &stencil, &segs, bnd, &links, &z, x, &mut want);
+    let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
+    mirror::q1_nodes(&a.params, &stencil, segs, bnd, links, &z, x, &mut want);
     assert_close("q1 apply", &y, &want, tol);
     let mut host = vec![0.0; n];
     op.apply(x, &mut host);

@@ -106,6 +106,34 @@ impl GpuBackend {
         self.dispatches.get()
     }
 
+    /// CG's step in one sweep (`cg_update`): `x += α p`, `r −= α q`, `z = d ∘ r`
+    /// (with `d`; else `z` is `r` and untouched), and `(r · r, r · z)`, read
+    /// back; `None`, doing nothing, where the vectors span several windows.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cg_update(
+        &self,
+        alpha: f64,
+        p: &GpuVector,
+        q: &GpuVector,
+        d: Option<&GpuVector>,
+        x: &mut GpuVector,
+        r: &mut GpuVector,
+        z: &mut GpuVector,
+    ) -> Option<(f64, f64)> {
+        check_len("cg_update", x.len, &[p.len, q.len, r.len]);
+        self.write_slots(SLOT_A, &[alpha, -alpha]);
+        let mut enc = self.encoder();
+        let bufs = [&p.buf, &q.buf, &x.buf, &r.buf, &z.buf];
+        let d = d.map(|d| &d.buf);
+        let slots = (SLOT_A, SLOT_B);
+        if !self.record_cg_update(&mut enc, x.len, bufs, d, slots, SLOT_DOT) {
+            return None;
+        }
+        self.submit(enc);
+        let s = self.read_slots(SLOT_DOT, 2);
+        Some((s[0], s[1]))
+    }
+
     /// Blocks until every submitted command has run (for timing).
     pub fn finish(&self) {
         // A lost device shows in the next read-back, which reports it.

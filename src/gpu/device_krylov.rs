@@ -3,9 +3,9 @@
 //! `scalar_ratio` from the reductions of the same iteration; `krylov_check`
 //! counts iterations and marks the solve done when `‖r‖² ≤ (τ ‖b‖)²`. The
 //! host submits [`DeviceOptions::check_every`] iterations at a time and reads
-//! back only a few slots between batches. Once done, α = 0, so the iterations
-//! left in a batch leave `x` and `r` unchanged and the iteration count is
-//! exactly the host-scalar path's.
+//! back the slots from `done` to `‖r‖²` in one read between batches. Once
+//! done, α = 0, so the iterations left in a batch leave `x` and `r` unchanged
+//! and the iteration count is exactly the host-scalar path's.
 //!
 //! The algorithms are those of `crate::solver` (same formulas, same order of
 //! operations, Jacobi right preconditioning for CGS, the `r`/`z` split for CG),
@@ -248,8 +248,9 @@ impl Cycle<'_, '_> {
                 }
             }
             be.submit(enc);
-            let s = be.read_slots(DONE, 2);
-            let rr = be.read_slots(RR, 1)[0];
+            // One read-back per batch: DONE, ITERS … RR.
+            let s = be.read_slots(DONE, RR - DONE + 1);
+            let rr = s[(RR - DONE) as usize];
             stats.iterations = start + s[1] as usize;
             stats.relative_residual = rr.sqrt() / self.b_norm;
             stats.residual_history.push(stats.relative_residual);
@@ -266,7 +267,9 @@ impl Cycle<'_, '_> {
         }
     }
 
-    /// One CG iteration (see `crate::solver` for the formulas).
+    /// One CG iteration (see `crate::solver` for the formulas); the step
+    /// `x += α p`, `r −= α q`, `z = M⁻¹ r` and its dots in one `cg_update`
+    /// where the vectors fit one window.
     fn cg_iteration(
         &self,
         enc: &mut wgpu::CommandEncoder,
@@ -282,22 +285,16 @@ impl Cycle<'_, '_> {
             Kernel::ScalarRatio,
             scal_params(RHO, SIGMA, ALPHA, false, true),
         );
-        be.record_vec(
-            enc,
-            Kernel::Axpy,
-            n,
-            (ALPHA, 0),
-            &[&be.scal, &p.buf, &x.buf],
-        );
-        be.record_vec(
-            enc,
-            Kernel::Axpy,
-            n,
-            (NALPHA, 0),
-            &[&be.scal, &q.buf, &r.buf],
-        );
-        let zr = self.precond(enc, &r.buf, &z.buf);
-        be.record_dot(enc, n, &[&r.buf, &r.buf, zr], RR);
+        let d = self.pre.inverse_diagonal().map(|inv| &inv.buf);
+        let zr = if d.is_some() { &z.buf } else { &r.buf };
+        let bufs = [&p.buf, &q.buf, &x.buf, &r.buf, &z.buf];
+        if !be.record_cg_update(enc, n, bufs, d, (ALPHA, NALPHA), RR) {
+            let s = &be.scal;
+            be.record_vec(enc, Kernel::Axpy, n, (ALPHA, 0), &[s, &p.buf, &x.buf]);
+            be.record_vec(enc, Kernel::Axpy, n, (NALPHA, 0), &[s, &q.buf, &r.buf]);
+            self.precond(enc, &r.buf, &z.buf);
+            be.record_dot(enc, n, &[&r.buf, &r.buf, zr], RR);
+        }
         self.scalar(
             enc,
             Kernel::KrylovCheck,

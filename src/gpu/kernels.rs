@@ -77,6 +77,22 @@ pub struct ApplyParams {
     pub pad2: u32,
 }
 
+/// Params of `cg_update`: `n` entries in `groups` workgroups, the slots of
+/// α and −α, and `precond` (1: `z = d ∘ r`; 0: no preconditioner).
+/// Keep in sync with `UpdateParams` in cg_update.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct UpdateParams {
+    pub n: u32,
+    pub groups: u32,
+    pub ia: u32,
+    pub ib: u32,
+    pub precond: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
 /// Params of `q1_cells` and `q1_nodes`: interior segments, boundary nodes,
 /// cut cells, cut + rim cells, and the 2D row stride (in workgroups for
 /// `q1_nodes`, invocations for `q1_cells`).
@@ -126,6 +142,7 @@ pub enum Kernel {
     CgsUpdateUp,
     CgsUpdateQu,
     BicgstabUpdateP,
+    CgUpdate,
     Dot,
     Dot2,
     Reduce,
@@ -138,7 +155,7 @@ pub enum Kernel {
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 17] = [
+    pub const ALL: [Kernel; 18] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -148,6 +165,7 @@ impl Kernel {
         Kernel::CgsUpdateUp,
         Kernel::CgsUpdateQu,
         Kernel::BicgstabUpdateP,
+        Kernel::CgUpdate,
         Kernel::Dot,
         Kernel::Dot2,
         Kernel::Reduce,
@@ -170,6 +188,7 @@ impl Kernel {
             Kernel::CgsUpdateUp => "cgs_update_up",
             Kernel::CgsUpdateQu => "cgs_update_qu",
             Kernel::BicgstabUpdateP => "bicgstab_update_p",
+            Kernel::CgUpdate => "cg_update",
             Kernel::Dot => "dot",
             Kernel::Dot2 => "dot2",
             Kernel::Reduce => "reduce",
@@ -208,6 +227,7 @@ impl Kernel {
             Kernel::CgsUpdateUp => include_str!("../../shaders/cgs_update_up.wgsl"),
             Kernel::CgsUpdateQu => include_str!("../../shaders/cgs_update_qu.wgsl"),
             Kernel::BicgstabUpdateP => include_str!("../../shaders/bicgstab_update_p.wgsl"),
+            Kernel::CgUpdate => include_str!("../../shaders/cg_update.wgsl"),
             Kernel::Dot => include_str!("../../shaders/dot.wgsl"),
             Kernel::Dot2 => include_str!("../../shaders/dot2.wgsl"),
             Kernel::Reduce => include_str!("../../shaders/reduce.wgsl"),

@@ -6,7 +6,8 @@
 // Index loops, not slice methods, to read like the shaders.
 #![allow(clippy::manual_memcpy)]
 
-use super::kernels::{ApplyParams, Q1Params, RedParams, ScalParams, VecParams, PER, WG};
+use super::kernels::{ApplyParams, Q1Params, RedParams, ScalParams, UpdateParams, VecParams};
+use super::kernels::{PER, WG};
 use super::q1_terms::{packed_index, stencil_terms, SEGMENT_WORDS};
 use crate::fem::operator::{INSIDE, OUTSIDE};
 
@@ -138,6 +139,49 @@ pub fn dot2(prm: &RedParams, x: &[f64], y: &[f64], z: &[f64], partials: &mut [f6
         }
         partials[base + g] = tree(&mut sy);
         partials[prm.total as usize + base + g] = tree(&mut sz);
+    }
+}
+
+/// CG's step and the first pass of its dots: `x += α p`, `r += (−α) q`,
+/// `z = d ∘ r` (when `precond`; else `z` is `r`), then `(r · r, r · z)`
+/// per workgroup like [`dot2`]: `partials[g]`, `partials[groups + g]`.
+#[allow(clippy::too_many_arguments)]
+pub fn cg_update(
+    prm: &UpdateParams,
+    scal: &[f64],
+    p: &[f64],
+    q: &[f64],
+    d: &[f64],
+    x: &mut [f64],
+    r: &mut [f64],
+    z: &mut [f64],
+    partials: &mut [f64],
+) {
+    let (wg, per, groups) = (WG as usize, PER as usize, prm.groups as usize);
+    let (alpha, nalpha) = (scal[prm.ia as usize], scal[prm.ib as usize]);
+    let (mut sy, mut sz) = (vec![0.0; wg], vec![0.0; wg]);
+    for g in 0..groups {
+        for t in 0..wg {
+            let (mut a, mut b) = (0.0, 0.0);
+            for j in 0..per {
+                let i = g * wg * per + j * wg + t;
+                if i < prm.n as usize {
+                    x[i] += alpha * p[i];
+                    let ri = r[i] + nalpha * q[i];
+                    r[i] = ri;
+                    let mut zi = ri;
+                    if prm.precond == 1 {
+                        zi = d[i] * ri;
+                        z[i] = zi;
+                    }
+                    a += ri * ri;
+                    b += ri * zi;
+                }
+            }
+            (sy[t], sz[t]) = (a, b);
+        }
+        partials[g] = tree(&mut sy);
+        partials[groups + g] = tree(&mut sz);
     }
 }
 

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
 use crate::backend::LinearOperator;
-use crate::error::Result;
+use crate::fem::fast_apply::FastApply;
 use crate::fem::operator::ElasticOperator;
 use crate::fem::stencil::Run;
 
@@ -109,75 +109,95 @@ pub fn packed_cell_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
 
 /// The stencil values in the uniform's order (`81 · 3`, zero-padded to
 /// [`STENCIL_LEN`]).
-pub fn stencil_values(op: &ElasticOperator) -> Option<Vec<f64>> {
-    let plan = op.fast_apply()?;
+fn stencil_values(plan: &FastApply) -> Vec<f64> {
     let mut v: Vec<f64> = plan.stencil().values().iter().flatten().copied().collect();
     v.resize(STENCIL_LEN, 0.0);
-    Some(v)
+    v
+}
+
+/// What the plan uploads, on the host, in binding order (the tests hand it
+/// to the mirrors).
+pub struct Q1Arrays {
+    pub params: Q1Params,
+    pub stencil: Vec<f64>,
+    pub segments: Vec<u32>,
+    pub boundary: Vec<u32>,
+    pub links: Vec<u32>,
+    pub cell_nodes: Vec<u32>,
+    /// [`packed_cell_matrices`].
+    pub k_cells: Vec<f64>,
+}
+
+impl Q1Arrays {
+    /// The arrays of `op`'s plan, or `None` where it has none (not Q1) or
+    /// a cut-cell matrix is not symmetric.
+    pub fn new(op: &ElasticOperator) -> Option<Q1Arrays> {
+        let plan = op.fast_apply()?;
+        let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
+        let segments = segments(plan.runs());
+        let params = Q1Params {
+            n_segments: (segments.len() / SEGMENT_WORDS) as u32,
+            n_boundary: plan.boundary().len() as u32,
+            n_cut: op.own_cells().len() as u32,
+            n_cells: (cell_nodes.len() / 8) as u32,
+            ..Default::default()
+        };
+        Some(Q1Arrays {
+            params,
+            stencil: stencil_values(plan),
+            segments,
+            boundary: plan.boundary().to_vec(),
+            links: plan.links().iter().flatten().copied().collect(),
+            cell_nodes,
+            k_cells: packed_cell_matrices(op)?,
+        })
+    }
+
+    /// Entries of `z`: 24 per cell and the zero triple.
+    pub fn z_len(&self) -> usize {
+        24 * self.params.n_cells as usize + 3
+    }
 }
 
 impl Q1Device {
     /// The plan of `op` on the device of `be`, or `None` where it does not
     /// apply: not Q1 (no fast plan), a cut-cell matrix not symmetric, or an
     /// array (the vectors included) larger than one storage binding.
-    pub fn new(be: &GpuBackend, op: &ElasticOperator) -> Result<Option<Q1Device>> {
-        let (Some(plan), Some(stencil)) = (op.fast_apply(), stencil_values(op)) else {
-            return Ok(None);
-        };
+    pub fn new(be: &GpuBackend, op: &ElasticOperator) -> Option<Q1Device> {
+        let a = Q1Arrays::new(op)?;
         let bytes = be.precision().bytes();
-        let max = be.bindings().max_bytes;
-        let n_cut = op.own_cells().len();
-        let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
-        let n_cells = cell_nodes.len() / 8;
-        let segments = segments(plan.runs());
-        let links: Vec<u32> = plan.links().iter().flatten().copied().collect();
         let sizes = [
             op.nrows() as u64 * bytes,
-            (24 * n_cells as u64 + 3) * bytes,
-            (PACKED * (n_cut + 1)) as u64 * bytes,
-            4 * segments.len() as u64,
-            4 * links.len() as u64,
-            4 * cell_nodes.len() as u64,
-            4 * plan.boundary().len() as u64,
+            a.z_len() as u64 * bytes,
+            a.k_cells.len() as u64 * bytes,
+            4 * a.segments.len() as u64,
+            4 * a.links.len() as u64,
+            4 * a.cell_nodes.len() as u64,
+            4 * a.boundary.len() as u64,
         ];
-        if sizes.iter().any(|&s| s > max) {
-            return Ok(None);
+        if sizes.iter().any(|&s| s > be.bindings().max_bytes) {
+            return None;
         }
-        let Some(k_cells) = packed_cell_matrices(op) else {
-            return Ok(None);
-        };
-        let ctx = be.context();
-        ctx.check_buffer(
-            "the packed cut-cell matrices",
-            (PACKED * (n_cut + 1)) as u64 * bytes,
-        )?;
         let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
-        let stencil = ctx
+        let stencil = be
+            .context()
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("stencil"),
-                contents: &be.to_bytes(&stencil),
+                contents: &be.to_bytes(&a.stencil),
                 usage: wgpu::BufferUsages::UNIFORM,
             });
-        let z = be.buffer_init("z", &be.to_bytes(&vec![0.0; 24 * n_cells + 3]));
-        let params = Q1Params {
-            n_segments: (segments.len() / SEGMENT_WORDS) as u32,
-            n_boundary: plan.boundary().len() as u32,
-            n_cut: n_cut as u32,
-            n_cells: n_cells as u32,
-            ..Default::default()
-        };
-        Ok(Some(Q1Device {
+        Some(Q1Device {
             stencil,
-            segments: u32s("segments", &segments),
-            boundary: u32s("boundary", plan.boundary()),
-            links: u32s("links", &links),
-            cell_nodes: u32s("cell nodes", &cell_nodes),
-            k_cells: be.buffer_init("cell matrices", &be.to_bytes(&k_cells)),
-            z,
-            params,
+            segments: u32s("segments", &a.segments),
+            boundary: u32s("boundary", &a.boundary),
+            links: u32s("links", &a.links),
+            cell_nodes: u32s("cell nodes", &a.cell_nodes),
+            k_cells: be.buffer_init("cell matrices", &be.to_bytes(&a.k_cells)),
+            z: be.buffer_init("z", &be.to_bytes(&vec![0.0; a.z_len()])),
+            params: a.params,
             num_active: op.dofs.num_active(),
-        }))
+        })
     }
 
     /// The counts: segments, boundary nodes, cut cells, cut + rim cells.

@@ -9,7 +9,8 @@ use std::ops::Range;
 use wgpu::util::DeviceExt;
 
 use super::backend::{storage_usage, GpuBackend};
-use super::kernels::{grid_2d, reduction_groups, Kernel, RedParams, ScalParams, VecParams, WG};
+use super::kernels::{grid_2d, reduction_groups, Kernel, RedParams, ScalParams, UpdateParams};
+use super::kernels::{VecParams, WG};
 use super::windows::{vector_windows, REDUCTION_CHUNK};
 
 /// A whole buffer as a binding.
@@ -178,6 +179,19 @@ impl GpuBackend {
             binds.push(whole(&partials));
             self.record(enc, kernel, bytemuck::bytes_of(&first), &binds, (x, y));
         }
+        self.record_reduce(enc, &partials, total, comps, out);
+    }
+
+    /// Records the second pass of a reduction: `comps` components of `total`
+    /// partials each into slots `out..`.
+    fn record_reduce(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        partials: &wgpu::Buffer,
+        total: u32,
+        comps: u32,
+        out: u32,
+    ) {
         let second = RedParams {
             n: total,
             out,
@@ -185,7 +199,7 @@ impl GpuBackend {
             comps,
             ..Default::default()
         };
-        let binds = [whole(&partials), whole(&self.scal)];
+        let binds = [whole(partials), whole(&self.scal)];
         self.record(
             enc,
             Kernel::Reduce,
@@ -193,6 +207,58 @@ impl GpuBackend {
             &binds,
             (1, 1),
         );
+    }
+
+    /// Records `cg_update` over `n` entries (`x += α p`, `r += (−α) q`,
+    /// `z = d ∘ r` where `d` is given; α, −α in slots `ia`, `ib`)
+    /// and the reduction of `(r · r, r · z)` into slots `out`, `out + 1`:
+    /// two dispatches for the four of the step taken apart. Returns `false`,
+    /// recording nothing, when the vectors span several windows (the caller
+    /// then records the steps apart).
+    pub(super) fn record_cg_update(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        n: usize,
+        [p, q, x, r, z]: [&wgpu::Buffer; 5],
+        d: Option<&wgpu::Buffer>,
+        (ia, ib): (u32, u32),
+        out: u32,
+    ) -> bool {
+        if n == 0 || n > self.vector_window() {
+            return false;
+        }
+        let groups = reduction_groups(n as u32);
+        let partials = self.partials(2 * groups);
+        let prm = UpdateParams {
+            n: n as u32,
+            groups,
+            ia,
+            ib,
+            precond: u32::from(d.is_some()),
+            ..Default::default()
+        };
+        // Without a preconditioner `d` is not read (the scalars stand in).
+        let d = d.unwrap_or(&self.scal);
+        let (gx, gy, _) = grid_2d(groups, 1, self.max_dim());
+        let binds = [
+            whole(&self.scal),
+            whole(p),
+            whole(q),
+            whole(d),
+            whole(x),
+            whole(r),
+            whole(z),
+            whole(&partials),
+        ];
+        self.record(
+            enc,
+            Kernel::CgUpdate,
+            bytemuck::bytes_of(&prm),
+            &binds,
+            (gx, gy),
+        );
+        self.record_reduce(enc, &partials, groups, 2, out);
+        true
     }
 
     /// The partial-sums buffer, grown to at least `entries`.

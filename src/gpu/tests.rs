@@ -9,8 +9,8 @@ use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 use super::context::Precision;
 use super::kernels::{
-    grid_2d, reduction_groups, ApplyParams, Kernel, Q1Params, RedParams, ScalParams, VecParams,
-    ALIAS_F64,
+    grid_2d, reduction_groups, ApplyParams, Kernel, Q1Params, RedParams, ScalParams, UpdateParams,
+    VecParams, ALIAS_F64,
 };
 use super::mirror;
 
@@ -104,12 +104,14 @@ fn params_structs_match_their_wgsl_twins() {
     );
     let q1 =
         rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, pad0, pad1, pad2);
+    let update = rust_layout!(UpdateParams, n, groups, ia, ib, precond, pad0, pad1, pad2);
     for k in Kernel::ALL {
         let m = validate(k, Precision::F64);
         let (name, rust) = match k {
             Kernel::Dot | Kernel::Dot2 | Kernel::Reduce => ("RedParams", &red),
             Kernel::Apply => ("ApplyParams", &apply),
             Kernel::Q1Cells | Kernel::Q1Nodes => ("Q1Params", &q1),
+            Kernel::CgUpdate => ("UpdateParams", &update),
             Kernel::ScalarRatio | Kernel::KrylovCheck => ("ScalParams", &scal),
             _ => ("VecParams", &vec),
         };
@@ -217,14 +219,68 @@ fn apply_mirror_equals_the_host_operator_in_one_or_several_chunks() {
     }
 }
 
+/// `cg_update`'s mirror is the four mirrors it replaces (axpy, axpy,
+/// pointwise_mul, dot2), bitwise, with and without a diagonal.
+#[test]
+fn cg_update_mirror_is_the_steps_it_fuses() {
+    for n in [1usize, 255, 2049, 4097] {
+        let v =
+            |k: usize| -> Vec<f64> { (0..n).map(|i| ((i * k) % 13) as f64 / 7.0 - 0.9).collect() };
+        let (p, q, d, x, r) = (v(3), v(5), v(7), v(11), v(2));
+        let scal = [0.375, -0.375];
+        let groups = reduction_groups(n as u32);
+        for precond in [false, true] {
+            let prm = UpdateParams {
+                n: n as u32,
+                groups,
+                ia: 0,
+                ib: 1,
+                precond: u32::from(precond),
+                ..Default::default()
+            };
+            let (mut fx, mut fr, mut fz) = (x.clone(), r.clone(), vec![0.0; n]);
+            let mut fused = vec![0.0; 2 * groups as usize];
+            mirror::cg_update(
+                &prm, &scal, &p, &q, &d, &mut fx, &mut fr, &mut fz, &mut fused,
+            );
+            let vp = VecParams {
+                n: n as u32,
+                ia: 0,
+                ib: 0,
+                stride: 0,
+            };
+            let (mut sx, mut sr, mut sz) = (x.clone(), r.clone(), vec![0.0; n]);
+            mirror::axpy(&vp, &scal, &p, &mut sx);
+            mirror::axpy(&VecParams { ia: 1, ..vp }, &scal, &q, &mut sr);
+            if precond {
+                mirror::pointwise_mul(&vp, &d, &sr, &mut sz);
+            }
+            let zr = if precond { &sz } else { &sr };
+            let rp = RedParams {
+                n: n as u32,
+                groups,
+                comps: 2,
+                total: groups,
+                ..Default::default()
+            };
+            let mut steps = vec![0.0; 2 * groups as usize];
+            mirror::dot2(&rp, &sr, &sr, zr, &mut steps);
+            assert_eq!((fx, fr), (sx, sr), "n={n}");
+            if precond {
+                assert_eq!(fz, sz, "n={n}");
+            }
+            assert_eq!(fused, steps, "n={n} precond={precond}");
+        }
+    }
+}
+
 /// The Q1 plan's two mirrors (`q1_cells`, then `q1_nodes`) on the data
 /// the device would get equal the host operator's fast apply: the sphere
 /// (S-term on) and the shell octant, whose rollers add partial-mask
 /// penalties to its cut cells.
 #[test]
 fn q1_mirrors_equal_the_host_operator() {
-    use super::q1_operator::{packed_cell_matrices, segments, stencil_values};
-    use super::q1_terms::SEGMENT_WORDS;
+    use super::q1_operator::Q1Arrays;
     use crate::backend::LinearOperator;
     for name in ["sphere", "shell_pressure"] {
         let path = format!("{}/cases/{name}.toml", env!("CARGO_MANIFEST_DIR"));
@@ -232,29 +288,18 @@ fn q1_mirrors_equal_the_host_operator() {
         let case = crate::case::Case::from_file_with(std::path::Path::new(&path), &set).unwrap();
         let setup = crate::fem::setup::Setup::new(&case, Some(4)).unwrap();
         let op = &setup.op;
-        let plan = op.fast_apply().unwrap();
         let n = op.nrows();
         let x: Vec<f64> = (0..n).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
         let mut expected = vec![0.0; n];
         op.apply(&x, &mut expected);
-        let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
-        let links: Vec<u32> = plan.links().iter().flatten().copied().collect();
-        let segs = segments(plan.runs());
-        let prm = Q1Params {
-            n_segments: (segs.len() / SEGMENT_WORDS) as u32,
-            n_boundary: plan.boundary().len() as u32,
-            n_cut: op.own_cells().len() as u32,
-            n_cells: (cell_nodes.len() / 8) as u32,
-            ..Default::default()
-        };
-        assert!(prm.n_segments > 10 && prm.n_boundary > 10 && prm.n_cut > 10);
-        let k_cells = packed_cell_matrices(op).expect("symmetric cut-cell matrices");
-        let mut z = vec![0.0; 24 * prm.n_cells as usize + 3];
-        mirror::q1_cells(&prm, &cell_nodes, &k_cells, &x, &mut z);
+        let a = Q1Arrays::new(op).expect("a Q1 plan with symmetric cut-cell matrices");
+        let p = &a.params;
+        assert!(p.n_segments > 10 && p.n_boundary > 10 && p.n_cut > 10);
+        let mut z = vec![0.0; a.z_len()];
+        mirror::q1_cells(p, &a.cell_nodes, &a.k_cells, &x, &mut z);
         let mut y = vec![f64::NAN; n];
-        let stencil = stencil_values(op).unwrap();
-        let bnd = plan.boundary();
-        mirror::q1_nodes(&prm, &stencil, &segs, bnd, &links, &z, &x, &mut y);
+        let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
+        mirror::q1_nodes(p, &a.stencil, segs, bnd, links, &z, &x, &mut y);
         let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, b) in y.iter().zip(&expected) {
             assert!((a - b).abs() <= 1e-12 * scale, "{name}: {a} vs {b}");
