@@ -184,7 +184,7 @@ impl GpuBackend {
 
     /// Records the second pass of a reduction: `comps` components of `total`
     /// partials each into slots `out..`.
-    fn record_reduce(
+    pub(super) fn record_reduce(
         &self,
         enc: &mut wgpu::CommandEncoder,
         partials: &wgpu::Buffer,
