@@ -15,7 +15,7 @@ alias real = f64;
 // Keep in sync with `Q1Params` in src/gpu/kernels.rs.
 struct Q1Params {
     n_segments: u32, n_boundary: u32, n_cut: u32, n_cells: u32,
-    stride: u32, dot: u32, pad1: u32, pad2: u32,
+    stride: u32, pad0: u32, pad1: u32, pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> prm: Q1Params;

@@ -267,10 +267,9 @@ impl Cycle<'_, '_> {
         }
     }
 
-    /// One CG iteration (see `crate::solver` for the formulas); on the Q1
-    /// plan `p·Ap` comes from the apply's epilogue, and the step `x += α p`,
-    /// `r −= α q`, `z = M⁻¹ r` and its dots take one `cg_update` where the
-    /// vectors fit one window.
+    /// One CG iteration (see `crate::solver` for the formulas); the step
+    /// `x += α p`, `r −= α q`, `z = M⁻¹ r` and its dots in one `cg_update`
+    /// where the vectors fit one window.
     fn cg_iteration(
         &self,
         enc: &mut wgpu::CommandEncoder,
@@ -279,10 +278,8 @@ impl Cycle<'_, '_> {
         [p, q, z]: [&GpuVector; 3],
     ) {
         let (be, n) = (self.be, self.n);
-        if !self.op.record_apply_dot(be, enc, &p.buf, &q.buf, SIGMA) {
-            self.op.record_apply(be, enc, &p.buf, &q.buf);
-            be.record_dot(enc, n, &[&p.buf, &q.buf], SIGMA);
-        }
+        self.op.record_apply(be, enc, &p.buf, &q.buf);
+        be.record_dot(enc, n, &[&p.buf, &q.buf], SIGMA);
         self.scalar(
             enc,
             Kernel::ScalarRatio,

@@ -94,9 +94,8 @@ pub struct UpdateParams {
 }
 
 /// Params of `q1_cells` and `q1_nodes`: interior segments, boundary nodes,
-/// cut cells, cut + rim cells, the 2D row stride (in workgroups for
-/// `q1_nodes`, invocations for `q1_cells`) and `dot` (1: `q1_nodes` also
-/// writes each workgroup's `x · y`).
+/// cut cells, cut + rim cells, and the 2D row stride (in workgroups for
+/// `q1_nodes`, invocations for `q1_cells`).
 /// Keep in sync with `Q1Params` in q1_cells.wgsl, q1_nodes.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -106,7 +105,7 @@ pub struct Q1Params {
     pub n_cut: u32,
     pub n_cells: u32,
     pub stride: u32,
-    pub dot: u32,
+    pub pad0: u32,
     pub pad1: u32,
     pub pad2: u32,
 }

@@ -8,7 +8,7 @@
 
 use super::kernels::{ApplyParams, Q1Params, RedParams, ScalParams, UpdateParams, VecParams};
 use super::kernels::{PER, WG};
-use super::q1_terms::{packed_index, stencil_terms, SEG, SEGMENT_WORDS};
+use super::q1_terms::{packed_index, stencil_terms, SEGMENT_WORDS};
 use crate::fem::operator::{INSIDE, OUTSIDE};
 
 /// `dst = src`.
@@ -86,11 +86,10 @@ pub fn bicgstab_update_p(prm: &VecParams, scal: &[f64], r: &[f64], v: &[f64], p:
     }
 }
 
-/// The workgroup's fixed binary tree over its `sh.len()` invocations (`WG`,
-/// or `SEG` for `q1_nodes`): `sh[t] += sh[t + k]` for `k = len/2, len/4,
-/// …, 1`; the sum lands in `sh[0]`.
+/// The workgroup's fixed binary tree: `sh[t] += sh[t + k]` for
+/// `k = WG/2, WG/4, …, 1`; the sum lands in `sh[0]`.
 fn tree(sh: &mut [f64]) -> f64 {
-    let mut k = sh.len() / 2;
+    let mut k = WG as usize / 2;
     while k > 0 {
         for t in 0..k {
             sh[t] += sh[t + k];
@@ -337,9 +336,7 @@ pub fn q1_cells(prm: &Q1Params, cell_nodes: &[u32], k_cells: &[f64], x: &[f64], 
 
 /// `y = A x` at every active node from the interior stencil (`stencil`, the
 /// uniform's values) over each segment's neighbour rows, and for the
-/// boundary nodes the sum of their 8 linked triples of `z`; with `dot`, each
-/// workgroup's `x · y` over its nodes in `partials[g]` (the tree of
-/// `q1_nodes.wgsl` over its [`SEG`] invocations).
+/// boundary nodes the sum of their 8 linked triples of `z`.
 #[allow(clippy::too_many_arguments)]
 pub fn q1_nodes(
     prm: &Q1Params,
@@ -350,18 +347,11 @@ pub fn q1_nodes(
     z: &[f64],
     x: &[f64],
     y: &mut [f64],
-    partials: &mut [f64],
 ) {
     let terms = stencil_terms();
-    let dot = |x: &[f64], a: usize, v: [f64; 3]| {
-        x[3 * a] * v[0] + x[3 * a + 1] * v[1] + x[3 * a + 2] * v[2]
-    };
-    let mut sh = [0.0; SEG];
-    let n_segments = prm.n_segments as usize;
-    for g in 0..n_segments {
+    for g in 0..prm.n_segments as usize {
         let s = &segments[SEGMENT_WORDS * g..SEGMENT_WORDS * (g + 1)];
         let (start, len) = (s[0] as usize, s[1] as usize);
-        sh.fill(0.0);
         for t in 0..len {
             let mut acc = [0.0; 3];
             for term in &terms {
@@ -371,34 +361,19 @@ pub fn q1_nodes(
             for i in 0..3 {
                 y[3 * (start + t) + i] = acc[i];
             }
-            sh[t] = dot(x, start + t, acc);
-        }
-        if prm.dot == 1 {
-            partials[g] = tree(&mut sh);
         }
     }
-    for bg in 0..(prm.n_boundary as usize).div_ceil(SEG) {
-        sh.fill(0.0);
-        for t in 0..SEG {
-            let b = bg * SEG + t;
-            if b >= prm.n_boundary as usize {
-                break;
-            }
-            let mut acc = [0.0; 3];
-            for cc in 0..8 {
-                let o = links[8 * b + cc] as usize;
-                for i in 0..3 {
-                    acc[i] += z[o + i];
-                }
-            }
-            let a = boundary[b] as usize;
+    for b in 0..prm.n_boundary as usize {
+        let mut acc = [0.0; 3];
+        for cc in 0..8 {
+            let o = links[8 * b + cc] as usize;
             for i in 0..3 {
-                y[3 * a + i] = acc[i];
+                acc[i] += z[o + i];
             }
-            sh[t] = dot(x, a, acc);
         }
-        if prm.dot == 1 {
-            partials[n_segments + bg] = tree(&mut sh);
+        let a = boundary[b] as usize;
+        for i in 0..3 {
+            y[3 * a + i] = acc[i];
         }
     }
 }

@@ -214,26 +214,6 @@ impl<'o> GpuOperator<'o> {
         self.host.diagonal()
     }
 
-    /// Records `y = A x` and `x · y` into slot `out` on the Q1 plan
-    /// ([`Q1Device::record_with_dot`]); `false`, recording nothing, on the
-    /// gather.
-    pub(super) fn record_apply_dot(
-        &self,
-        be: &GpuBackend,
-        enc: &mut wgpu::CommandEncoder,
-        x: &wgpu::Buffer,
-        y: &wgpu::Buffer,
-        out: u32,
-    ) -> bool {
-        match &self.path {
-            Path::Q1(q1) => {
-                q1.record_with_dot(be, enc, x, y, out);
-                true
-            }
-            Path::Generic(_) => false,
-        }
-    }
-
     /// Records `y = A x`: the Q1 plan's two kernels, or per window one
     /// `apply` pass per own-matrix chunk its cells refer to.
     pub(super) fn record_apply(

@@ -45,7 +45,7 @@ impl GpuBackend {
     /// that the last `Cells` left).
     pub fn apply_q1_kernel(&self, q1: &Q1Device, kernel: Q1Kernel, x: &GpuVector, y: &GpuVector) {
         let mut enc = self.encoder();
-        q1.record_kernel(self, &mut enc, kernel, &x.buf, &y.buf, 0);
+        q1.record_kernel(self, &mut enc, kernel, &x.buf, &y.buf);
         self.submit(enc);
     }
 }
@@ -59,8 +59,6 @@ pub struct Q1Device {
     cell_nodes: wgpu::Buffer,
     k_cells: wgpu::Buffer,
     z: wgpu::Buffer,
-    /// `q1_nodes`' per-workgroup `x · y` ([`Q1Device::record_with_dot`]).
-    partials: wgpu::Buffer,
     params: Q1Params,
     num_active: usize,
 }
@@ -159,11 +157,6 @@ impl Q1Arrays {
     pub fn z_len(&self) -> usize {
         24 * self.params.n_cells as usize + 3
     }
-
-    /// Workgroups of `q1_nodes` (= its partial sums).
-    pub fn node_groups(&self) -> usize {
-        self.params.n_segments as usize + (self.params.n_boundary as usize).div_ceil(SEG)
-    }
 }
 
 impl Q1Device {
@@ -181,7 +174,6 @@ impl Q1Device {
             4 * a.links.len() as u64,
             4 * a.cell_nodes.len() as u64,
             4 * a.boundary.len() as u64,
-            a.node_groups() as u64 * bytes,
         ];
         if sizes.iter().any(|&s| s > be.bindings().max_bytes) {
             return None;
@@ -203,7 +195,6 @@ impl Q1Device {
             cell_nodes: u32s("cell nodes", &a.cell_nodes),
             k_cells: be.buffer_init("cell matrices", &be.to_bytes(&a.k_cells)),
             z: be.buffer_init("z", &be.to_bytes(&vec![0.0; a.z_len()])),
-            partials: be.buffer_init("partials", &be.to_bytes(&vec![0.0; a.node_groups()])),
             params: a.params,
             num_active: op.dofs.num_active(),
         })
@@ -238,25 +229,8 @@ impl Q1Device {
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
     ) {
-        self.record_kernel(be, enc, Q1Kernel::Cells, x, y, 0);
-        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y, 0);
-    }
-
-    /// Records `y = A x` with `x · y` in slot `out` of the device scalars:
-    /// `q1_nodes` leaves each workgroup's share, `reduce` sums them (three
-    /// dispatches where the apply and `dot` take four).
-    pub(super) fn record_with_dot(
-        &self,
-        be: &GpuBackend,
-        enc: &mut wgpu::CommandEncoder,
-        x: &wgpu::Buffer,
-        y: &wgpu::Buffer,
-        out: u32,
-    ) {
-        self.record_kernel(be, enc, Q1Kernel::Cells, x, y, 0);
-        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y, 1);
-        let groups = self.params.n_segments + self.params.n_boundary.div_ceil(SEG as u32);
-        be.record_reduce(enc, &self.partials, groups, 1, out);
+        self.record_kernel(be, enc, Q1Kernel::Cells, x, y);
+        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y);
     }
 
     /// Records one of the plan's kernels.
@@ -267,10 +241,9 @@ impl Q1Device {
         kernel: Q1Kernel,
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
-        dot: u32,
     ) {
         let max_dim = be.context().limits.max_compute_workgroups_per_dimension;
-        let p = Q1Params { dot, ..self.params };
+        let p = self.params;
         if kernel == Q1Kernel::Cells {
             let (cx, cy, stride) = grid_2d(p.n_cells, APPLY_WG, max_dim);
             let cells = Q1Params { stride, ..p };
@@ -300,7 +273,6 @@ impl Q1Device {
             whole(&self.z),
             whole(x),
             whole(y),
-            whole(&self.partials),
         ];
         be.record(
             enc,

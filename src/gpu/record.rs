@@ -184,7 +184,7 @@ impl GpuBackend {
 
     /// Records the second pass of a reduction: `comps` components of `total`
     /// partials each into slots `out..`.
-    pub(super) fn record_reduce(
+    fn record_reduce(
         &self,
         enc: &mut wgpu::CommandEncoder,
         partials: &wgpu::Buffer,

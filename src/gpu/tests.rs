@@ -103,7 +103,7 @@ fn params_structs_match_their_wgsl_twins() {
         pad2
     );
     let q1 =
-        rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, dot, pad1, pad2);
+        rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, pad0, pad1, pad2);
     let update = rust_layout!(UpdateParams, n, groups, ia, ib, precond, pad0, pad1, pad2);
     for k in Kernel::ALL {
         let m = validate(k, Precision::F64);
@@ -299,28 +299,11 @@ fn q1_mirrors_equal_the_host_operator() {
         mirror::q1_cells(p, &a.cell_nodes, &a.k_cells, &x, &mut z);
         let mut y = vec![f64::NAN; n];
         let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
-        let mut partials = vec![0.0; a.node_groups()];
-        let with_dot = Q1Params { dot: 1, ..*p };
-        mirror::q1_nodes(
-            &with_dot,
-            &a.stencil,
-            segs,
-            bnd,
-            links,
-            &z,
-            &x,
-            &mut y,
-            &mut partials,
-        );
+        mirror::q1_nodes(p, &a.stencil, segs, bnd, links, &z, &x, &mut y);
         let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, b) in y.iter().zip(&expected) {
             assert!((a - b).abs() <= 1e-12 * scale, "{name}: {a} vs {b}");
         }
-        // The workgroups' shares of x · Ax add up to it.
-        let xax: f64 = x.iter().zip(&expected).map(|(a, b)| a * b).sum();
-        let mag: f64 = x.iter().zip(&expected).map(|(a, b)| (a * b).abs()).sum();
-        let sum: f64 = partials.iter().sum();
-        assert!((sum - xax).abs() <= 1e-12 * mag, "{name}: {sum} vs {xax}");
     }
 }
 
