@@ -242,44 +242,38 @@ impl Q1Device {
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
     ) {
-        let max_dim = be.context().limits.max_compute_workgroups_per_dimension;
         let p = self.params;
-        if kernel == Q1Kernel::Cells {
-            let (cx, cy, stride) = grid_2d(p.n_cells, APPLY_WG, max_dim);
-            let cells = Q1Params { stride, ..p };
-            let binds = [
-                whole(&self.cell_nodes),
-                whole(&self.k_cells),
-                whole(x),
-                whole(&self.z),
-            ];
-            be.record(
-                enc,
+        let (id, binds, (gx, gy, stride)) = match kernel {
+            Q1Kernel::Cells => (
                 Kernel::Q1Cells,
-                bytemuck::bytes_of(&cells),
-                &binds,
-                (cx, cy),
-            );
-            return;
-        }
-        let groups = p.n_segments + p.n_boundary.div_ceil(SEG as u32);
-        let (nx, ny, stride) = grid_2d(groups, 1, max_dim);
-        let nodes = Q1Params { stride, ..p };
-        let binds = [
-            whole(&self.stencil),
-            whole(&self.segments),
-            whole(&self.boundary),
-            whole(&self.links),
-            whole(&self.z),
-            whole(x),
-            whole(y),
-        ];
-        be.record(
-            enc,
-            Kernel::Q1Nodes,
-            bytemuck::bytes_of(&nodes),
-            &binds,
-            (nx, ny),
-        );
+                vec![
+                    whole(&self.cell_nodes),
+                    whole(&self.k_cells),
+                    whole(x),
+                    whole(&self.z),
+                ],
+                grid_2d(p.n_cells, APPLY_WG, be.max_dim()),
+            ),
+            Q1Kernel::Nodes => (
+                Kernel::Q1Nodes,
+                vec![
+                    whole(&self.stencil),
+                    whole(&self.segments),
+                    whole(&self.boundary),
+                    whole(&self.links),
+                    whole(&self.z),
+                    whole(x),
+                    whole(y),
+                ],
+                // One workgroup per segment, then per SEG boundary nodes.
+                grid_2d(
+                    p.n_segments + p.n_boundary.div_ceil(SEG as u32),
+                    1,
+                    be.max_dim(),
+                ),
+            ),
+        };
+        let prm = Q1Params { stride, ..p };
+        be.record(enc, id, bytemuck::bytes_of(&prm), &binds, (gx, gy));
     }
 }
