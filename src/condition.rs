@@ -1,4 +1,4 @@
-//! Condition numbers of the assembled stiffness matrix (DESIGN §3.5):
+//! Condition numbers of the assembled stiffness matrix:
 //! `κ(A) = λ_max / λ_min` on the active dofs, and the Jacobi-scaled
 //! `κ(D^-1/2 A D^-1/2)`, `D = diag(A)`.
 //!

@@ -1,6 +1,6 @@
 //! The library's one error type. Every variant names what was being done and
 //! with which input, so that the binary can print it as is and map it to an exit
-//! code (DESIGN §8: 2 bad input, 3 solver failure, 1 internal).
+//! code (2 bad input, 3 solver failure, 1 internal).
 
 use thiserror::Error;
 
@@ -124,7 +124,7 @@ pub enum Error {
 }
 
 impl Error {
-    /// Exit code of the binary for this error (DESIGN §8; 130 = 128 + SIGINT
+    /// Exit code of the binary for this error (130 = 128 + SIGINT
     /// for an interrupted run, as shells report it).
     pub fn exit_code(&self) -> i32 {
         match self {

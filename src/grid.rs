@@ -1,4 +1,4 @@
-//! The Cartesian grid at level L (DESIGN §2.1): geometry of cells and nodes,
+//! The Cartesian grid at level L: geometry of cells and nodes,
 //! their indexing, and the memory estimate that guards large levels.
 //!
 //! The longest side of the box is split into `2^L` cubic cells of size `h`; the

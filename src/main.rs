@@ -1,4 +1,4 @@
-//! The `cgfem-gpu` command line. Exit codes (DESIGN §8): 0 success, 2 bad
+//! The `cgfem-gpu` command line. Exit codes: 0 success, 2 bad
 //! input (the message names the file, key and reason), 3 solver failure (the
 //! report is still written, marked failed), 1 internal error, 130 interrupted
 //! by Ctrl-C (the report is still written, marked interrupted).

@@ -1,4 +1,4 @@
-//! The CPU reference backend (DESIGN §7): vectors are `Vec<f64>` in host memory,
+//! The CPU reference backend: vectors are `Vec<f64>` in host memory,
 //! the operator is anything implementing [`LinearOperator`], and every kernel of
 //! [`Backend`] is a small per-chunk function named like the WGSL kernel that will
 //! mirror it (`axpy_kernel` ↔ `axpy` in the shader).

@@ -1,4 +1,4 @@
-//! Compute backends (DESIGN §7): the [`Backend`] trait that the Krylov methods of
+//! Compute backends: the [`Backend`] trait that the Krylov methods of
 //! [`crate::solver`] are written against once, and the CPU reference backend.
 //!
 //! A backend owns where vectors live and how the few kernels of a Krylov solve run

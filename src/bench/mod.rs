@@ -1,4 +1,4 @@
-//! `cgfem-gpu bench` (DESIGN §8): operator and solver throughput on the paper's
+//! `cgfem-gpu bench`: operator and solver throughput on the paper's
 //! sphere (Q1, and Q2 when asked) for the CPU backends and the GPU, in one
 //! process, as rows of `bench.json`.
 //!

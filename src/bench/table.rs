@@ -1,4 +1,4 @@
-//! The bench table as text, and `bench.json` (DESIGN §8).
+//! The bench table as text, and `bench.json`.
 //!
 //! Beside each rate the table shows
 //! - `×ref`: the rate over the reference of its kind at the same level: faer's

@@ -1,4 +1,4 @@
-//! Several hyperelastic bodies solved together (DESIGN §6, issue 8): the
+//! Several hyperelastic bodies solved together: the
 //! Newton path of `cgfem-gpu run` ([`crate::case::SolutionPath`]).
 //!
 //! - [`problem`]: the stacked problem `[u_1; u_2; …]` — each body's total

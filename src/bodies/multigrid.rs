@@ -1,5 +1,5 @@
 //! The multigrid preconditioner of the bodies' Newton tangents (`[solver]
-//! preconditioner = "multigrid"` in a `[[body]]` case; issue 17, item 2).
+//! preconditioner = "multigrid"` in a `[[body]]` case).
 //!
 //! # The levels
 //! Per body, the **linear-elastic** operator `K + K_p (+ K_S)` of the body

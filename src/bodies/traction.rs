@@ -1,6 +1,6 @@
-//! The recovered Cauchy stress of a hyperelastic body (DESIGN §5.1 on the
+//! The recovered Cauchy stress of a hyperelastic body (the SPR recovery on the
 //! reference configuration) and from it the recovered normal traction
-//! `T̂_N = n1 · σ̂ n1` of contact (DESIGN §6).
+//! `T̂_N = n1 · σ̂ n1` of contact.
 //!
 //! **Samples.** At the 2×2×2 Gauss points of an inside cell and at most 16
 //! points of a cut cell ([`Cells::fit_points`], strided: fewer than the

@@ -123,7 +123,7 @@ pub struct MaterialSpec {
     pub poisson: f64,
 }
 
-/// The strain energy of a body (DESIGN §6).
+/// The strain energy of a body.
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Model {

@@ -1,4 +1,4 @@
-//! Contact enforcement (DESIGN §6, issue 8): the contact residual and its
+//! Contact enforcement: the contact residual and its
 //! exact tangent for one slave/master pair, by the stabilised augmented
 //! Lagrangian, frictionless or with Coulomb friction.
 //!

@@ -1,4 +1,4 @@
-//! Geometric contact machinery (DESIGN §6, issue 8): what the contact search
+//! Geometric contact machinery: what the contact search
 //! needs, independent of the mechanics that will use it.
 //!
 //! - [`surface`]: a body's boundary as a triangle mesh in the reference

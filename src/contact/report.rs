@@ -1,4 +1,4 @@
-//! The report's `contact` rows (issue 8): per contact pair and load step, the
+//! The report's `contact` rows: per contact pair and load step, the
 //! resultant normal force, contact area, peak pressure and largest
 //! penetration, from the slave points' quadrature weights, gaps and
 //! pressures.
@@ -12,7 +12,7 @@
 //! without friction, and on points touching for the first time).
 //!
 //! `peak_recovered_pressure = max_k −T̂_N,k` is the largest recovered normal
-//! traction (DESIGN §6) of the points, the smooth SPR estimate of the peak
+//! traction of the points, the smooth SPR estimate of the peak
 //! pressure (0 with the pure penalty method, `T̂_N = 0`); set by
 //! [`ContactRow::with_recovered_peak`].
 //!

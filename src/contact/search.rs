@@ -1,4 +1,4 @@
-//! The ray-tracing contact search (paper eq. 2, DESIGN §6) and the current
+//! The ray-tracing contact search (paper eq. 2) and the current
 //! slave normal.
 //!
 //! **Search.** From a slave point `x1` in the current configuration, along its

@@ -1,8 +1,8 @@
 //! A body's boundary as a triangle mesh on its Cartesian grid, in the
 //! reference configuration, and its image in the current configuration.
 //!
-//! **Extraction, part by part.** The boundary parts are the CSG leaves
-//! (DESIGN §2.3), each a smooth level set ψ with its tag. For every leaf whose
+//! **Extraction, part by part.** The boundary parts are the CSG leaves,
+//! each a smooth level set ψ with its tag. For every leaf whose
 //! tag is requested, the zero set of ψ is meshed by marching tetrahedra (see
 //! the crate-private `marching` module): vertices lie on ψ = 0 to round-off, on
 //! edges of the grid's Freudenthal tetrahedra, shared between neighbouring

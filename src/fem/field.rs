@@ -1,6 +1,6 @@
 //! The discrete displacement field: values, gradients and stresses of `u_h` at
 //! points of a cell, the nodal interpolant of a given field, and the error
-//! norms against an exact field (DESIGN §4):
+//! norms against an exact field:
 //! `‖e‖_E² = ∫_Ω ε(e) : σ(e)`, `‖e‖_L2² = ∫_Ω |e|²`, with `e = u − u_h`.
 //!
 //! The interpolant's error ([`solution_and_interpolant_errors`]) is a

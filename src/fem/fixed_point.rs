@@ -1,4 +1,4 @@
-//! The fixed-point loop of the paper (§2.2, DESIGN §3.3). The matrix
+//! The fixed-point loop of the paper (§2.2). The matrix
 //! `A = K + K_p (+ K_S)` is fixed; the recovered terms `F_T(U) (+ F_S(U))`
 //! move to the right-hand side:
 //!

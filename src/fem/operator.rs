@@ -1,7 +1,7 @@
 //! The elasticity operator `A = K + K_p (+ K_S)` on the active dofs, applied
 //! matrix-free, and the same operator assembled as a sparse matrix (faer).
 //!
-//! Every inside cell has the same element matrix `h K_ref` (DESIGN §2.2), so
+//! Every inside cell has the same element matrix `h K_ref`, so
 //! inside cells store nothing; each cut cell stores the moment-fitted weights
 //! of its matrix `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN` (DESIGN
 //! §3.1) at the `(2p+1)³` Gauss points of the cell ([`super::moment_fit`]:

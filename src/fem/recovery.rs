@@ -1,4 +1,4 @@
-//! Stress recovery (DESIGN §5.1) for the fixed-point loop and the output: SPR
+//! Stress recovery for the fixed-point loop and the output: SPR
 //! of degree p of the FE stress on the patches of Q1 vertex nodes, sampled at
 //! [`sample_positions`], blended by CPE (both orders use the vertex patches of
 //! the cell grid: Q1 fits {1, x, y, z} to the 2×2×2 Gauss points of the

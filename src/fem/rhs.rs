@@ -1,4 +1,4 @@
-//! Right-hand sides (DESIGN §3.1): body load `F_b`, tractions `F_N`, the
+//! Right-hand sides: body load `F_b`, tractions `F_N`, the
 //! penalty part of the Dirichlet data `F_p = Σ_q w_q (β/h) N_qᵀ M_q g_q` and the
 //! recovered-traction part `F_T = Σ_q w_q N_qᵀ M_q t̂_q` over the Dirichlet
 //! points, `M_q` the diagonal mask of the components a point holds (a free

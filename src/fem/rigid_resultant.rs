@@ -1,5 +1,5 @@
 //! The rigid-body part of the S-term's residual, removed so that the S-term
-//! puts no net force or moment on the body (issue 15).
+//! puts no net force or moment on the body.
 //!
 //! The S-term adds `K_S U − F_S(U)`, tested with `v`,
 //!

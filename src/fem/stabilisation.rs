@@ -1,4 +1,4 @@
-//! The S-stabilisation of pathological cells (paper eq. 5, DESIGN §3.2, §5.2).
+//! The S-stabilisation of pathological cells (paper eq. 5).
 //!
 //! A cut cell with volume fraction `0 < A_c < A` is pathological; Ω* is their
 //! union as whole cells. On Ω*

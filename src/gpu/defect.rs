@@ -1,4 +1,4 @@
-//! f32 inner solves inside f64 defect correction (DESIGN §7), for adapters
+//! f32 inner solves inside f64 defect correction, for adapters
 //! without `SHADER_F64` (or `--precision f32`):
 //!
 //! ```text

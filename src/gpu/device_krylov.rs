@@ -1,4 +1,4 @@
-//! CG and CGS with their scalars on the device (DESIGN §7): ρ, σ, α, β live in
+//! CG and CGS with their scalars on the device: ρ, σ, α, β live in
 //! slots of the backend's scalar buffer, computed by the one-invocation kernel
 //! `scalar_ratio` from the reductions of the same iteration; `krylov_check`
 //! counts iterations and marks the solve done when `‖r‖² ≤ (τ ‖b‖)²`. The

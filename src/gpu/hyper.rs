@@ -1,5 +1,5 @@
 //! The hyperelastic tangent of one body on a device, for the Newton solves
-//! of large-deformation runs (DESIGN §6): `K_T x = hyper_tangent(x) + cut(x)`,
+//! of large-deformation runs: `K_T x = hyper_tangent(x) + cut(x)`,
 //! the inside cells by the kernel `shaders/hyper_tangent.wgsl` (CPU mirror
 //! [`crate::hyper::mirror::hyper_tangent`]) and the cut cells, the Dirichlet
 //! penalty and whatever else [`TangentOperator::add_cut_cells`] carries on the

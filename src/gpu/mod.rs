@@ -1,4 +1,4 @@
-//! The GPU backend on wgpu/WGSL (DESIGN §7): adapter selection and the device
+//! The GPU backend on wgpu/WGSL: adapter selection and the device
 //! ([`context`]), the kernels of `shaders/` ([`kernels`]) and their CPU mirrors
 //! ([`mirror`]), the [`crate::backend::Backend`] implementation with the
 //! operator resident on the device ([`backend`], [`operator`]), the

@@ -1,4 +1,4 @@
-//! Arrays larger than one storage binding (DESIGN §7; 128 MiB on lavapipe):
+//! Arrays larger than one storage binding (128 MiB on lavapipe):
 //! every kernel runs over *windows*, sub-ranges of its buffers bound at an
 //! offset that is a multiple of `min_storage_buffer_offset_alignment`, each at
 //! most one binding long. A buffer itself may be as large as

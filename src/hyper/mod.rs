@@ -1,5 +1,5 @@
 //! Large-deformation (total Lagrangian) hyperelasticity of one immersed body
-//! (DESIGN §6, without contact): the foundation that the contact problems of
+//! (without contact): the foundation that the contact problems of
 //! the paper's Problem 2 build on.
 //!
 //! - [`material`]: compressible neo-Hookean and St Venant–Kirchhoff, `P(F)` and
@@ -18,10 +18,10 @@
 //! - [`mirror`]: the GPU kernel of the inside-cell tangent (`shaders/hyper_tangent.wgsl`),
 //!   its data and its CPU mirror.
 //!
-//! The Dirichlet condition is the penalty part of the stabilised multiplier of
-//! DESIGN §3.1 (`β = k1 E`, the term `(β/h) ∫ N (u − g)`); at `u = 0` the
+//! The Dirichlet condition is the penalty part of the stabilised multiplier
+//! (`β = k1 E`, the term `(β/h) ∫ N (u − g)`); at `u = 0` the
 //! tangent is exactly the linear operator `K + K_p` of [`crate::fem::operator`]
-//! (tested). The recovered traction of DESIGN §3.1 is not added on Dirichlet
+//! (tested). The recovered traction of the linear path is not added on Dirichlet
 //! parts (pure penalty there); the contact's recovered normal traction is, by
 //! [`crate::bodies::traction`], through the passes of [`newton`] ("Recovered
 //! terms").

@@ -1,6 +1,5 @@
 //! The S-stabilisation of the pathological cells in the total Lagrangian
-//! residual of one body (paper eq. 5 carried over to Problem 2; DESIGN §3.2,
-//! §5.2, §6).
+//! residual of one body (paper eq. 5 carried over to Problem 2).
 //!
 //! Ω* are the cut cells with volume fraction `0 < A_c < A`
 //! ([`pathological_cells`]), as whole cells (their part outside the body

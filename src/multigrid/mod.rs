@@ -1,4 +1,4 @@
-//! Geometric multigrid on the nested Cartesian grids (issue 17): the
+//! Geometric multigrid on the nested Cartesian grids: the
 //! hierarchy of level operators, its smoothers and coarse solver
 //! ([`Hierarchy`]), and one V-cycle as the preconditioner of a Krylov solve
 //! ([`Multigrid`], `[solver] preconditioner = "multigrid"`, CPU backend).

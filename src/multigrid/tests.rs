@@ -169,7 +169,7 @@ fn multigrid_cg_solves_the_same_system_as_jacobi_cg() {
 
 /// The first solve of the fixed-point loop (`A u = F` to 1e-8 from zero) by
 /// CG + multigrid takes at most 20 iterations at levels 3 to 5 in Q1, and
-/// at most 30 at levels 3 and 4 in Q2 (issue 17; 45 and 51 with a pointwise
+/// at most 30 at levels 3 and 4 in Q2 ( 45 and 51 with a pointwise
 /// smoother on the cut band), with and without the S-term, through the
 /// case's `[solver]` table and the CPU solver of the run, with the default
 /// hierarchy settings (the coarsest level small for the test: 300 dofs).

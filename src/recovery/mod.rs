@@ -1,5 +1,5 @@
 //! Superconvergent Patch Recovery (SPR, Zienkiewicz–Zhu) with Conjoint
-//! Polynomial Enhancement (CPE), DESIGN §5. Owns the monomial basis
+//! Polynomial Enhancement (CPE) Owns the monomial basis
 //! ([`Monomials`]), the per-patch least-squares fit with optional linear
 //! equality constraints ([`fit_polynomial`]) and the patch recovery over the
 //! grid's Q1 vertex nodes ([`recover`], [`Recovered`]).

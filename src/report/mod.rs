@@ -1,4 +1,4 @@
-//! `report.json`: the machine-readable summary of a run (DESIGN §8), one
+//! `report.json`: the machine-readable summary of a run, one
 //! schema for both solution paths: the run's keys, then the bodies as rows
 //! (`bodies`, [`BodyReport`]), then what the path measured (the linear fixed
 //! point's `fixed_point`, `krylov` and `condition`; Newton's load steps and
@@ -71,7 +71,7 @@ pub struct FixedPoint {
     pub converged: bool,
 }
 
-/// `condition`: κ of the operator on the active dofs (DESIGN §3.5).
+/// `condition`: κ of the operator on the active dofs.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Condition {
     pub kappa: f64,

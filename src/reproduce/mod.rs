@@ -1,6 +1,6 @@
 //! `cgfem-gpu reproduce`: the paper's results regenerated beside the paper's
 //! figures, each as `DIR/<what>.json` (rows), `DIR/<what>.md` and
-//! `DIR/<what>.svg` (DESIGN §8).
+//! `DIR/<what>.svg`.
 //!
 //! - [`table1()`]: κ of the sphere with and without the S-term (Table 1);
 //! - [`fig3()`]: energy-norm convergence of the sphere with and without it (Figure 3);

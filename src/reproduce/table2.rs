@@ -9,8 +9,8 @@
 //! does not give Problem 2's). Both runs carry the case's recovered contact
 //! traction, and the recovered terms are evaluated once per load step, at
 //! its start, and held for its Newton solve ([`RecoveryMode::Step`]: "the
-//! S-stabilisation recovered from the current configuration at each step",
-//! issue 8), so each step is one Newton loop and the S-term adds no Newton
+//! S-stabilisation recovered from the current configuration at each step"),
+//! so each step is one Newton loop and the S-term adds no Newton
 //! work of its own. (Refreshed after every Newton update,
 //! [`RecoveryMode::Embedded`], the lagged terms add Newton iterations; in
 //! passes, whole Newton solves.) With each of the given Krylov methods

@@ -1,4 +1,4 @@
-//! The cheap condition number estimate of DESIGN §3.5: the extreme eigenvalues of
+//! The cheap condition number estimate: the extreme eigenvalues of
 //! the Lanczos tridiagonal that a CG solve builds implicitly.
 //!
 //! CG with coefficients `α_0 … α_{m−1}`, `β_0 … β_{m−2}` is the Lanczos process

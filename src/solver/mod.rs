@@ -1,4 +1,4 @@
-//! Krylov solvers (DESIGN §3.4): CGS (the paper's method), CG for SPD operators
+//! Krylov solvers: CGS (the paper's method), CG for SPD operators
 //! (a case's default, `A` being SPD) and BiCGStab for non-symmetric ones, each with no or Jacobi
 //! preconditioning, or with a preconditioner built by the caller
 //! ([`solve_preconditioned`]: the multigrid V-cycle of [`crate::multigrid`]),

@@ -33,7 +33,7 @@
 //! A problem may carry terms recovered from the solution (by SPR) that `R`
 //! holds fixed and `K_T` does not differentiate: the recovered normal
 //! traction `T̂_N` of contact and the recovered displacement of the S-term.
-//! They make each step a fixed point around Newton, as in DESIGN §3.3: at
+//! They make each step a fixed point around Newton, as the linear path's fixed point is: at
 //! the start of an attempt they are evaluated at the last converged `u`;
 //! Newton converges (pass 0); then, pass after pass, they are re-evaluated at
 //! the pass's solution `u_k` and Newton runs again from there, until
