@@ -16,7 +16,8 @@ use super::problem::BodiesProblem;
 use super::symmetry::{self, SymmetryPlane};
 use crate::case::boundary::RampSpec;
 use crate::case::{Case, Model};
-use crate::cells::Cells;
+use crate::cells::pieces::{held_pieces, HeldPoint};
+use crate::cells::{CellKind, Cells};
 use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::geometry::Geometry;
@@ -61,6 +62,7 @@ impl BodiesSetup {
             let key = case.body_key(i, "symmetry");
             let symmetry =
                 symmetry::planes(&case.file, &key, &grid, &cells, &solid, &spec.symmetry)?;
+            check_held(case, i, &grid, &cells, &solid, &symmetry)?;
             bodies.push(BodySetup {
                 name: spec.name.clone(),
                 grid,
@@ -107,6 +109,76 @@ impl BodiesSetup {
             newton: newton_options(case),
         })
     }
+}
+
+/// Checks that every piece of body `i` is held ([`held_pieces`]): by its
+/// Dirichlet conditions (their held components, in their regions), its
+/// symmetry planes (the normal component), plane strain (`u_z` everywhere)
+/// or a contact pair (a piece with a contact boundary counts as held).
+fn check_held(
+    case: &Case,
+    i: usize,
+    grid: &Grid,
+    cells: &Cells,
+    solid: &Geometry,
+    symmetry: &[SymmetryPlane],
+) -> Result<()> {
+    let spec = &case.bodies[i].spec;
+    let tag = |name: &str| solid.tag_id(name).expect("tags checked with the case");
+    let dirichlet: Vec<_> = spec.dirichlet.iter().map(|(n, d)| (tag(n), d)).collect();
+    let mut held = Vec::new();
+    for (k, &cell) in cells.cut.iter().enumerate() {
+        for q in cells.surface_points(k) {
+            let mut mask = [0.0; 3];
+            for (_, d) in dirichlet
+                .iter()
+                .filter(|(t, d)| *t == q.tag && d.applies_at(q.x))
+            {
+                for (m, held) in mask.iter_mut().zip(d.mask()) {
+                    *m = f64::max(*m, held as u8 as f64);
+                }
+            }
+            for plane in symmetry.iter().filter(|p| p.tag == q.tag) {
+                mask[plane.axis] = 1.0;
+            }
+            if mask != [0.0; 3] {
+                held.push(HeldPoint {
+                    cell,
+                    x: q.x,
+                    w: q.w,
+                    mask,
+                });
+            }
+        }
+    }
+    if spec.plane_strain {
+        let w = grid.h.powi(3);
+        for (cell, _) in cells
+            .kinds
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| **k != CellKind::Outside)
+        {
+            let b = grid.cell_box(cell);
+            let x = [0, 1, 2].map(|a| 0.5 * (b.lo[a] + b.hi[a]));
+            held.push(HeldPoint {
+                cell,
+                x,
+                w,
+                mask: [0.0, 0.0, 1.0],
+            });
+        }
+    }
+    let body = &case.bodies[i];
+    let contact: Vec<u16> = case
+        .pairs
+        .iter()
+        .flat_map(|p| [p.slave, p.master])
+        .filter(|side| side.body == i)
+        .filter_map(|side| solid.tag_id(body.geometry.tag_name(side.tag)))
+        .collect();
+    held_pieces(grid, cells, solid, held, &contact, (&case.file, &spec.name))?;
+    Ok(())
 }
 
 /// The Newton options of `[load]`, `[newton]` and `[solver]`.

@@ -154,235 +154,244 @@ pub fn run(
             None => Preconditioner::Multigrid,
         };
     }
-    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    let setup = Setup::new_with_progress(&case, level, progress);
-    progress.finish();
-    let setup = setup?;
-    let order = case.body().spec.element;
     let mut report = Report::new(&case);
-    let body = case.body();
-    let mut row = BodyReport::new(
-        &body.spec.name,
-        body.model,
-        order,
-        &body.geometry,
-        &setup.grid,
-        &setup.cells,
-        false,
-    );
-    row.cells.pathological = Some(setup.omega_star.len());
-    report.push_body(row);
-    report.timings.extend(setup.timings.iter().cloned());
-    let b = &report.bodies[0];
-    println!(
-        "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
-        case.file, setup.grid.level, report.dofs, b.cells.inside, b.cells.cut
-    );
+    let mut fp = FixedPointReport::default();
+    // Every step after the case is read; a solver failure on the way (the
+    // set-up's multigrid, the solve, the output's recovery) still leaves a
+    // report.
+    let result = (|| -> anyhow::Result<()> {
+        let report = &mut report;
+        let fp = &mut fp;
+        let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
+        let setup = Setup::new_with_progress(&case, level, progress);
+        progress.finish();
+        let setup = setup?;
+        let order = case.body().spec.element;
+        let body = case.body();
+        let mut row = BodyReport::new(
+            &body.spec.name,
+            body.model,
+            order,
+            &body.geometry,
+            &setup.grid,
+            &setup.cells,
+            false,
+        );
+        row.cells.pathological = Some(setup.omega_star.len());
+        report.push_body(row);
+        report.timings.extend(setup.timings.iter().cloned());
+        let b = &report.bodies[0];
+        println!(
+            "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
+            case.file, setup.grid.level, report.dofs, b.cells.inside, b.cells.cut
+        );
 
-    if condition {
+        if condition {
+            let t = Instant::now();
+            report.condition = Some(condition_numbers(&setup)?);
+            report
+                .timings
+                .insert("condition".into(), t.elapsed().as_secs_f64());
+            if let Some(c) = &report.condition {
+                let bound = |b: bool| if b { "≥ " } else { "" };
+                println!(
+                    "  κ = {}{:.3e}, Jacobi-scaled κ = {}{:.3e}",
+                    bound(c.kappa_is_lower_bound),
+                    c.kappa,
+                    bound(c.kappa_jacobi_is_lower_bound),
+                    c.kappa_jacobi
+                );
+            }
+        }
+
         let t = Instant::now();
-        report.condition = Some(condition_numbers(&setup)?);
+        let (mut cpu_solver, mut gpu_solver);
+        let gpu = match gpu {
+            Some(ctx) => match ctx.check_vector_len(setup.op.dofs.ndofs()) {
+                Ok(()) => Some(ctx),
+                Err(e) if BackendChoice::resolve(device.backend)? == BackendChoice::Auto => {
+                    println!("note: {e}; solving on the CPU");
+                    None
+                }
+                Err(e) => return Err(e.into()),
+            },
+            None => None,
+        };
+        let solver: &mut dyn LinearSolver = match &gpu {
+            Some(ctx) => {
+                gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device)?;
+                report.backend = "gpu".into();
+                report.adapter = Some(ctx.adapter.name.clone());
+                report.precision = ctx.precision.name().into();
+                &mut gpu_solver
+            }
+            None => {
+                cpu_solver = CpuSolver::for_setup(&setup);
+                &mut cpu_solver
+            }
+        };
         report
             .timings
-            .insert("condition".into(), t.elapsed().as_secs_f64());
-        if let Some(c) = &report.condition {
-            let bound = |b: bool| if b { "≥ " } else { "" };
-            println!(
-                "  κ = {}{:.3e}, Jacobi-scaled κ = {}{:.3e}",
-                bound(c.kappa_is_lower_bound),
-                c.kappa,
-                bound(c.kappa_jacobi_is_lower_bound),
-                c.kappa_jacobi
-            );
-        }
-    }
-
-    let t = Instant::now();
-    let (mut cpu_solver, mut gpu_solver);
-    let gpu = match gpu {
-        Some(ctx) => match ctx.check_vector_len(setup.op.dofs.ndofs()) {
-            Ok(()) => Some(ctx),
-            Err(e) if BackendChoice::resolve(device.backend)? == BackendChoice::Auto => {
-                println!("note: {e}; solving on the CPU");
-                None
-            }
-            Err(e) => return Err(e.into()),
-        },
-        None => None,
-    };
-    let solver: &mut dyn LinearSolver = match &gpu {
-        Some(ctx) => {
-            gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device)?;
-            report.backend = "gpu".into();
-            report.adapter = Some(ctx.adapter.name.clone());
-            report.precision = ctx.precision.name().into();
-            &mut gpu_solver
-        }
-        None => {
-            cpu_solver = CpuSolver::for_setup(&setup);
-            &mut cpu_solver
-        }
-    };
-    report
-        .timings
-        .insert("upload".into(), t.elapsed().as_secs_f64());
-    println!(
-        "  backend {}{} ({})",
-        report.backend,
+            .insert("upload".into(), t.elapsed().as_secs_f64());
+        println!(
+            "  backend {}{} ({})",
+            report.backend,
+            report
+                .adapter
+                .as_ref()
+                .map_or(String::new(), |a| format!(": {a}")),
+            report.precision
+        );
+        let t = Instant::now();
+        let result = solve_with_progress(&setup, &case.spec.solver, solver, fp, progress);
+        progress.finish();
         report
-            .adapter
-            .as_ref()
-            .map_or(String::new(), |a| format!(": {a}")),
-        report.precision
-    );
-    let t = Instant::now();
-    let mut fp = FixedPointReport::default();
-    let result = solve_with_progress(&setup, &case.spec.solver, solver, &mut fp, progress);
-    progress.finish();
-    report
-        .timings
-        .insert("solve".into(), t.elapsed().as_secs_f64());
-    report.timings.insert("krylov".into(), fp.krylov_seconds);
-    report
-        .timings
-        .insert("recovery".into(), fp.recovery_seconds);
-    let so = &case.spec.solver;
-    report.krylov = Some(Krylov {
-        method: so.method.name().into(),
-        preconditioner: format!("{:?}", so.preconditioner).to_lowercase(),
-        iterations_per_solve: fp.iterations_per_solve.clone(),
-        total_iterations: fp.total_iterations,
-        final_relative_residual: fp.final_relative_residual,
-        floored_diagonal_entries: fp.floored_diagonal_entries,
-    });
-    report.fixed_point = Some(FixedPoint {
-        method: so.outer.name().into(),
-        iterations: fp.iterations,
-        eps_history: fp.eps_history.clone(),
-        converged: fp.converged,
-    });
-    let solution = match result {
-        Ok(s) => s,
-        Err(e) => {
-            report.fail(&e);
-            write_report(dir, &report, &fp, outputs.plots)?;
-            eprintln!(
-                "report (marked {}): {}",
-                report.status,
-                &dir.join("report.json").display()
-            );
-            return Err(e.into());
+            .timings
+            .insert("solve".into(), t.elapsed().as_secs_f64());
+        report.timings.insert("krylov".into(), fp.krylov_seconds);
+        report
+            .timings
+            .insert("recovery".into(), fp.recovery_seconds);
+        let so = &case.spec.solver;
+        report.krylov = Some(Krylov {
+            method: so.method.name().into(),
+            preconditioner: format!("{:?}", so.preconditioner).to_lowercase(),
+            iterations_per_solve: fp.iterations_per_solve.clone(),
+            total_iterations: fp.total_iterations,
+            final_relative_residual: fp.final_relative_residual,
+            floored_diagonal_entries: fp.floored_diagonal_entries,
+        });
+        report.fixed_point = Some(FixedPoint {
+            method: so.outer.name().into(),
+            iterations: fp.iterations,
+            eps_history: fp.eps_history.clone(),
+            converged: fp.converged,
+        });
+        let solution = result?;
+        let t = Instant::now();
+        let row = &mut report.bodies[0];
+        if let Some(exact) = &setup.problem.exact {
+            let (l, m) = (setup.problem.lambda, setup.problem.mu);
+            let dofs = &setup.op.dofs;
+            let (grid, cells, u) = (&setup.grid, &setup.cells, &solution.u);
+            let (error, interpolant) =
+                solution_and_interpolant_errors(grid, cells, dofs, u, exact, l, m);
+            row.error = Some(error);
+            match interpolant {
+                Ok(e) => row.interpolant_error = Some(Some(e)),
+                Err(why) => {
+                    row.interpolant_error = Some(None);
+                    row.interpolant_error_note = Some(why);
+                }
+            }
         }
-    };
-    let t = Instant::now();
-    let row = &mut report.bodies[0];
-    if let Some(exact) = &setup.problem.exact {
-        let (l, m) = (setup.problem.lambda, setup.problem.mu);
-        let dofs = &setup.op.dofs;
-        let (grid, cells, u) = (&setup.grid, &setup.cells, &solution.u);
-        let (error, interpolant) =
-            solution_and_interpolant_errors(grid, cells, dofs, u, exact, l, m);
-        row.error = Some(error);
-        match interpolant {
-            Ok(e) => row.interpolant_error = Some(Some(e)),
-            Err(why) => {
-                row.interpolant_error = Some(None);
-                row.interpolant_error_note = Some(why);
+        // Σ_q w_q λ_q per Dirichlet part, one load step.
+        let geometry = &case.body().geometry;
+        let mut by_part: BTreeMap<&str, [f64; 3]> = BTreeMap::new();
+        for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
+            let force = by_part.entry(geometry.tag_name(p.tag)).or_default();
+            for (f, r) in force.iter_mut().zip(r) {
+                *f += p.w * r;
+            }
+        }
+        let reactions = by_part
+            .into_iter()
+            .map(|(part, force)| ReactionRow {
+                body: case.body().spec.name.clone(),
+                part: part.to_string(),
+                step: 1,
+                force,
+            })
+            .collect();
+        report.reactions = reactions;
+        report
+            .timings
+            .insert("error_norms".into(), t.elapsed().as_secs_f64());
+
+        let t = Instant::now();
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        write_solution(
+            &setup,
+            &case.body().geometry,
+            &solution.u,
+            &dir.join("solution.vtu"),
+        )?;
+        let (surface, fields) = write_surface(
+            &setup,
+            &case.body().geometry,
+            &solution.u,
+            &dir.join("surface.vtp"),
+        )?;
+        // One time step, the grid cells and the boundary surface as its two parts.
+        let parts = [(0.0, 0, "solution.vtu"), (0.0, 1, "surface.vtp")];
+        write_pvd_parts(&dir.join("solution.pvd"), &parts)?;
+        report
+            .timings
+            .insert("output".into(), t.elapsed().as_secs_f64());
+        write_report(dir, report, fp, outputs.plots)?;
+        if outputs.plots {
+            write_deformed(dir, &name, &surface, &fields)?;
+        }
+
+        println!(
+            "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
+            so.method.name(),
+            format!("{:?}", so.preconditioner).to_lowercase(),
+            fp.iterations,
+            fp.iterations_per_solve,
+            fp.total_iterations,
+            fp.final_relative_residual
+        );
+        if fp.floored_diagonal_entries > 0 {
+            println!(
+                "  note: Jacobi floored {} diagonal entries at round-off level (cut artefacts)",
+                fp.floored_diagonal_entries
+            );
+        }
+        let row = &report.bodies[0];
+        if let Some(e) = &row.error {
+            let interpolant = match &row.interpolant_error {
+                Some(Some(ei)) => format!("; interpolant {:.4e}", ei.energy_relative),
+                _ => String::new(),
+            };
+            println!(
+                "  energy error {:.4e} (relative {:.4e}{interpolant}), L2 relative {:.4e}",
+                e.energy, e.energy_relative, e.l2_relative
+            );
+            if let Some(why) = &row.interpolant_error_note {
+                println!("  interpolant error not reported: {why}");
+            }
+        }
+        for r in &report.reactions {
+            let f = r.force;
+            println!(
+                "  reaction on '{}': [{:.6e}, {:.6e}, {:.6e}]",
+                r.part, f[0], f[1], f[2]
+            );
+        }
+        println!(
+            "  wrote {}, solution.vtu, surface.vtp, solution.pvd{}",
+            &dir.join("report.json").display(),
+            if outputs.plots {
+                ", residuals.svg, deformed.svg"
+            } else {
+                ""
+            }
+        );
+        Ok(())
+    })();
+    if let Err(e) = &result {
+        if let Some(e) = e.downcast_ref::<cgfem_gpu::Error>() {
+            if matches!(e.exit_code(), 3 | 130) {
+                report.fail(e);
+                write_report(dir, &report, &fp, outputs.plots)?;
+                eprintln!(
+                    "report (marked {}): {}",
+                    report.status,
+                    &dir.join("report.json").display()
+                );
             }
         }
     }
-    // Σ_q w_q λ_q per Dirichlet part, one load step.
-    let geometry = &case.body().geometry;
-    let mut by_part: BTreeMap<&str, [f64; 3]> = BTreeMap::new();
-    for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
-        let force = by_part.entry(geometry.tag_name(p.tag)).or_default();
-        for (f, r) in force.iter_mut().zip(r) {
-            *f += p.w * r;
-        }
-    }
-    let reactions = by_part
-        .into_iter()
-        .map(|(part, force)| ReactionRow {
-            body: case.body().spec.name.clone(),
-            part: part.to_string(),
-            step: 1,
-            force,
-        })
-        .collect();
-    report.reactions = reactions;
-    report
-        .timings
-        .insert("error_norms".into(), t.elapsed().as_secs_f64());
-
-    let t = Instant::now();
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_solution(
-        &setup,
-        &case.body().geometry,
-        &solution.u,
-        &dir.join("solution.vtu"),
-    )?;
-    let (surface, fields) = write_surface(
-        &setup,
-        &case.body().geometry,
-        &solution.u,
-        &dir.join("surface.vtp"),
-    )?;
-    // One time step, the grid cells and the boundary surface as its two parts.
-    let parts = [(0.0, 0, "solution.vtu"), (0.0, 1, "surface.vtp")];
-    write_pvd_parts(&dir.join("solution.pvd"), &parts)?;
-    report
-        .timings
-        .insert("output".into(), t.elapsed().as_secs_f64());
-    write_report(dir, &report, &fp, outputs.plots)?;
-    if outputs.plots {
-        write_deformed(dir, &name, &surface, &fields)?;
-    }
-
-    println!(
-        "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
-        so.method.name(),
-        format!("{:?}", so.preconditioner).to_lowercase(),
-        fp.iterations,
-        fp.iterations_per_solve,
-        fp.total_iterations,
-        fp.final_relative_residual
-    );
-    if fp.floored_diagonal_entries > 0 {
-        println!(
-            "  note: Jacobi floored {} diagonal entries at round-off level (cut artefacts)",
-            fp.floored_diagonal_entries
-        );
-    }
-    let row = &report.bodies[0];
-    if let Some(e) = &row.error {
-        let interpolant = match &row.interpolant_error {
-            Some(Some(ei)) => format!("; interpolant {:.4e}", ei.energy_relative),
-            _ => String::new(),
-        };
-        println!(
-            "  energy error {:.4e} (relative {:.4e}{interpolant}), L2 relative {:.4e}",
-            e.energy, e.energy_relative, e.l2_relative
-        );
-        if let Some(why) = &row.interpolant_error_note {
-            println!("  interpolant error not reported: {why}");
-        }
-    }
-    for r in &report.reactions {
-        let f = r.force;
-        println!(
-            "  reaction on '{}': [{:.6e}, {:.6e}, {:.6e}]",
-            r.part, f[0], f[1], f[2]
-        );
-    }
-    println!(
-        "  wrote {}, solution.vtu, surface.vtp, solution.pvd{}",
-        &dir.join("report.json").display(),
-        if outputs.plots {
-            ", residuals.svg, deformed.svg"
-        } else {
-            ""
-        }
-    );
-    Ok(())
+    result
 }

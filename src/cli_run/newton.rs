@@ -9,6 +9,7 @@ use std::sync::Arc;
 use cgfem_gpu::bodies::run::run_on;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
+use cgfem_gpu::report::Report;
 
 use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
@@ -47,7 +48,23 @@ pub fn run(
     }
     let outcome = run_on(case, level, Some(dir), gpu, progress);
     progress.finish();
-    let outcome = outcome?;
+    let outcome = match outcome {
+        Ok(outcome) => outcome,
+        // A solver failure before the first step (the bodies' multigrid set-up)
+        // still leaves a report.
+        Err(e) if matches!(e.exit_code(), 3 | 130) => {
+            let mut report = Report::new(case);
+            report.fail(&e);
+            super::write_report(dir, &report)?;
+            eprintln!(
+                "report (marked {}): {}",
+                report.status,
+                dir.join("report.json").display()
+            );
+            return Err(e.into());
+        }
+        Err(e) => return Err(e.into()),
+    };
     let report = &outcome.report;
     for b in &report.bodies {
         println!(

@@ -99,7 +99,10 @@ pub fn recover_stress(
         nodes,
         dofs.order.degree(),
         &samples,
-        &SprOptions::default(),
+        &SprOptions {
+            pieces: Some(&setup.pieces.of_cell),
+            ..SprOptions::default()
+        },
         plans,
     )
 }

@@ -27,7 +27,8 @@
 //! self-equilibrated. Both integrals use the whole-cell Gauss rule of `F_S`,
 //! which integrates `v · u_h` and `v · R a` exactly for the element's `v`, so
 //! the balance holds to round-off. When `S(u_h) = u_h`, `a = 0` and nothing
-//! changes. The projection is over the whole of Ω* (one body).
+//! changes. The projection is over the whole of Ω* of each piece of the body
+//! (`crate::cells::pieces`): pieces that share no node are balanced apart.
 //!
 //! The price is in the outer iteration: the S-term no longer resists a
 //! common rigid motion of the pathological cells' nodes against the smooth

@@ -13,6 +13,7 @@ use super::stabilisation::pathological_cells;
 use crate::backend::LinearOperator;
 use crate::case::physics::StabilisationSpec;
 use crate::case::Case;
+use crate::cells::pieces::{held_pieces, HeldPoint, Pieces};
 use crate::cells::Cells;
 use crate::element::ElementOrder;
 use crate::error::Result;
@@ -102,6 +103,8 @@ impl LevelOperator {
 pub struct Setup {
     pub grid: Grid,
     pub cells: Cells,
+    /// The body's pieces, each held.
+    pub pieces: Pieces,
     pub problem: Problem,
     pub op: ElasticOperator,
     pub beta: f64,
@@ -156,13 +159,22 @@ impl Setup {
         });
         let problem = Problem::new(case);
         let t = Instant::now();
+        let dirichlet = dirichlet_points(&cells, &problem);
+        let held = dirichlet.iter().map(|p| HeldPoint {
+            cell: p.cell,
+            x: p.x,
+            w: p.w,
+            mask: p.mask,
+        });
+        let body = case.body();
+        let name = (case.file.as_str(), body.spec.name.as_str());
+        let pieces = held_pieces(&grid, &cells, &body.geometry, held, &[], name)?;
         let LevelOperator {
             op,
             beta,
             omega_star,
             s_factor,
         } = LevelOperator::new(case, &problem, &grid, &cells, case.body().spec.element);
-        let dirichlet = dirichlet_points(&cells, &problem);
         let mut fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
         let flux = FluxCorrection::new(
             &grid,
@@ -209,6 +221,7 @@ impl Setup {
         Ok(Setup {
             grid,
             cells,
+            pieces,
             problem,
             op,
             beta,

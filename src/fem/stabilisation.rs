@@ -243,7 +243,10 @@ where
         &nodes,
         degree,
         &samples,
-        &SprOptions::default(),
+        &SprOptions {
+            pieces: Some(&setup.pieces.of_cell),
+            ..SprOptions::default()
+        },
         plans,
     )
 }
@@ -251,7 +254,8 @@ where
 /// `F_S = (k2 E / h²) Σ_{c ∈ Ω*} ∫_c Nᵀ (S + R a) dV`, Gauss rule of one
 /// point more per direction than the element's over the whole cell, where
 /// `R a` is the rigid-body part of `u_h − S` on Ω* (see [`RigidFit`]) when
-/// `balanced` (the S-term then puts no net force or moment on the body), and
+/// `balanced` (the S-term then puts no net force or moment on any piece of
+/// the body), and
 /// zero otherwise (the paper's `F_S`).
 pub fn s_rhs(
     setup: &Setup,
@@ -264,9 +268,20 @@ pub fn s_rhs(
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
     let vol = grid.h.powi(3);
-    let mut fit = RigidFit::about(centroid(grid, omega_star), grid.h);
+    // One projection per piece of the body: the pieces share no node, so
+    // each must be balanced on its own.
+    let of_cell = &setup.pieces.of_cell;
+    let mut per_piece = vec![Vec::new(); setup.pieces.count];
+    for &c in omega_star {
+        per_piece[of_cell[c] as usize].push(c);
+    }
+    let mut fits: Vec<RigidFit> = per_piece
+        .iter()
+        .map(|cells| RigidFit::about(centroid(grid, cells), grid.h))
+        .collect();
     let mut values = Vec::with_capacity(omega_star.len() * rule.len());
     for &c in omega_star {
+        let fit = &mut fits[of_cell[c] as usize];
         let lo = grid.cell_box(c).lo;
         let blend = s.cell_blend(c)?;
         let field = CellField::new(grid, dofs, u, c);
@@ -278,10 +293,14 @@ pub fn s_rhs(
             values.push((c, x, w * vol, sx));
         }
     }
-    let a = if balanced { fit.solve() } else { [0.0; 6] };
+    let a: Vec<[f64; 6]> = match balanced {
+        true => fits.iter().map(RigidFit::solve).collect(),
+        false => vec![[0.0; 6]; fits.len()],
+    };
     let mut rhs = vec![0.0; dofs.ndofs()];
     for &(c, x, w, sx) in &values {
-        let r = fit.value(x, &a);
+        let piece = of_cell[c] as usize;
+        let r = fits[piece].value(x, &a[piece]);
         let v = [0, 1, 2].map(|k| (sx[k] + r[k]) * factor * w);
         add_point_load(grid, dofs, c, x, v, &mut rhs);
     }

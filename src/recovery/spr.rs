@@ -76,7 +76,7 @@ pub(super) fn scaled(center: [f64; 3], h: f64, x: [f64; 3]) -> [f64; 3] {
 
 /// Options of [`recover`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SprOptions {
+pub struct SprOptions<'a> {
     /// Largest ring tried (at least 1 is always tried).
     pub max_rings: usize,
     /// Acceptance of a ring's fit; a rejected fit enlarges the patch.
@@ -84,15 +84,21 @@ pub struct SprOptions {
     /// Faces of the grid box that are symmetry planes: patches continue
     /// across them for fields that [`PatchSamples::reflected`] reflects.
     pub mirror: Mirror,
+    /// The body's piece of each cell ([`crate::cells::pieces::Pieces`]):
+    /// a patch keeps to its node's piece, so that no fit couples two pieces
+    /// that share no node. `None`: one piece.
+    pub pieces: Option<&'a [u32]>,
 }
 
-impl Default for SprOptions {
-    /// Up to 3 rings (216 cells), default [`FitOptions`], no mirror.
+impl Default for SprOptions<'_> {
+    /// Up to 3 rings (216 cells), default [`FitOptions`], no mirror, one
+    /// piece.
     fn default() -> Self {
         SprOptions {
             max_rings: 3,
             fit: FitOptions::default(),
             mirror: Mirror::none(),
+            pieces: None,
         }
     }
 }
@@ -249,7 +255,7 @@ struct Context<'a, S> {
     kinds: &'a [CellKind],
     basis: &'a Monomials,
     samples: &'a S,
-    opts: &'a SprOptions,
+    opts: &'a SprOptions<'a>,
     /// The faces patches continue across (none for a field that does not
     /// reflect).
     mirror: Mirror,
@@ -275,6 +281,7 @@ impl<S> Context<'_, S> {
         let center = self.grid.node_position(ElementOrder::Q1, node);
         let vertex = node_ijk(self.grid, node);
         let (mut patch_cells, mut cells) = (Vec::new(), Vec::new());
+        let mut piece: Option<Option<u32>> = None;
         buf.clear();
         let mut failure = None;
         let max_rings = self.opts.max_rings.max(1);
@@ -289,6 +296,12 @@ impl<S> Context<'_, S> {
                 ring,
                 &mut patch_cells,
             );
+            if let Some(of_cell) = self.opts.pieces {
+                // Ring 1's cells share the node, so they are all its piece.
+                let own =
+                    *piece.get_or_insert_with(|| patch_cells.first().map(|&(c, _)| of_cell[c]));
+                patch_cells.retain(|&(c, _)| Some(of_cell[c]) == own);
+            }
             for &(c, mask) in &patch_cells[first..] {
                 let samples = cache.get(self.samples, c);
                 if mask == 0 {

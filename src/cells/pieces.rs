@@ -1,0 +1,380 @@
+//! The connected pieces of a body at the grid's resolution, and whether each
+//! piece is held.
+//!
+//! Two cells that meet the body and share a grid node share unknowns, so the
+//! discrete body falls apart exactly along the components of the "shares a
+//! node" relation between its cells (26 neighbours): those are its pieces
+//! ([`Pieces`]). A piece that nothing holds has a rigid motion of zero
+//! energy; the stabilisation's patches may hang it on another piece and hide
+//! that. [`free_motions`] tells, per piece, which rigid motions the held
+//! points (Dirichlet points with their held components, symmetry planes)
+//! leave free, so a set-up can refuse such a body by naming the piece.
+
+use nalgebra::{DMatrix, Matrix6, SymmetricEigen};
+
+use super::{CellKind, Cells};
+use crate::error::{Error, Result};
+use crate::geometry::{Aabb, Geometry};
+use crate::grid::Grid;
+
+/// The piece of a cell that does not meet the body.
+pub const NO_PIECE: u32 = u32::MAX;
+
+/// The pieces of a body: each cell that meets it is labelled with its piece,
+/// numbered by the piece's first cell in lattice order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pieces {
+    /// Piece of each grid cell ([`NO_PIECE`] outside the body).
+    pub of_cell: Vec<u32>,
+    /// Number of pieces.
+    pub count: usize,
+}
+
+/// What a piece is, for a message that lets the user find it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PieceSummary {
+    /// Volume of the body in the piece's cells.
+    pub volume: f64,
+    /// Box of the piece's cells.
+    pub cells_box: Aabb,
+    /// Boundary tags on its cut cells' surface points, ascending.
+    pub tags: Vec<u16>,
+}
+
+fn find(parent: &mut [u32], mut a: u32) -> u32 {
+    while parent[a as usize] != a {
+        let up = parent[parent[a as usize] as usize];
+        parent[a as usize] = up;
+        a = up;
+    }
+    a
+}
+
+impl Pieces {
+    /// Labels the cells of `cells` that meet the body by union-find over
+    /// node-sharing neighbours (one pass over the cells, 13 forward
+    /// neighbours each).
+    pub fn new(grid: &Grid, cells: &Cells) -> Pieces {
+        let n = grid.n;
+        let active = |c: usize| cells.kinds[c] != CellKind::Outside;
+        let mut parent: Vec<u32> = (0..grid.num_cells() as u32).collect();
+        for c in (0..grid.num_cells()).filter(|&c| active(c)) {
+            let [i, j, k] = grid.cell_ijk(c);
+            for dk in 0..=1i64 {
+                for dj in -1..=1i64 {
+                    for di in -1..=1i64 {
+                        // The 13 forward neighbours: each pair is seen once.
+                        if (dk, dj, di) <= (0, 0, 0) {
+                            continue;
+                        }
+                        let (a, b, d) = (i as i64 + di, j as i64 + dj, k as i64 + dk);
+                        let inside = |v: i64, m: usize| (0..m as i64).contains(&v);
+                        if !(inside(a, n[0]) && inside(b, n[1]) && inside(d, n[2])) {
+                            continue;
+                        }
+                        let e = grid.cell_index([a as usize, b as usize, d as usize]);
+                        if active(e) {
+                            let (ra, rb) =
+                                (find(&mut parent, c as u32), find(&mut parent, e as u32));
+                            if ra != rb {
+                                parent[ra.max(rb) as usize] = ra.min(rb);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut of_cell = vec![NO_PIECE; grid.num_cells()];
+        let mut count = 0u32;
+        for c in 0..grid.num_cells() {
+            if !active(c) {
+                continue;
+            }
+            let root = find(&mut parent, c as u32) as usize;
+            // Roots are the smallest cell of their piece, so they come first.
+            if root == c {
+                of_cell[c] = count;
+                count += 1;
+            } else {
+                of_cell[c] = of_cell[root];
+            }
+        }
+        Pieces {
+            of_cell,
+            count: count as usize,
+        }
+    }
+
+    /// Volume, box and boundary tags of every piece.
+    pub fn summaries(&self, grid: &Grid, cells: &Cells) -> Vec<PieceSummary> {
+        let mut out = vec![
+            PieceSummary {
+                volume: 0.0,
+                cells_box: Aabb::around(&[]),
+                tags: Vec::new(),
+            };
+            self.count
+        ];
+        let cell_volume = grid.h.powi(3);
+        for (c, &p) in self.of_cell.iter().enumerate() {
+            if p == NO_PIECE {
+                continue;
+            }
+            let s = &mut out[p as usize];
+            s.cells_box = s.cells_box.union(&grid.cell_box(c));
+            if cells.kinds[c] == CellKind::Inside {
+                s.volume += cell_volume;
+            }
+        }
+        for (i, &c) in cells.cut.iter().enumerate() {
+            let s = &mut out[self.of_cell[c] as usize];
+            s.volume += cells.fraction[i] * cell_volume;
+            for q in cells.surface_points(i) {
+                if let Err(at) = s.tags.binary_search(&q.tag) {
+                    s.tags.insert(at, q.tag);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A point where displacement components are held: `mask[a]` is 1 where
+/// component `a` is held, 0 where it is free.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeldPoint {
+    pub cell: usize,
+    pub x: [f64; 3],
+    pub w: f64,
+    pub mask: [f64; 3],
+}
+
+/// A rigid motion that nothing holds: a translation (`rotation` zero) or a
+/// rotation about `axis` through `point`, and the translation along it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreeMotion {
+    pub translation: [f64; 3],
+    pub rotation: [f64; 3],
+    pub point: [f64; 3],
+}
+
+impl std::fmt::Display for FreeMotion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let r = norm(self.rotation);
+        let unit = |v: [f64; 3], s: f64| v.map(|c| if (c / s).abs() < 1e-9 { 0.0 } else { c / s });
+        let fmt3 = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+        // The axis pointing along its largest component's positive direction.
+        let big = (0..3).fold(0, |b, a| {
+            if self.rotation[a].abs() > self.rotation[b].abs() {
+                a
+            } else {
+                b
+            }
+        });
+        let r = r.copysign(self.rotation[big]);
+        if self.rotation == [0.0; 3] {
+            let t = norm(self.translation);
+            write!(f, "translation along {}", fmt3(unit(self.translation, t)))
+        } else {
+            let p = self.point;
+            write!(
+                f,
+                "rotation about the axis {} through {}",
+                fmt3(unit(self.rotation, r)),
+                fmt3(p.map(|c| if c.abs() < 1e-12 { 0.0 } else { c }))
+            )
+        }
+    }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Smallest eigenvalue of a piece's rigid-motion matrix, relative to its
+/// largest, below which the motion counts as free. A clamp on a patch of
+/// size a on a piece of size L leaves about (a/L)², so this is a patch a
+/// hundred-thousandth of the piece.
+const FREE_RATIO: f64 = 1e-10;
+
+/// Per piece, the rigid motions that `held` leaves free (empty: held). The
+/// rigid motions are spanned about the piece's box centre `c` and scaled by
+/// its diagonal `L`: three translations `e_a`, three rotations
+/// `e_a × (x − c) / L`; the piece is held when `M = Σ_q w_q Σ_a mask_a r_i,a
+/// r_j,a` is positive definite.
+pub fn free_motions(
+    pieces: &Pieces,
+    summaries: &[PieceSummary],
+    held: impl IntoIterator<Item = HeldPoint>,
+) -> Vec<Vec<FreeMotion>> {
+    let frames: Vec<([f64; 3], f64)> = summaries
+        .iter()
+        .map(|s| {
+            let b = &s.cells_box;
+            let c = [0, 1, 2].map(|a| 0.5 * (b.lo[a] + b.hi[a]));
+            (c, norm([0, 1, 2].map(|a| b.hi[a] - b.lo[a])))
+        })
+        .collect();
+    let modes = |x: [f64; 3], (c, l): ([f64; 3], f64)| -> [[f64; 3]; 6] {
+        let d = [0, 1, 2].map(|a| (x[a] - c[a]) / l);
+        [
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, -d[2], d[1]],
+            [d[2], 0.0, -d[0]],
+            [-d[1], d[0], 0.0],
+        ]
+    };
+    let mut m = vec![Matrix6::<f64>::zeros(); pieces.count];
+    for p in held {
+        let piece = pieces.of_cell[p.cell];
+        if piece == NO_PIECE {
+            continue;
+        }
+        let r = modes(p.x, frames[piece as usize]);
+        let mp = &mut m[piece as usize];
+        for i in 0..6 {
+            for j in 0..6 {
+                let dot: f64 = (0..3).map(|a| p.mask[a] * r[i][a] * r[j][a]).sum();
+                mp[(i, j)] += p.w * dot;
+            }
+        }
+    }
+    m.into_iter()
+        .zip(&frames)
+        .map(|(mp, &(c, l))| {
+            let eig = SymmetricEigen::new(mp);
+            let largest = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+            let null: Vec<usize> = (0..6)
+                .filter(|&k| largest <= 0.0 || eig.eigenvalues[k] <= FREE_RATIO * largest)
+                .collect();
+            let basis = DMatrix::from_fn(6, null.len(), |i, j| eig.eigenvectors[(i, null[j])]);
+            canonical(&basis)
+                .into_iter()
+                .map(|v| motion([v[0], v[1], v[2]], [v[3] / l, v[4] / l, v[5] / l], c))
+                .collect()
+        })
+        .collect()
+}
+
+/// A basis of the free motions spanned by the columns of `basis` (scaled
+/// modes, orthonormal) that reads well: first the translations in it (no
+/// rotation part), then rotations orthogonal to them. The eigenvectors of a
+/// repeated zero eigenvalue mix the two arbitrarily.
+fn canonical(basis: &DMatrix<f64>) -> Vec<[f64; 6]> {
+    if basis.ncols() == 0 {
+        return Vec::new();
+    }
+    // Right singular vectors of the rotation rows: combinations of the basis
+    // ordered by how much they rotate; those that do not are translations.
+    let rotation = basis.rows(3, 3).clone_owned();
+    let square = rotation.transpose() * &rotation;
+    let eig = SymmetricEigen::new(square);
+    let mut order: Vec<usize> = (0..basis.ncols()).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let (mut translations, mut rotations) = (Vec::new(), Vec::new());
+    for k in order {
+        let v = basis * eig.eigenvectors.column(k);
+        let mut out = [0.0; 6];
+        for i in 0..6 {
+            out[i] = v[i];
+        }
+        match eig.eigenvalues[k] <= 1e-12 {
+            true => translations.push([out[0], out[1], out[2]]),
+            false => rotations.push(out),
+        }
+    }
+    // The translations as the coordinate axes where they are in the span:
+    // the axes projected on it, orthogonalised in x, y, z order.
+    let mut axes: Vec<[f64; 3]> = Vec::new();
+    for a in 0..3 {
+        let mut v = [0.0; 3];
+        for t in &translations {
+            v = [0, 1, 2].map(|i| v[i] + t[a] * t[i]);
+        }
+        for e in &axes {
+            let d: f64 = (0..3).map(|i| v[i] * e[i]).sum();
+            v = [0, 1, 2].map(|i| v[i] - d * e[i]);
+        }
+        if norm(v) > 1e-6 && axes.len() < translations.len() {
+            let n = norm(v);
+            axes.push(v.map(|c| c / n));
+        }
+    }
+    axes.into_iter()
+        .map(|t| [t[0], t[1], t[2], 0.0, 0.0, 0.0])
+        .chain(rotations)
+        .collect()
+}
+
+/// The pieces of a body, after checking that each is held: an error
+/// ([`Error::FreePiece`], exit code 2) names the first piece whose rigid
+/// motions `held` leaves free, unless it carries one of the `exempt` tags
+/// (a contact boundary, which may hold it). `file` and `body` name the case.
+pub fn held_pieces(
+    grid: &Grid,
+    cells: &Cells,
+    geometry: &Geometry,
+    held: impl IntoIterator<Item = HeldPoint>,
+    exempt: &[u16],
+    (file, body): (&str, &str),
+) -> Result<Pieces> {
+    let pieces = Pieces::new(grid, cells);
+    let summaries = pieces.summaries(grid, cells);
+    let free = free_motions(&pieces, &summaries, held);
+    for (p, (s, motions)) in summaries.iter().zip(&free).enumerate() {
+        if motions.is_empty() || s.tags.iter().any(|t| exempt.contains(t)) {
+            continue;
+        }
+        let fmt3 = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+        let parts: Vec<&str> = s.tags.iter().map(|&t| geometry.tag_name(t)).collect();
+        let motions: Vec<String> = match motions.len() {
+            6 => vec!["every rigid motion (nothing holds it)".into()],
+            _ => motions.iter().map(|m| m.to_string()).collect(),
+        };
+        return Err(Error::FreePiece {
+            file: file.into(),
+            body: body.into(),
+            piece: format!(
+                "piece {} of {} (volume {:.4e}, cells {}..{}, boundary parts: {})",
+                p + 1,
+                pieces.count,
+                s.volume,
+                fmt3(s.cells_box.lo),
+                fmt3(s.cells_box.hi),
+                parts.join(", ")
+            ),
+            motions: motions.join("; "),
+        });
+    }
+    Ok(pieces)
+}
+
+/// The rigid motion `u(x) = t + ω × (x − c)` as a translation or as a
+/// rotation about the axis through the point nearest `c` where `u ∥ ω`.
+fn motion(t: [f64; 3], w: [f64; 3], c: [f64; 3]) -> FreeMotion {
+    let w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    if w2 == 0.0 {
+        return FreeMotion {
+            translation: t,
+            rotation: [0.0; 3],
+            point: c,
+        };
+    }
+    // x − c = ω × t / |ω|² puts the axis through x.
+    let wxt = [
+        w[1] * t[2] - w[2] * t[1],
+        w[2] * t[0] - w[0] * t[2],
+        w[0] * t[1] - w[1] * t[0],
+    ];
+    let along: f64 = (0..3).map(|a| t[a] * w[a]).sum::<f64>() / w2;
+    FreeMotion {
+        translation: w.map(|x| along * x),
+        rotation: w,
+        point: [0, 1, 2].map(|a| c[a] + wxt[a] / w2),
+    }
+}
+
+#[cfg(test)]
+mod tests;

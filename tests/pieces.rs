@@ -1,0 +1,121 @@
+//! A body in pieces: two cuboids a few cells apart under their own weight.
+//! A piece that nothing holds is refused at set-up (exit code 2, the piece
+//! named, no report left); with both held, each clamp carries its own piece's
+//! weight: no patch, S-term projection or unknown couples the two.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+/// Two unit cubes along x, the second `gap` from the first; the first's
+/// x = 0 face is `clamp_a`, the second's far face `clamp_b`. `held` adds the
+/// Dirichlet tables, `load` the load (on the linear path [`WEIGHT`]).
+fn two_cubes(gap: f64, held: &str, load: &str) -> String {
+    let (lo, hi) = (1.0 + gap, 2.0 + gap);
+    format!(
+        r#"name = "two_cubes"
+[geometry]
+type = "union"
+of = [
+  {{ type = "retag", from = "xmin", to = "clamp_a", of = {{ type = "cuboid", min = [0, 0, 0], max = [1, 1, 1] }} }},
+  {{ type = "retag", from = "xmax", to = "clamp_b", of = {{ type = "cuboid", min = [{lo}, 0, 0], max = [{hi}, 1, 1] }} }},
+]
+[grid]
+level = 4
+offset = [0.3, 0.6, 0.45]
+[material]
+young = 1000.0
+poisson = 0.3
+{held}
+{load}
+"#
+    )
+}
+
+/// Unit weight density along −z.
+const WEIGHT: &str = "[body_load]\nvalue = [\"0\", \"0\", \"-1\"]\n";
+const CLAMP_A: &str = "[dirichlet.clamp_a]\nvalue = [\"0\", \"0\", \"0\"]\n";
+const CLAMP_B: &str = "[dirichlet.clamp_b]\nvalue = [\"0\", \"0\", \"0\"]\n";
+
+/// Runs `text`; returns (exit code, stderr, output folder).
+fn run(name: &str, text: &str) -> (i32, String, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("cgfem-pieces-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = dir.join("case.toml");
+    std::fs::write(&case, text).unwrap();
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .arg("run")
+        .arg(&case)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        out,
+    )
+}
+
+#[test]
+fn an_unheld_piece_is_refused_by_name() {
+    let (code, err, out) = run("free", &two_cubes(0.5, CLAMP_A, WEIGHT));
+    assert_eq!(code, 2, "{err}");
+    for word in ["case.toml", "piece 2 of 2", "clamp_b", "every rigid motion"] {
+        assert!(err.contains(word), "'{word}' missing: {err}");
+    }
+    assert!(!out.join("report.json").exists());
+}
+
+#[test]
+fn rollers_that_leave_a_rotation_are_refused_naming_it() {
+    let rollers = "[dirichlet.clamp_a]\nvalue = [\"0\", \"free\", \"free\"]\n";
+    let (code, err, _) = run(
+        "rollers",
+        &two_cubes(0.5, &format!("{rollers}{CLAMP_B}"), WEIGHT),
+    );
+    assert_eq!(code, 2, "{err}");
+    for word in [
+        "piece 1 of 2",
+        "translation along (0.000, 1.000, 0.000)",
+        "translation along (0.000, 0.000, 1.000)",
+        "rotation about the axis (1.000, 0.000, 0.000)",
+    ] {
+        assert!(err.contains(word), "'{word}' missing: {err}");
+    }
+}
+
+#[test]
+fn the_newton_path_refuses_an_unheld_piece_too() {
+    // A hyperelastic body with a pressure on its top faces.
+    let load = "[neumann.zmax]\npressure = \"1\"\n";
+    let text = two_cubes(0.5, CLAMP_B, load)
+        .replace("poisson = 0.3", "poisson = 0.3\nmodel = \"neo_hookean\"");
+    let (code, err, _) = run("newton", &text);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("piece 1 of 2"), "{err}");
+}
+
+/// Each clamp's reaction along z is its own piece's weight (volume 1, unit
+/// density), for gaps of about two and four cells (h = (2 + gap)/16).
+#[test]
+fn each_held_piece_carries_its_own_weight() {
+    for gap in [0.3, 0.5] {
+        let (code, err, out) = run(
+            &format!("held-{gap}"),
+            &two_cubes(gap, &format!("{CLAMP_A}{CLAMP_B}"), WEIGHT),
+        );
+        assert_eq!(code, 0, "{err}");
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+        let reactions = report["reactions"].as_array().unwrap();
+        assert_eq!(reactions.len(), 2);
+        for r in reactions {
+            let f = r["force"].as_array().unwrap();
+            let f: Vec<f64> = f.iter().map(|v| v.as_f64().unwrap()).collect();
+            assert!((f[2] - 1.0).abs() < 1e-8, "gap {gap}, {}: {f:?}", r["part"]);
+            assert!(f[0].abs() < 1e-8 && f[1].abs() < 1e-8, "gap {gap}: {f:?}");
+        }
+    }
+}
