@@ -4,7 +4,7 @@
 //! [`check_finite`], which names the case key and a point where a value is
 //! not finite, instead of letting NaN reach the solver.
 
-use super::dofs::DofMap;
+use super::dofs::{node_cells, DofMap};
 use super::problem::{Boundary, Problem};
 use super::rhs::DirichletPoint;
 use crate::case::boundary::DirichletValue;
@@ -134,6 +134,73 @@ pub fn check_finite(case: &Case, a: &Assembled) -> Result<()> {
         "the load vector overflows: the loads, the Dirichlet data or the penalty k1 E are too large"
             .into(),
     ))
+}
+
+/// A diagonal entry below this fraction of the largest, negated, is not
+/// round-off: the merged slivers' entries are about −1e-20 of it
+/// ([`crate::cells::NEGLIGIBLE_FRACTION`]).
+const NEGATIVE_DIAGONAL: f64 = 1e-8;
+
+/// Ok when no diagonal entry of the operator is negative beyond round-off.
+/// A clean surface gives every cell a rule of positive stiffness; a negative
+/// entry means a cut-cell rule of negative volume somewhere, from a surface
+/// that is not closed or intersects itself in that cell: the error names the
+/// cells around the entry and what the mesh check found.
+/// The multigrid's coarser levels, classified on their own grids, are
+/// checked the same way.
+pub fn check_rules(
+    case: &Case,
+    grid: &Grid,
+    cells: &Cells,
+    dofs: &DofMap,
+    diagonal: &[f64],
+) -> Result<()> {
+    let largest = diagonal.iter().cloned().fold(0.0, f64::max);
+    let Some(dof) = diagonal
+        .iter()
+        .position(|&d| d < -NEGATIVE_DIAGONAL * largest)
+    else {
+        return Ok(());
+    };
+
+    let node = dofs.active_to_node[dof / 3] as usize;
+    let mut around = Vec::new();
+    node_cells(grid, dofs.order, node, &mut around);
+    let cut: Vec<String> = around
+        .iter()
+        .filter(|&&(c, _)| cells.kinds[c] == CellKind::Cut)
+        .map(|&(c, _)| {
+            let b = grid.cell_box(c);
+            let f = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+            format!("{}..{}", f(b.lo), f(b.hi))
+        })
+        .collect();
+    let meshes: Vec<String> = case
+        .body()
+        .geometry
+        .meshes()
+        .iter()
+        .map(|m| m.diagnostics().summary())
+        .collect();
+    let x = grid.node_position(dofs.order, node);
+    Err(Error::CaseFile {
+        file: case.file.clone(),
+        key: "geometry".into(),
+        reason: format!(
+            "the stiffness at the node ({:.4}, {:.4}, {:.4}) is negative ({:.3e}): a cut cell \
+             there has a quadrature rule of negative volume, which a closed surface that does \
+             not cross itself never gives (cut cells at the node: {}){}",
+            x[0],
+            x[1],
+            x[2],
+            diagonal[dof],
+            cut.join(", "),
+            match meshes.is_empty() {
+                true => String::new(),
+                false => format!("; mesh: {}", meshes.join("; ")),
+            }
+        ),
+    })
 }
 
 #[cfg(test)]

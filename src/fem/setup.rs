@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use super::checks::{check_finite, Assembled};
+use super::checks::{check_finite, check_rules, Assembled};
 use super::flux_consistency::FluxCorrection;
 use super::operator::{ElasticOperator, OperatorParams};
 use super::problem::Problem;
@@ -186,20 +186,19 @@ impl Setup {
         );
         flux.add_given(&grid, &cells, &op.dofs, &problem, &mut fixed_rhs);
         let diagonal = op.diagonal();
-        check_finite(
-            case,
-            &Assembled {
-                grid: &grid,
-                cells: &cells,
-                dofs: &op.dofs,
-                problem: &problem,
-                beta,
-                s_factor,
-                diagonal: &diagonal,
-                dirichlet: &dirichlet,
-                fixed_rhs: &fixed_rhs,
-            },
-        )?;
+        let assembled = Assembled {
+            grid: &grid,
+            cells: &cells,
+            dofs: &op.dofs,
+            problem: &problem,
+            beta,
+            s_factor,
+            diagonal: &diagonal,
+            dirichlet: &dirichlet,
+            fixed_rhs: &fixed_rhs,
+        };
+        check_finite(case, &assembled)?;
+        check_rules(case, &grid, &cells, &op.dofs, &diagonal)?;
         timings.push(("operator_and_rhs".to_string(), t.elapsed().as_secs_f64()));
         progress.event(&Event::Finish {
             phase: Phase::Operator,

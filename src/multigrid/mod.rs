@@ -60,6 +60,7 @@ use crate::cells::Cells;
 use crate::condition::sparse::Cholesky;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
+use crate::fem::checks::check_rules;
 use crate::fem::operator::ElasticOperator;
 use crate::fem::problem::Problem;
 use crate::fem::setup::LevelOperator;
@@ -208,9 +209,10 @@ impl Hierarchy {
             cells: &omega_star,
             factor: st.k2 * problem.young / (fine.grid.h * fine.grid.h),
         };
-        let level = |grid: &Grid, cells: &Cells| {
+        let level = |grid: &Grid, cells: &Cells| -> Result<ElasticOperator> {
             let mut op =
                 LevelOperator::with_k2(case, problem, grid, cells, ElementOrder::Q1, 0.0).op;
+            check_rules(case, grid, cells, &op.dofs, &op.diagonal())?;
             let missed = s_term.add_to(&mut op);
             if missed > 0 {
                 tracing::info!(
@@ -219,13 +221,13 @@ impl Hierarchy {
                     "multigrid: S-term cells not cut there"
                 );
             }
-            op
+            Ok(op)
         };
         Hierarchy::build(fine, opts, |last| {
             Ok(match last.dofs.order {
-                ElementOrder::Q2 => Some(level(&last.grid, cells)),
+                ElementOrder::Q2 => Some(level(&last.grid, cells)?),
                 ElementOrder::Q1 => match last.grid.coarsened() {
-                    Some(grid) => Some(level(&grid, &case.classify(&grid)?)),
+                    Some(grid) => Some(level(&grid, &case.classify(&grid)?)?),
                     None => None,
                 },
             })
