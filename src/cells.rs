@@ -90,6 +90,9 @@ pub struct Cells {
     pub num_inside: usize,
     /// Cut cells of negligible volume merged into a neighbour ([`merge`]).
     pub merged: usize,
+    /// Cut cells, ascending, whose rule is the first-order repaired one of
+    /// a mesh with defects ([`crate::quadrature::repaired`]).
+    pub repaired: Vec<usize>,
 }
 
 impl Cells {
@@ -162,8 +165,12 @@ impl Cells {
             samples: Vec::new(),
             num_inside: 0,
             merged,
+            repaired: Vec::new(),
         };
         for (c, rule) in entries {
+            if rule.repaired {
+                cells.repaired.push(c);
+            }
             let vol: f64 = rule.volume.iter().map(|p| p.w).sum();
             cells.cut.push(c);
             cells.fraction.push((vol / cell_volume).clamp(0.0, 1.0));

@@ -43,20 +43,6 @@ pub enum Error {
     /// A boundary tag that no boundary part carries.
     #[error("unknown boundary tag '{tag}' (known: {known})")]
     UnknownTag { tag: String, known: String },
-    /// A piece of a body that nothing holds (no Dirichlet condition, or
-    /// rollers that leave it a rigid motion, and no contact): its solution is
-    /// not unique.
-    #[error(
-        "{file}: body '{body}': {piece} is not held, free in: {motions}; hold it with \
-         [dirichlet.<tag>] on one of its boundary parts, or remove it from the geometry"
-    )]
-    FreePiece {
-        file: String,
-        body: String,
-        /// Which piece, its volume, box and boundary parts.
-        piece: String,
-        motions: String,
-    },
     /// A Krylov solver option is out of range (tolerance not in (0, ∞), ...).
     #[error("invalid solver options: {what}: {reason}")]
     InvalidSolverOptions { what: String, reason: String },

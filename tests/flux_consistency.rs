@@ -93,7 +93,7 @@ fn defects(element: &str, name: &str, geometry: &str, level: u32, seed: u64) -> 
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let offset = [0, 1, 2].map(|_| rng.gen_range(0.0..1.0));
     let text = format!(
-        "element = \"{element}\"\n[geometry]\n{geometry}\n[grid]\nlevel = {level}\noffset = [{}, {}, {}]\n[material]\nyoung = 1\npoisson = 0.3\n",
+        "element = \"{element}\"\n[geometry]\n{geometry}\n[grid]\nlevel = {level}\noffset = [{}, {}, {}]\n[material]\nyoung = 1\npoisson = 0.3\n[solver]\npreconditioner = \"jacobi\"\n",
         offset[0], offset[1], offset[2]
     );
     let case = Case::from_str("defect.toml", &text).unwrap();

@@ -158,6 +158,8 @@ displacement = ["x^2 + y*z - 0.3*x", "x*y - z^2 + 0.1", "0.5*x*z + y^2 - x^2"]
 traction = {traction}
 [stabilisation]
 k2 = 0.01
+[solver]
+preconditioner = "jacobi"                  # not held: no multigrid
 "#
     );
     let case = Case::from_str("neumann_sphere.toml", &text).unwrap();

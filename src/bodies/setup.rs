@@ -16,7 +16,7 @@ use super::problem::BodiesProblem;
 use super::symmetry::{self, SymmetryPlane};
 use crate::case::boundary::RampSpec;
 use crate::case::{Case, Model};
-use crate::cells::pieces::{held_pieces, HeldPoint};
+use crate::cells::pieces::{held_pieces, HeldPoint, Naming};
 use crate::cells::{CellKind, Cells};
 use crate::element::ElementOrder;
 use crate::error::Result;
@@ -177,8 +177,15 @@ fn check_held(
         .filter(|side| side.body == i)
         .filter_map(|side| solid.tag_id(body.geometry.tag_name(side.tag)))
         .collect();
-    held_pieces(grid, cells, solid, held, &contact, (&case.file, &spec.name))?;
-    Ok(())
+    let naming = Naming {
+        file: &case.file,
+        key: &case.body_key(i, "dirichlet"),
+        body: &spec.name,
+    };
+    match held_pieces(grid, cells, solid, held, &contact, &naming) {
+        (_, Some(e)) => Err(e),
+        (_, None) => Ok(()),
+    }
 }
 
 /// The Newton options of `[load]`, `[newton]` and `[solver]`.

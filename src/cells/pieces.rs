@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, Matrix6, SymmetricEigen};
 
 use super::{CellKind, Cells};
-use crate::error::{Error, Result};
+use crate::error::Error;
 use crate::geometry::{Aabb, Geometry};
 use crate::grid::Grid;
 
@@ -308,18 +308,26 @@ fn canonical(basis: &DMatrix<f64>) -> Vec<[f64; 6]> {
         .collect()
 }
 
-/// The pieces of a body, after checking that each is held: an error
-/// ([`Error::FreePiece`], exit code 2) names the first piece whose rigid
-/// motions `held` leaves free, unless it carries one of the `exempt` tags
-/// (a contact boundary, which may hold it). `file` and `body` name the case.
+/// Who names an unheld piece: the case file, the key of the body's
+/// Dirichlet conditions as the file writes it, and the body's name.
+pub struct Naming<'a> {
+    pub file: &'a str,
+    pub key: &'a str,
+    pub body: &'a str,
+}
+
+/// The pieces of a body, and whether each is held: `Some` error
+/// ([`Error::CaseFile`], exit code 2) naming the first piece whose rigid
+/// motions `held` leaves free, unless it carries one of the `exempt` tags (a
+/// contact boundary, which may hold it).
 pub fn held_pieces(
     grid: &Grid,
     cells: &Cells,
     geometry: &Geometry,
     held: impl IntoIterator<Item = HeldPoint>,
     exempt: &[u16],
-    (file, body): (&str, &str),
-) -> Result<Pieces> {
+    naming: &Naming,
+) -> (Pieces, Option<Error>) {
     let pieces = Pieces::new(grid, cells);
     let summaries = pieces.summaries(grid, cells);
     let free = free_motions(&pieces, &summaries, held);
@@ -333,22 +341,26 @@ pub fn held_pieces(
             6 => vec!["every rigid motion (nothing holds it)".into()],
             _ => motions.iter().map(|m| m.to_string()).collect(),
         };
-        return Err(Error::FreePiece {
-            file: file.into(),
-            body: body.into(),
-            piece: format!(
-                "piece {} of {} (volume {:.4e}, cells {}..{}, boundary parts: {})",
+        let error = Error::CaseFile {
+            file: naming.file.into(),
+            key: naming.key.into(),
+            reason: format!(
+                "body '{}': piece {} of {} (volume {:.4e}, cells {}..{}, boundary parts: {}) \
+                 is not held, free in: {}; hold it with [dirichlet.<tag>] on one of its \
+                 boundary parts, or remove it from the geometry",
+                naming.body,
                 p + 1,
                 pieces.count,
                 s.volume,
                 fmt3(s.cells_box.lo),
                 fmt3(s.cells_box.hi),
-                parts.join(", ")
+                parts.join(", "),
+                motions.join("; ")
             ),
-            motions: motions.join("; "),
-        });
+        };
+        return (pieces, Some(error));
     }
-    Ok(pieces)
+    (pieces, None)
 }
 
 /// The rigid motion `u(x) = t + ω × (x − c)` as a translation or as a

@@ -185,6 +185,7 @@ pub fn run(
             "case {name} ({}): level {}, {order:?}, {} dofs; {} inside, {} cut cells",
             case.file, setup.grid.level, report.dofs, b.cells.inside, b.cells.cut
         );
+        super::repaired_note(b);
 
         if condition {
             let t = Instant::now();

@@ -133,6 +133,22 @@ pub fn mesh_notes(case: &Case) {
     }
 }
 
+/// How many cut cells of body `b` took the repaired rule, and where, on
+/// stderr.
+fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
+    if let Some([lo, hi]) = b.cells.repaired_box {
+        let f = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+        eprintln!(
+            "note: body '{}': {} cut cells in {}..{} took the first-order repaired rule: the \
+             mesh does not bound a solid there (open, overlapping or crossing facets)",
+            b.name,
+            b.cells.repaired,
+            f(lo),
+            f(hi)
+        );
+    }
+}
+
 /// Writes DIR/report.json (creating DIR).
 fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

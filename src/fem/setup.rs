@@ -13,7 +13,7 @@ use super::stabilisation::pathological_cells;
 use crate::backend::LinearOperator;
 use crate::case::physics::StabilisationSpec;
 use crate::case::Case;
-use crate::cells::pieces::{held_pieces, HeldPoint, Pieces};
+use crate::cells::pieces::{held_pieces, HeldPoint, Naming, Pieces};
 use crate::cells::Cells;
 use crate::element::ElementOrder;
 use crate::error::Result;
@@ -103,8 +103,12 @@ impl LevelOperator {
 pub struct Setup {
     pub grid: Grid,
     pub cells: Cells,
-    /// The body's pieces, each held.
+    /// The body's pieces.
     pub pieces: Pieces,
+    /// Why a piece is not held (no Dirichlet condition, or one that leaves
+    /// it a rigid motion), if one is not: a solve of it is refused
+    /// ([`Setup::check_held`]); an operator of it can still be had.
+    pub unheld: Option<crate::error::Error>,
     pub problem: Problem,
     pub op: ElasticOperator,
     pub beta: f64,
@@ -127,6 +131,15 @@ pub struct Setup {
 }
 
 impl Setup {
+    /// Ok when every piece of the body is held; otherwise the error naming
+    /// the first piece that is not (exit code 2). Every solve asks first.
+    pub fn check_held(&self) -> Result<()> {
+        match &self.unheld {
+            None => Ok(()),
+            Some(e) => Err(e.clone()),
+        }
+    }
+
     /// Builds the grid at `level` (default: the case's), classifies it, and
     /// assembles the operator data and the fixed right-hand side.
     pub fn new(case: &Case, level: Option<u32>) -> Result<Setup> {
@@ -167,8 +180,12 @@ impl Setup {
             mask: p.mask,
         });
         let body = case.body();
-        let name = (case.file.as_str(), body.spec.name.as_str());
-        let pieces = held_pieces(&grid, &cells, &body.geometry, held, &[], name)?;
+        let naming = Naming {
+            file: &case.file,
+            key: &case.body_key(0, "dirichlet"),
+            body: &body.spec.name,
+        };
+        let (pieces, unheld) = held_pieces(&grid, &cells, &body.geometry, held, &[], &naming);
         let LevelOperator {
             op,
             beta,
@@ -211,6 +228,10 @@ impl Setup {
         );
         let multigrid = match case.spec.solver.preconditioner {
             Preconditioner::Multigrid | Preconditioner::Auto => {
+                // The coarsest level's factor needs a held body.
+                if let Some(e) = &unheld {
+                    return Err(e.clone());
+                }
                 let h = Hierarchy::new(case, &problem, &cells, &op, &MultigridOptions::default())?;
                 timings.push(("multigrid".to_string(), h.seconds));
                 Some(h)
@@ -221,6 +242,7 @@ impl Setup {
             grid,
             cells,
             pieces,
+            unheld,
             problem,
             op,
             beta,

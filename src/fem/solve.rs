@@ -70,6 +70,7 @@ pub fn solve_with_progress(
     progress: &dyn Progress,
 ) -> Result<Solution> {
     let _span = tracing::info_span!("solve", dofs = setup.fixed_rhs.len()).entered();
+    setup.check_held()?;
     let load = RecoveredLoad::new(setup);
     let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
     let mut traction_load = |u: &[f64]| load.at(u);

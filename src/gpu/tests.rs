@@ -176,8 +176,10 @@ fn apply_mirror_equals_the_host_operator_in_one_or_several_chunks() {
     use crate::backend::LinearOperator;
     use crate::case::Case;
     use crate::fem::setup::Setup;
+    // Not held, so no multigrid (its coarsest factor needs a held body).
     let text = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
-                [material]\nyoung = 1000.0\npoisson = 0.3\n";
+                [material]\nyoung = 1000.0\npoisson = 0.3\n\
+                [solver]\npreconditioner = \"jacobi\"\n";
     let case = Case::from_str("sphere.toml", text).unwrap();
     let setup = Setup::new(&case, Some(3)).unwrap();
     let op = &setup.op;
@@ -366,8 +368,10 @@ fn only_buffers_beyond_the_largest_buffer_are_refused() {
 
 /// The level-4 sphere of radius 1 (Q1).
 fn sphere_setup(level: u32) -> crate::fem::setup::Setup {
+    // Not held, so no multigrid (its coarsest factor needs a held body).
     let text = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
-                [material]\nyoung = 1000.0\npoisson = 0.3\n";
+                [material]\nyoung = 1000.0\npoisson = 0.3\n\
+                [solver]\npreconditioner = \"jacobi\"\n";
     let case = crate::case::Case::from_str("sphere.toml", text).unwrap();
     crate::fem::setup::Setup::new(&case, Some(level)).unwrap()
 }

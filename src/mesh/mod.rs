@@ -97,6 +97,10 @@ pub struct MeshSolid {
     far: Vec<FarField>,
     bbox: Aabb,
     diagnostics: MeshDiagnostics,
+    /// Per triangle, whether the winding number on its two sides is not 1
+    /// behind and 0 in front ([`MeshSolid::irregular`]); empty for a mesh
+    /// without defects.
+    irregular: Vec<bool>,
 }
 
 impl fmt::Debug for MeshSolid {
@@ -167,15 +171,28 @@ impl MeshSolid {
         diagnostics.volume = volume.abs();
         let corner_list: Vec<[[f64; 3]; 3]> = kept.iter().map(corners).collect();
         let mut mesh = MeshSolid::from_corners(corner_list, kept_tags, diagnostics);
-        mesh.diagnostics.self_intersections = mesh.count_self_intersections(&kept);
+        let crossing = mesh.self_intersections(&kept);
+        mesh.diagnostics.self_intersections = crossing.len();
+        if mesh.is_dirty() {
+            mesh.irregular = (0..mesh.num_triangles())
+                .map(|t| mesh.sides_are_irregular(t))
+                .collect();
+            // A facet through another is irregular along the crossing,
+            // wherever its centroid lies.
+            for (t, o) in crossing {
+                mesh.irregular[t] = true;
+                mesh.irregular[o] = true;
+            }
+        }
         Some(mesh)
     }
 
     /// Edges crossing the inside of a triangle with no common vertex
-    /// (`ids`: the welded vertex ids of each triangle).
-    fn count_self_intersections(&self, ids: &[[u32; 3]]) -> usize {
+    /// (`ids`: the welded vertex ids of each triangle), as (the edge's
+    /// triangle, the crossed triangle), one per crossing.
+    fn self_intersections(&self, ids: &[[u32; 3]]) -> Vec<(usize, usize)> {
         const INTERIOR: f64 = 1e-9;
-        let mut count = 0;
+        let mut crossing = Vec::new();
         for (t, tid) in ids.iter().enumerate() {
             let p = self.triangle(t);
             for k in 0..3 {
@@ -191,13 +208,13 @@ impl MeshSolid {
                     {
                         let inside = bary.iter().all(|&w| w > INTERIOR);
                         if inside && s > INTERIOR && s < 1.0 - INTERIOR {
-                            count += 1;
+                            crossing.push((t, o));
                         }
                     }
                 });
             }
         }
-        count
+        crossing
     }
 
     fn from_corners(
@@ -221,7 +238,36 @@ impl MeshSolid {
             far,
             bbox,
             diagnostics,
+            irregular: Vec::new(),
         }
+    }
+
+    /// Whether the load found a defect: open, non-manifold or misoriented
+    /// edges, or edges through other triangles. The cut rules of a dirty
+    /// mesh are checked cell by cell ([`crate::quadrature::repaired`]).
+    pub fn is_dirty(&self) -> bool {
+        let d = &self.diagnostics;
+        d.open_edges + d.non_manifold_edges + d.misoriented_edges + d.self_intersections > 0
+    }
+
+    /// Whether triangle `t` does not separate the inside (`w = 1` behind it)
+    /// from the outside (`w = 0` in front), the winding numbers rounded: a
+    /// facet of an overlapping or inverted shell, or one inside or outside
+    /// another part of the surface. Always false on a mesh that is not
+    /// [`MeshSolid::is_dirty`].
+    pub fn irregular(&self, t: usize) -> bool {
+        self.irregular.get(t).copied().unwrap_or(false)
+    }
+
+    /// The winding numbers just behind and in front of `t`'s centroid
+    /// (`10⁻⁶` of its size away), rounded, are not 1 and 0.
+    fn sides_are_irregular(&self, t: usize) -> bool {
+        let v = self.triangle(t);
+        let c = [0, 1, 2].map(|i| (v[0][i] + v[1][i] + v[2][i]) / 3.0);
+        let size = norm(sub(v[1], v[0])).max(norm(sub(v[2], v[0])));
+        let n = self.normal(t);
+        let at = |s: f64| self.winding_number([0, 1, 2].map(|i| c[i] + s * 1e-6 * size * n[i]));
+        at(-1.0).round() != 1.0 || at(1.0).round() != 0.0
     }
 
     /// The mesh after the motion `x ↦ R x + s` (R by columns, orthogonal).
@@ -231,7 +277,10 @@ impl MeshSolid {
         let corners = (0..self.num_triangles())
             .map(|t| self.triangle(t).map(apply))
             .collect();
-        MeshSolid::from_corners(corners, self.tags.clone(), self.diagnostics.clone())
+        let mut mesh =
+            MeshSolid::from_corners(corners, self.tags.clone(), self.diagnostics.clone());
+        mesh.irregular = self.irregular.clone();
+        mesh
     }
 
     /// The same mesh with every tag passed through `f`.

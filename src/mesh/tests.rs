@@ -118,3 +118,36 @@ fn stl_reading_names_solids_and_rejects_non_stl() {
     let unclosed = parse_stl(b"solid a\n facet normal 0 0 1\n").unwrap_err();
     assert!(unclosed.contains("no `endsolid`"), "{unclosed}");
 }
+
+/// A clean box is not dirty and has no irregular facet; a box with an
+/// inside-out box through its x = 1 face is dirty, and exactly the facets
+/// that do not separate w = 1 from w = 0 are irregular: those of the inner
+/// box outside the cube (w −1 | 0) and of the cube inside the inner box
+/// (w 0 | −1); the inner box's facets inside the cube (1 | 0) are regular.
+#[test]
+fn irregular_facets_are_those_that_do_not_separate_inside_from_outside() {
+    let cube = box_triangles([0.0; 3], [1.0; 3]);
+    let clean = MeshSolid::new(&cube, &[0; 12]).unwrap();
+    assert!(!clean.is_dirty());
+    assert!((0..12).all(|t| !clean.irregular(t)));
+    let mut tris = cube.clone();
+    let inner = box_triangles([0.8, 0.3, 0.3], [1.2, 0.7, 0.7]);
+    tris.extend(inner.iter().map(|t| [t[0], t[2], t[1]]));
+    let dirty = MeshSolid::new(&tris, &[0; 24]).unwrap();
+    assert!(dirty.is_dirty());
+    for t in 0..24 {
+        let v = dirty.triangle(t);
+        let c = [0, 1, 2].map(|i| (v[0][i] + v[1][i] + v[2][i]) / 3.0);
+        let in_cube = (0..3).all(|i| c[i] > 1e-9 && c[i] < 1.0 - 1e-9);
+        let in_inner = c[0] > 0.8 && (0.3..=0.7).contains(&c[1]) && (0.3..=0.7).contains(&c[2]);
+        // Irregular: the cube's facets that the inner box crosses (those of
+        // x = 1) and the inner box's facets through the cube's or outside it.
+        let crosses_x1 = (v.iter().any(|p| p[0] < 1.0) && v.iter().any(|p| p[0] > 1.0))
+            || (c[0] - 1.0).abs() < 1e-12;
+        let expected = match t < 12 {
+            true => in_inner || crosses_x1,
+            false => !in_cube || crosses_x1,
+        };
+        assert_eq!(dirty.irregular(t), expected, "facet {t} at {c:?}");
+    }
+}

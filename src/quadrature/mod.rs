@@ -5,6 +5,7 @@ pub mod gauss;
 mod lines;
 pub mod mixed;
 pub mod polyhedral;
+pub mod repaired;
 mod restricted;
 mod roots;
 pub mod saye;

@@ -66,6 +66,7 @@ use crate::geometry::Aabb;
 use crate::mesh::MeshSolid;
 
 use super::gauss::{gauss_jacobi_u_unit, gauss_legendre_unit};
+use super::repaired;
 use super::saye::{BoxRule, SurfacePoint, VolumePoint};
 
 /// The Lagrange basis of the `n` Gauss points of `[0, 1]` in monomial form,
@@ -193,7 +194,18 @@ pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> Bo
     };
     let weights = if !near.is_empty() {
         if free.len() == 3 {
-            cell_moments(mesh, &basis, b, free, &pieces)
+            let weights = cell_moments(mesh, &basis, b, free, &pieces);
+            if mesh.is_dirty() {
+                let along_x: f64 = weights.iter().sum();
+                let along_y: f64 = cell_moments(mesh, &basis, b, &[1, 2, 0], &pieces)
+                    .iter()
+                    .sum();
+                if repaired::needs_repair(mesh, b, &near, along_x, along_y) {
+                    boundary_points(mesh, &basis, &pieces, &mut rule.surface);
+                    return repaired::repaired_rule(mesh, b, q, rule.surface);
+                }
+            }
+            weights
         } else {
             moments(mesh, &basis, b, free)
         }

@@ -61,6 +61,9 @@ pub struct BoxRule {
     /// volume points are not all in it (the polyhedral rules); empty when
     /// they are (Saye's).
     pub samples: Vec<[f64; 3]>,
+    /// Whether the rule is the first-order one of a cell where a mesh with
+    /// defects does not bound a solid ([`super::repaired`]).
+    pub repaired: bool,
 }
 
 const MAX_TOP_DEPTH: u32 = 3;

@@ -29,6 +29,12 @@ pub struct CellCounts {
     /// Cut cells of negligible volume merged into a neighbour (counted in
     /// `outside`).
     pub merged: usize,
+    /// Cut cells where a mesh with defects does not bound a solid, given the
+    /// first-order repaired rule (counted in `cut`).
+    pub repaired: usize,
+    /// The box of the repaired cells, `[min, max]`, when there are some.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub repaired_box: Option<[[f64; 3]; 2]>,
 }
 
 /// Measures of the domain by the cut-cell quadrature.
@@ -258,6 +264,16 @@ impl BodyReport {
                 outside,
                 pathological: None,
                 merged: cells.merged,
+                repaired: cells.repaired.len(),
+                repaired_box: (!cells.repaired.is_empty()).then(|| {
+                    let b = cells
+                        .repaired
+                        .iter()
+                        .fold(grid.cell_box(cells.repaired[0]), |b, &c| {
+                            b.union(&grid.cell_box(c))
+                        });
+                    [b.lo, b.hi]
+                }),
             },
             domain: Domain {
                 volume: cells.volume(grid),
