@@ -22,6 +22,7 @@
 
 use nalgebra::Matrix3;
 
+use crate::cells::pieces::Pieces;
 use crate::cells::{CellKind, Cells};
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
@@ -50,6 +51,8 @@ const CUT_CELL_SAMPLES: usize = 16;
 #[derive(Clone, Debug)]
 pub struct StressSampler {
     kinds: Vec<CellKind>,
+    /// The body's piece of each cell (a patch keeps to its node's piece).
+    pieces: Vec<u32>,
     cut_samples: Vec<Vec<(QuadPoint, [f64; 3])>>,
     mirror: Mirror,
 }
@@ -78,6 +81,7 @@ impl StressSampler {
             .collect();
         StressSampler {
             kinds: cells.kinds.clone(),
+            pieces: Pieces::new(grid, cells).of_cell,
             cut_samples,
             mirror,
         }
@@ -101,6 +105,7 @@ impl StressSampler {
             &samples,
             &SprOptions {
                 mirror: self.mirror,
+                pieces: Some(&self.pieces),
                 ..SprOptions::default()
             },
         )

@@ -42,6 +42,7 @@ use rayon::prelude::*;
 
 use super::problem::{HyperProblem, CELL_DOFS, NODES};
 use super::residual::CellVector;
+use crate::cells::pieces::Pieces;
 use crate::cells::{CellKind, Cells};
 use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
@@ -68,6 +69,8 @@ pub struct STerm {
     mass: Vec<f64>,
     /// Cell kinds of the grid (the patches skip outside cells).
     kinds: Vec<CellKind>,
+    /// The body's piece of each cell (a patch keeps to its node's piece).
+    pieces: Vec<u32>,
     /// Sample positions of the cut cells, per cut index, back to back.
     cut_samples: Vec<[f64; 3]>,
     cut_sample_start: Vec<usize>,
@@ -125,6 +128,7 @@ impl STerm {
             slot,
             mass: cell_s_matrix(ElementOrder::Q1, factor, h),
             kinds: cells.kinds.clone(),
+            pieces: Pieces::new(&problem.grid, cells).of_cell,
             cut_samples,
             cut_sample_start,
             mirror: Mirror::none(),
@@ -242,6 +246,7 @@ impl STerm {
         };
         let opts = SprOptions {
             mirror: self.mirror,
+            pieces: Some(&self.pieces),
             ..SprOptions::default()
         };
         recover(&p.grid, &self.kinds, &nodes, DEGREE, &samples, &opts)
