@@ -319,6 +319,10 @@ fn cell_defect(
     let h = grid.h;
     let xi = |x: [f64; 3]| [0, 1, 2].map(|a| (x[a] - lo[a]) / h);
     let mut d = vec![[0.0; 3]; n * n * n];
+    if cells.repaired.binary_search(&cell).is_ok() {
+        // A repaired rule is first order: nothing to make consistent.
+        return d;
+    }
     // `d[r][j] += w ∂_j L_r(ξ)` (grad = true) or `w c_j L_r(ξ)`.
     let mut add = |x: [f64; 3], w: [f64; 3], grad: bool| {
         let e = xi(x);

@@ -49,6 +49,9 @@ pub struct MeshDiagnostics {
     /// Edges that pass through the inside of a triangle they do not share a
     /// corner with: the surface intersects itself.
     pub self_intersections: usize,
+    /// Connected pieces of the surface (triangles sharing a vertex): more
+    /// than one where a part has a cavity, or shells lie inside each other.
+    pub shells: usize,
     /// True when the mesh was inverted (negative volume) and has been flipped.
     pub flipped: bool,
     /// Enclosed volume `Σ v₀·(v₁×v₂)/6` after flipping.
@@ -78,6 +81,9 @@ impl MeshDiagnostics {
                 ", {} edges through other triangles",
                 self.self_intersections
             );
+        }
+        if self.shells > 1 {
+            s += &format!(", {} shells", self.shells);
         }
         if self.flipped {
             s += ", normals pointed inward: flipped";
@@ -156,6 +162,7 @@ impl MeshSolid {
             ..MeshDiagnostics::default()
         };
         count_edges(&kept, &mut diagnostics);
+        diagnostics.shells = count_shells(&kept, vertices.len());
         let corners = |t: &[u32; 3]| t.map(|v| vertices[v as usize]);
         let volume: f64 = kept
             .iter()
@@ -242,16 +249,21 @@ impl MeshSolid {
         }
     }
 
-    /// Whether the load found a defect: open, non-manifold or misoriented
-    /// edges, or edges through other triangles. The cut rules of a dirty
-    /// mesh are checked cell by cell ([`crate::quadrature::repaired`]).
+    /// Whether the load found a defect, or something that may hide one:
+    /// open, non-manifold or misoriented edges, edges through other
+    /// triangles, or several shells (one may lie inside another with the
+    /// same orientation). The cut rules of a dirty mesh are checked cell by
+    /// cell ([`crate::quadrature::repaired`]).
     pub fn is_dirty(&self) -> bool {
         let d = &self.diagnostics;
         d.open_edges + d.non_manifold_edges + d.misoriented_edges + d.self_intersections > 0
+            || d.shells > 1
     }
 
     /// Whether triangle `t` does not separate the inside (`w = 1` behind it)
-    /// from the outside (`w = 0` in front), the winding numbers rounded: a
+    /// from the outside (`w = 0` in front), within 0.25 (a closed mesh's
+    /// far field is within a few hundredths; a duplicate facet puts 1.5 and
+    /// 0.5 there): a
     /// facet of an overlapping or inverted shell, or one inside or outside
     /// another part of the surface. Always false on a mesh that is not
     /// [`MeshSolid::is_dirty`].
@@ -260,14 +272,14 @@ impl MeshSolid {
     }
 
     /// The winding numbers just behind and in front of `t`'s centroid
-    /// (`10⁻⁶` of its size away), rounded, are not 1 and 0.
+    /// (`10⁻⁶` of its size away) are not within 0.25 of 1 and 0.
     fn sides_are_irregular(&self, t: usize) -> bool {
         let v = self.triangle(t);
         let c = [0, 1, 2].map(|i| (v[0][i] + v[1][i] + v[2][i]) / 3.0);
         let size = norm(sub(v[1], v[0])).max(norm(sub(v[2], v[0])));
         let n = self.normal(t);
         let at = |s: f64| self.winding_number([0, 1, 2].map(|i| c[i] + s * 1e-6 * size * n[i]));
-        at(-1.0).round() != 1.0 || at(1.0).round() != 0.0
+        (at(-1.0) - 1.0).abs() > 0.25 || at(1.0).abs() > 0.25
     }
 
     /// The mesh after the motion `x ↦ R x + s` (R by columns, orthogonal).
@@ -435,6 +447,32 @@ pub fn tessellated_sphere(center: [f64; 3], r: f64, k: u32) -> Vec<[[f64; 3]; 3]
     tris.iter()
         .map(|t| t.map(|p| [0, 1, 2].map(|i| center[i] + r * p[i])))
         .collect()
+}
+
+/// Connected pieces of `triangles` (welded vertex ids, `vertices` of
+/// them), triangles sharing a vertex being connected.
+fn count_shells(triangles: &[[u32; 3]], vertices: usize) -> usize {
+    let mut parent: Vec<u32> = (0..vertices as u32).collect();
+    fn root(parent: &mut [u32], mut v: u32) -> u32 {
+        while parent[v as usize] != v {
+            parent[v as usize] = parent[parent[v as usize] as usize];
+            v = parent[v as usize];
+        }
+        v
+    }
+    for t in triangles {
+        for k in 1..3 {
+            let (a, b) = (root(&mut parent, t[0]), root(&mut parent, t[k]));
+            parent[a.max(b) as usize] = a.min(b);
+        }
+    }
+    let mut used = vec![false; vertices];
+    for &v in triangles.iter().flatten() {
+        used[v as usize] = true;
+    }
+    (0..vertices as u32)
+        .filter(|&v| used[v as usize] && root(&mut parent, v) == v)
+        .count()
 }
 
 /// Counts open, non-manifold and misoriented edges.

@@ -196,11 +196,12 @@ pub fn mesh_box_rule(mesh: &MeshSolid, b: &Aabb, free: &[usize], q: usize) -> Bo
         if free.len() == 3 {
             let weights = cell_moments(mesh, &basis, b, free, &pieces);
             if mesh.is_dirty() {
-                let along_x: f64 = weights.iter().sum();
-                let along_y: f64 = cell_moments(mesh, &basis, b, &[1, 2, 0], &pieces)
-                    .iter()
-                    .sum();
-                if repaired::needs_repair(mesh, b, &near, along_x, along_y) {
+                // The volume by the divergence theorem along x, y and z.
+                let along = [[0, 1, 2], [1, 2, 0], [2, 0, 1]].map(|order| match order[0] {
+                    0 => weights.iter().sum::<f64>(),
+                    _ => cell_moments(mesh, &basis, b, &order, &pieces).iter().sum(),
+                });
+                if repaired::needs_repair(mesh, b, &near, along) {
                     boundary_points(mesh, &basis, &pieces, &mut rule.surface);
                     return repaired::repaired_rule(mesh, b, q, rule.surface);
                 }

@@ -8,8 +8,9 @@
 //! wrong size or sign, and a negative stiffness. So on a mesh with defects
 //! ([`MeshSolid::is_dirty`]) every cell is checked ([`needs_repair`]): a
 //! facet in it that does not separate `w = 1` from `w = 0`
-//! ([`MeshSolid::irregular`]), or a volume that differs when the divergence
-//! theorem is taken along x and along y (an open surface), and the cell takes
+//! ([`MeshSolid::irregular`]), a volume that differs when the divergence
+//! theorem is taken along x, y or z (an open surface), or one outside
+//! `[0, h³]`, and the cell takes
 //! the repaired rule ([`repaired_rule`]) instead: the body is
 //! `{w ≥ ½}`, `w` the generalised winding number, its volume integrated by
 //! the midpoints of a sub-lattice (first order in the sub-cell size, every
@@ -25,22 +26,21 @@ use crate::mesh::MeshSolid;
 pub const SUBDIVISIONS: usize = 6;
 
 /// Relative difference, in units of the cell's volume, between the volumes
-/// along two axes above which the cell's facets do not close: round-off on a
-/// closed surface (T-junctions included) is about `1e-15`.
+/// along the axes above which the cell's facets do not close: round-off on
+/// a closed surface (T-junctions included) is about `1e-15`.
 const OPEN: f64 = 1e-9;
 
 /// Whether the cell `b` needs the repaired rule: one of the facets `near` it
-/// is irregular, or its volume by the divergence theorem along x (`along_x`)
-/// and along y (`along_y`) differ.
-pub fn needs_repair(
-    mesh: &MeshSolid,
-    b: &Aabb,
-    near: &[usize],
-    along_x: f64,
-    along_y: f64,
-) -> bool {
+/// is irregular, its volumes by the divergence theorem along x, y and z
+/// (`along`) differ (a facet normal to z adds nothing along x or y, so a
+/// hole in it shows only along z), or the volume is not in `[0, |b|]`.
+pub fn needs_repair(mesh: &MeshSolid, b: &Aabb, near: &[usize], along: [f64; 3]) -> bool {
     let volume: f64 = (0..3).map(|a| b.hi[a] - b.lo[a]).product();
-    near.iter().any(|&t| mesh.irregular(t)) || (along_x - along_y).abs() > OPEN * volume
+    let (lo, hi) = along
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    let impossible = lo < -OPEN * volume || hi > (1.0 + OPEN) * volume;
+    near.iter().any(|&t| mesh.irregular(t)) || hi - lo > OPEN * volume || impossible
 }
 
 /// The repaired rule of the cell `b`: volume points at the centres of the
