@@ -45,6 +45,7 @@ use cgfem_gpu::fem::solve::solve;
 use cgfem_gpu::solver::Preconditioner;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 mod patch_check;
 use patch_check::{energy_error, interpolant_residual, SOLVER};
@@ -238,12 +239,18 @@ fn placements() -> usize {
 
 fn run_patch_tests(element: &str, level: u32, seed: u64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut worst: f64 = 0.0;
+    // The placements drawn in order (the same cases on any number of
+    // threads), then solved in parallel.
+    let mut cases = Vec::new();
     for part in &PARTS {
         for placement in 0..=placements() {
             let extra = part.extra_level * if element == "q1" { 1 } else { 2 };
-            let (mut case, what) =
-                patch_case(part, element, &mut rng, level + extra, placement == 0);
+            cases.push(patch_case(part, element, &mut rng, level + extra, placement == 0));
+        }
+    }
+    let worst = cases
+        .into_par_iter()
+        .map(|(mut case, what)| {
             case.spec.solver.preconditioner = Preconditioner::Multigrid;
             let setup = Setup::new(&case, None).unwrap();
             let residual = interpolant_residual(&setup);
@@ -262,9 +269,9 @@ fn run_patch_tests(element: &str, level: u32, seed: u64) {
             );
             assert!(report.converged, "{what}: fixed point did not converge");
             assert!(e < PATCH_TOL, "{what}: energy error {:.3e}", e);
-            worst = worst.max(e);
-        }
-    }
+            e
+        })
+        .reduce(|| 0.0, f64::max);
     println!("{element}: worst relative energy error {worst:.2e}");
 }
 
