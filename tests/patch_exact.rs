@@ -245,7 +245,13 @@ fn run_patch_tests(element: &str, level: u32, seed: u64) {
     for part in &PARTS {
         for placement in 0..=placements() {
             let extra = part.extra_level * if element == "q1" { 1 } else { 2 };
-            cases.push(patch_case(part, element, &mut rng, level + extra, placement == 0));
+            cases.push(patch_case(
+                part,
+                element,
+                &mut rng,
+                level + extra,
+                placement == 0,
+            ));
         }
     }
     let worst = cases
