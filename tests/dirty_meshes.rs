@@ -10,44 +10,21 @@
 //! `{w ≥ ½}`) converges at first order to its closed form: the cube (1), the
 //! union (1.048), the cube minus the notch (0.968).
 
-use std::fmt::Write;
 use std::process::Command;
 
-/// The 12 triangles of the box `lo`–`hi` as ASCII STL facets, outward (or
-/// inward with `inverted`); `skip` leaves out that many of the first.
-fn box_facets(lo: [f64; 3], hi: [f64; 3], inverted: bool, skip: usize, out: &mut String) {
-    let v = |i: usize| {
-        [
-            if i & 1 == 0 { lo[0] } else { hi[0] },
-            if i & 2 == 0 { lo[1] } else { hi[1] },
-            if i & 4 == 0 { lo[2] } else { hi[2] },
-        ]
-    };
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let triangles = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
-    for mut t in triangles.skip(skip) {
-        if inverted {
-            t.reverse();
-        }
-        out.push_str("facet normal 0 0 0\nouter loop\n");
-        for i in t {
-            let p = v(i);
-            writeln!(out, "vertex {} {} {}", p[0], p[1], p[2]).unwrap();
-        }
-        out.push_str("endloop\nendfacet\n");
-    }
+use cgfem_gpu::mesh::box_triangles;
+use cgfem_gpu::mesh::stl::write_binary_stl;
+
+/// The 12 triangles of the box `lo`–`hi`, outward or inside out.
+fn box_facets(lo: [f64; 3], hi: [f64; 3], inverted: bool) -> Vec<[[f64; 3]; 3]> {
+    box_triangles(lo, hi)
+        .into_iter()
+        .map(|t| if inverted { [t[0], t[2], t[1]] } else { t })
+        .collect()
 }
 
-/// The cube, and a second box `[0.8, 1.2] × [0.3, 0.7]²` as `extra` says.
+/// How the cube is spoilt: half its bottom face removed, or a second box
+/// `[0.8, 1.2] × [0.3, 0.7]²` added, outward or inside out.
 enum Defect {
     Hole,
     Overlap,
@@ -65,17 +42,21 @@ fn run(defect: &Defect, level: u32) -> serde_json::Value {
         std::env::temp_dir().join(format!("cgfem-dirty-{}-{name}-{level}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let mut stl = String::from("solid dirty\n");
     let (lo, hi) = ([0.8, 0.3, 0.3], [1.2, 0.7, 0.7]);
+    let mut tris = box_facets([0.0; 3], [1.0; 3], false);
     match defect {
-        Defect::Hole => box_facets([0.0; 3], [1.0; 3], false, 1, &mut stl),
-        Defect::Overlap | Defect::Inverted => {
-            box_facets([0.0; 3], [1.0; 3], false, 0, &mut stl);
-            box_facets(lo, hi, matches!(defect, Defect::Inverted), 0, &mut stl);
+        // Half of the bottom face (z = 0) missing.
+        Defect::Hole => {
+            let bottom = tris
+                .iter()
+                .position(|t| t.iter().all(|p| p[2] == 0.0))
+                .unwrap();
+            tris.remove(bottom);
         }
+        Defect::Overlap => tris.extend(box_facets(lo, hi, false)),
+        Defect::Inverted => tris.extend(box_facets(lo, hi, true)),
     }
-    stl.push_str("endsolid dirty\n");
-    std::fs::write(dir.join("dirty.stl"), stl).unwrap();
+    write_binary_stl(&dir.join("dirty.stl"), &tris).unwrap();
     let case = r#"
 [geometry]
 type = "stl"

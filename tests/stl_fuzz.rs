@@ -17,6 +17,7 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::mesh::box_triangles;
 use cgfem_gpu::mesh::stl::{read_stl, write_binary_stl};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -36,26 +37,9 @@ fn part(name: &str) -> Vec<Triangle> {
 
 /// The 12 facets of the box `lo`–`hi`, outward or inside out.
 fn box_facets(lo: [f64; 3], hi: [f64; 3], inverted: bool) -> Vec<Triangle> {
-    let v = |i: usize| [0, 1, 2].map(|a| if i >> a & 1 == 1 { hi[a] } else { lo[a] });
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .map(|t| {
-            let t = t.map(v);
-            if inverted {
-                [t[0], t[2], t[1]]
-            } else {
-                t
-            }
-        })
+    box_triangles(lo, hi)
+        .into_iter()
+        .map(|t| if inverted { [t[0], t[2], t[1]] } else { t })
         .collect()
 }
 

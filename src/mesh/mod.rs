@@ -415,6 +415,24 @@ impl MeshSolid {
     }
 }
 
+/// The 12 triangles of the box `lo..hi`, outward (for tests of STL parts).
+pub fn box_triangles(lo: [f64; 3], hi: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
+    let c = |k: usize| [0, 1, 2].map(|i| if k >> i & 1 == 1 { hi[i] } else { lo[i] });
+    // Faces as corner-index quads, counter-clockwise seen from outside.
+    let quads = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    quads
+        .iter()
+        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+        .collect()
+}
+
 /// A sphere of radius `r` about `center` tessellated from an octahedron by
 /// `k` midpoint subdivisions pushed to the sphere: `8 · 4^k` triangles,
 /// outward (for tests and benchmarks of STL parts).

@@ -3,24 +3,6 @@
 use super::stl::parse_stl;
 use super::*;
 
-/// The 12 triangles of the box `lo..hi`, outward.
-pub(crate) fn box_triangles(lo: [f64; 3], hi: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
-    let c = |k: usize| [0, 1, 2].map(|i| if k >> i & 1 == 1 { hi[i] } else { lo[i] });
-    // Faces as corner-index quads, counter-clockwise seen from outside.
-    let quads = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ];
-    quads
-        .iter()
-        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
-        .collect()
-}
-
 #[test]
 fn a_box_has_its_volume_area_and_no_open_edge() {
     let tris = box_triangles([0.0; 3], [1.0, 2.0, 3.0]);

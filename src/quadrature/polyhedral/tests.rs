@@ -145,7 +145,7 @@ fn faces_on_grid_planes_are_counted_once() {
     // A box whose faces lie on the planes of the lattice, and one whose faces
     // lie inside cells, in the same lattice.
     for (lo, hi) in [([0.0; 3], [1.0, 0.75, 0.5]), ([0.0; 3], [0.9, 0.75, 0.3])] {
-        let tris = crate::mesh::tests::box_triangles(lo, hi);
+        let tris = crate::mesh::box_triangles(lo, hi);
         let m = MeshSolid::new(&tris, &[0; 12]).unwrap();
         let h = 0.25;
         let mut vol = 0.0;
