@@ -145,9 +145,8 @@ const NEGATIVE_DIAGONAL: f64 = 1e-8;
 /// A clean surface gives every cell a rule of positive stiffness; a negative
 /// entry means a cut-cell rule of negative volume somewhere, from a surface
 /// that is not closed or intersects itself in that cell: the error names the
-/// cells around the entry and what the mesh check found.
-/// The multigrid's coarser levels, classified on their own grids, are
-/// checked the same way.
+/// cells around the entry and what the mesh check found. The multigrid's
+/// coarser levels, classified on their own grids, are checked the same way.
 pub fn check_rules(
     case: &Case,
     grid: &Grid,
@@ -162,7 +161,6 @@ pub fn check_rules(
     else {
         return Ok(());
     };
-
     let node = dofs.active_to_node[dof / 3] as usize;
     let mut around = Vec::new();
     node_cells(grid, dofs.order, node, &mut around);
