@@ -22,7 +22,7 @@ use cgfem_gpu::fem::solve::solve_with_progress;
 use cgfem_gpu::fem::surface_output::{write_surface, SurfaceFields};
 use cgfem_gpu::geometry::Aabb;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
-use cgfem_gpu::gpu::BackendChoice;
+use cgfem_gpu::gpu::{BackendChoice, GpuContext, Precision};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::plot::{deformed_svg, SurfacePicture};
 use cgfem_gpu::report::newton::ReactionRow;
@@ -107,29 +107,28 @@ fn condition_numbers(setup: &Setup) -> anyhow::Result<Condition> {
     })
 }
 
-/// Whether the case's solver must run on the CPU whatever `--backend`
-/// says: the multigrid preconditioner runs on the CPU backend only, so
-/// `--backend gpu` is refused ([`cgfem_gpu::Error::UnsupportedOnBackend`],
-/// exit code 2) and `--backend auto` solves on the CPU, with a note.
-fn cpu_only(case: &Case, d: &Device) -> anyhow::Result<bool> {
-    if case.spec.solver.preconditioner != Preconditioner::Multigrid {
-        return Ok(false);
-    }
-    match BackendChoice::resolve(d.backend)? {
-        BackendChoice::Gpu => Err(cgfem_gpu::Error::UnsupportedOnBackend {
-            backend: "gpu".into(),
-            what: "the multigrid preconditioner".into(),
-            hint: "use --backend cpu (or auto), or solver.preconditioner = \"jacobi\"".into(),
+/// The preconditioner `auto` stands for on the device at hand: the
+/// multigrid V-cycle on the CPU and on an f64 GPU, Jacobi on an f32-only GPU
+/// (its V-cycle runs in f64). `multigrid` asked of an f32 GPU is
+/// [`cgfem_gpu::Error::UnsupportedOnBackend`] (exit code 2).
+fn resolve_preconditioner(case: &mut Case, gpu: Option<&GpuContext>) -> anyhow::Result<()> {
+    let f32_gpu = gpu.is_some_and(|ctx| ctx.precision == Precision::F32);
+    let pre = &mut case.spec.solver.preconditioner;
+    match *pre {
+        Preconditioner::Auto if f32_gpu => *pre = Preconditioner::Jacobi,
+        Preconditioner::Auto => *pre = Preconditioner::Multigrid,
+        Preconditioner::Multigrid if f32_gpu => {
+            return Err(cgfem_gpu::Error::UnsupportedOnBackend {
+                backend: "gpu (f32)".into(),
+                what: "the multigrid preconditioner".into(),
+                hint: "use --precision f64, --backend cpu, or solver.preconditioner = \"jacobi\""
+                    .into(),
+            }
+            .into())
         }
-        .into()),
-        BackendChoice::Auto => {
-            eprintln!(
-                "note: the multigrid preconditioner runs on the CPU backend; solving on the CPU"
-            );
-            Ok(true)
-        }
-        BackendChoice::Cpu => Ok(false),
+        _ => {}
     }
+    Ok(())
 }
 
 /// Solves the one linear body of `case` and writes its outputs into `dir`.
@@ -142,18 +141,8 @@ pub fn run(
     device: &Device,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
-    let gpu = if cpu_only(&case, device)? {
-        None
-    } else {
-        super::open_device(device)?
-    };
-    let solver = &mut case.spec.solver;
-    if solver.preconditioner == Preconditioner::Auto {
-        solver.preconditioner = match gpu {
-            Some(_) => Preconditioner::Jacobi,
-            None => Preconditioner::Multigrid,
-        };
-    }
+    let gpu = super::open_device(device)?;
+    resolve_preconditioner(&mut case, gpu.as_deref())?;
     let mut report = Report::new(&case);
     let mut fp = FixedPointReport::default();
     // Every step after the case is read; a solver failure on the way (the
@@ -220,7 +209,7 @@ pub fn run(
         };
         let solver: &mut dyn LinearSolver = match &gpu {
             Some(ctx) => {
-                gpu_solver = GpuSolver::new(ctx.clone(), &setup.op, Scalars::Device)?;
+                gpu_solver = GpuSolver::for_setup(ctx.clone(), &setup, Scalars::Device)?;
                 report.backend = "gpu".into();
                 report.adapter = Some(ctx.adapter.name.clone());
                 report.precision = ctx.precision.name().into();

@@ -227,7 +227,13 @@ impl GpuBackend {
     }
 
     /// One element-wise kernel with host scalars `a`, `b`, submitted.
-    fn vec_call(&self, kernel: Kernel, n: usize, scalars: &[f64], bufs: &[&wgpu::Buffer]) {
+    pub(super) fn vec_call(
+        &self,
+        kernel: Kernel,
+        n: usize,
+        scalars: &[f64],
+        bufs: &[&wgpu::Buffer],
+    ) {
         if n == 0 {
             return;
         }

@@ -110,6 +110,23 @@ pub struct Q1Params {
     pub pad2: u32,
 }
 
+/// Params of the multigrid gathers (`block_rows`, `prolong_add`,
+/// `restrict`, `dense_matvec`): `n` invocations, the 2D row stride, and the
+/// fine and coarse lattices' nodes per axis (the transfers only).
+/// Keep in sync with `GatherParams` in those shaders.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GatherParams {
+    pub n: u32,
+    pub stride: u32,
+    pub fx: u32,
+    pub fy: u32,
+    pub fz: u32,
+    pub cx: u32,
+    pub cy: u32,
+    pub cz: u32,
+}
+
 /// Params of the one-invocation kernels `scalar_ratio`, `krylov_check`: slots
 /// and the flags `roll` and `positive` (see scalar_ratio.wgsl).
 /// Keep in sync with `ScalParams` in scalar_ratio.wgsl, krylov_check.wgsl.
@@ -151,11 +168,16 @@ pub enum Kernel {
     Q1Nodes,
     ScalarRatio,
     KrylovCheck,
+    ChebyshevUpdate,
+    BlockRows,
+    ProlongAdd,
+    Restrict,
+    DenseMatvec,
 }
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 18] = [
+    pub const ALL: [Kernel; 23] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -174,6 +196,11 @@ impl Kernel {
         Kernel::Q1Nodes,
         Kernel::ScalarRatio,
         Kernel::KrylovCheck,
+        Kernel::ChebyshevUpdate,
+        Kernel::BlockRows,
+        Kernel::ProlongAdd,
+        Kernel::Restrict,
+        Kernel::DenseMatvec,
     ];
 
     /// The file stem in `shaders/` (= the CPU mirror's name).
@@ -197,6 +224,11 @@ impl Kernel {
             Kernel::Q1Nodes => "q1_nodes",
             Kernel::ScalarRatio => "scalar_ratio",
             Kernel::KrylovCheck => "krylov_check",
+            Kernel::ChebyshevUpdate => "chebyshev_update",
+            Kernel::BlockRows => "block_rows",
+            Kernel::ProlongAdd => "prolong_add",
+            Kernel::Restrict => "restrict",
+            Kernel::DenseMatvec => "dense_matvec",
         }
     }
 
@@ -212,6 +244,7 @@ impl Kernel {
                 | Kernel::CgsUpdateUp
                 | Kernel::CgsUpdateQu
                 | Kernel::BicgstabUpdateP
+                | Kernel::ChebyshevUpdate
         )
     }
 
@@ -236,6 +269,11 @@ impl Kernel {
             Kernel::Q1Nodes => include_str!("../../shaders/q1_nodes.wgsl"),
             Kernel::ScalarRatio => include_str!("../../shaders/scalar_ratio.wgsl"),
             Kernel::KrylovCheck => include_str!("../../shaders/krylov_check.wgsl"),
+            Kernel::ChebyshevUpdate => include_str!("../../shaders/chebyshev_update.wgsl"),
+            Kernel::BlockRows => include_str!("../../shaders/block_rows.wgsl"),
+            Kernel::ProlongAdd => include_str!("../../shaders/prolong_add.wgsl"),
+            Kernel::Restrict => include_str!("../../shaders/restrict.wgsl"),
+            Kernel::DenseMatvec => include_str!("../../shaders/dense_matvec.wgsl"),
         }
     }
 

@@ -5,7 +5,10 @@
 //! - f64 device: CG and CGS with device scalars ([`super::device_krylov`]) by
 //!   default, or the generic [`crate::solver::solve`] with host scalars
 //!   ([`Scalars::Host`], and always for BiCGStab);
-//! - f32 device: f32 inner solves in f64 defect correction ([`super::defect`]).
+//! - f32 device: f32 inner solves in f64 defect correction ([`super::defect`]);
+//! - with a multigrid hierarchy (f64 device, `preconditioner = "multigrid"`
+//!   or `"auto"`): the generic solver preconditioned by the V-cycle on the
+//!   device ([`super::multigrid`]).
 
 use std::sync::Arc;
 
@@ -13,12 +16,15 @@ use crate::backend::Backend;
 use crate::error::Result;
 use crate::fem::linear::LinearSolver;
 use crate::fem::operator::ElasticOperator;
-use crate::solver::{solve, KrylovMethod, KrylovOptions, KrylovStats};
+use crate::fem::setup::Setup;
+use crate::solver::Preconditioner;
+use crate::solver::{solve, solve_preconditioned, KrylovMethod, KrylovOptions, KrylovStats};
 
 use super::backend::{GpuBackend, GpuVector};
 use super::context::{GpuContext, Precision};
 use super::defect::solve_defect_correction;
 use super::device_krylov::{solve_device, DeviceOptions};
+use super::multigrid::DeviceMultigrid;
 use super::operator::GpuOperator;
 
 /// Where the Krylov scalars of an f64 solve live.
@@ -37,6 +43,7 @@ pub struct GpuSolver<'o> {
     op: GpuOperator<'o>,
     diag: GpuVector,
     scalars: Scalars,
+    multigrid: Option<DeviceMultigrid<'o>>,
 }
 
 impl<'o> GpuSolver<'o> {
@@ -48,6 +55,18 @@ impl<'o> GpuSolver<'o> {
         Ok(Self::with_operator(be, dop, scalars))
     }
 
+    /// The solver of a set-up's operator, with its multigrid hierarchy on
+    /// the device when the set-up built one and the device computes in f64.
+    pub fn for_setup(ctx: Arc<GpuContext>, setup: &'o Setup, scalars: Scalars) -> Result<Self> {
+        let mut solver = Self::new(ctx, &setup.op, scalars)?;
+        if let Some(h) = setup.multigrid.as_ref() {
+            if solver.be.precision() == Precision::F64 {
+                solver.multigrid = Some(DeviceMultigrid::new(&solver.be, &setup.op, h)?);
+            }
+        }
+        Ok(solver)
+    }
+
     /// The solver over an operator already uploaded to `be` (tests give
     /// both with a lowered binding size).
     pub fn with_operator(be: GpuBackend, op: GpuOperator<'o>, scalars: Scalars) -> Self {
@@ -57,6 +76,7 @@ impl<'o> GpuSolver<'o> {
             op,
             diag,
             scalars,
+            multigrid: None,
         }
     }
 
@@ -79,6 +99,15 @@ impl LinearSolver for GpuSolver<'_> {
         }
         let b = be.upload(rhs);
         let mut x = be.upload(u);
+        let with_multigrid = matches!(
+            opts.preconditioner,
+            Preconditioner::Multigrid | Preconditioner::Auto
+        );
+        if let (Some(mg), true) = (&self.multigrid, with_multigrid) {
+            let result = solve_preconditioned(be, op, &mg.cycle(be, op), &b, &mut x, opts);
+            *u = be.download(&x);
+            return result;
+        }
         let device = self.scalars == Scalars::Device && opts.method != KrylovMethod::BiCgStab;
         let result = if device {
             solve_device(be, op, diag, &b, &mut x, opts, &DeviceOptions::default())

@@ -2,7 +2,8 @@
 //! ([`context`]), the kernels of `shaders/` ([`kernels`]) and their CPU mirrors
 //! ([`mirror`]), the [`crate::backend::Backend`] implementation with the
 //! operator resident on the device ([`backend`], [`operator`]), the
-//! device-scalar CG/CGS ([`device_krylov`]), f32 inner solves inside f64 defect
+//! device-scalar CG/CGS ([`device_krylov`]), the multigrid V-cycle
+//! ([`multigrid`], its kernels' mirrors in [`mirror_multigrid`]), f32 inner solves inside f64 defect
 //! correction ([`defect`]), the linear solver the fixed-point loop calls
 //! ([`linear`]), and the windows that bind arrays larger than one storage
 //! binding ([`windows`]).
@@ -15,6 +16,8 @@ pub mod hyper;
 pub mod kernels;
 pub mod linear;
 pub mod mirror;
+pub mod mirror_multigrid;
+pub mod multigrid;
 pub mod operator;
 pub mod q1_operator;
 pub mod q1_terms;

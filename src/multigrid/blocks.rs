@@ -47,13 +47,13 @@ struct Block {
 /// `B⁻¹` of the module doc, its blocks stored back to back.
 pub struct BlockJacobi {
     /// `D⁻¹` on the unknowns outside every block, 0 on the blocks'.
-    point: Vec<f64>,
+    pub(crate) point: Vec<f64>,
     /// The blocks' unknowns: block `k` holds `dofs[starts[k]..starts[k + 1]]`.
-    dofs: Vec<usize>,
-    starts: Vec<usize>,
+    pub(crate) dofs: Vec<usize>,
+    pub(crate) starts: Vec<usize>,
     /// The blocks' inverses, row-major, block `k`'s from `inverse_starts[k]`.
-    inverses: Vec<f64>,
-    inverse_starts: Vec<usize>,
+    pub(crate) inverses: Vec<f64>,
+    pub(crate) inverse_starts: Vec<usize>,
 }
 
 impl BlockJacobi {

@@ -1,10 +1,13 @@
-//! One symmetric V-cycle of the [`Hierarchy`] as the preconditioner
-//! `z = M⁻¹ r` of a Krylov solve. On level `i` with right-hand side `b`:
+//! One symmetric V-cycle as the preconditioner `z = M⁻¹ r` of a Krylov
+//! solve, written once over [`CycleOps`] (the level operators, smoothers,
+//! transfers and coarse solve of one backend): [`Multigrid`] runs it on the
+//! CPU over a [`Hierarchy`], `crate::gpu::multigrid` on the device. On level
+//! `i` with right-hand side `b`:
 //!
 //! ```text
 //! x = S(b, 0)                    Chebyshev from zero (pre-smoothing)
 //! b_{i+1} = Pᵀ (b − A_i x)       restriction of the residual
-//! x_{i+1} = V_{i+1}(b_{i+1})     (coarsest: x = A⁻¹ b by Cholesky)
+//! x_{i+1} = V_{i+1}(b_{i+1})     (coarsest: x = A⁻¹ b, the direct solve)
 //! x = x + P x_{i+1}              prolongation of the correction
 //! x = S(b, x)                    the same Chebyshev step (post-smoothing)
 //! ```
@@ -13,58 +16,187 @@
 //! `M⁻¹` is symmetric; it is positive definite when `‖I − N A‖_A ≤ 1`,
 //! which the Chebyshev interval guarantees ([`super::smoother`]).
 //!
-//! All vectors of the cycle are allocated once with the preconditioner; a
-//! cycle allocates nothing.
+//! All vectors of the cycle are allocated once with the preconditioner
+//! ([`LevelWork`]); a cycle allocates nothing.
 
 use std::sync::Mutex;
 
 use faer::dyn_stack::MemBuffer;
 
-use super::smoother::Work;
+use super::smoother::{chebyshev_update, rsub_assign, sub_assign};
 use super::Hierarchy;
 use crate::backend::{CpuBackend, LinearOperator};
 use crate::fem::operator::ElasticOperator;
 use crate::solver::ApplyInverse;
 
-/// The V-cycle of a hierarchy over the solve's operator `fine`.
+/// What a V-cycle does on one backend's vectors, level by level (level 0:
+/// the solve's operator; the last level: the coarsest, solved directly).
+pub trait CycleOps {
+    type Vector;
+    /// Levels, the coarsest included.
+    fn num_levels(&self) -> usize;
+    /// Unknowns of `level`.
+    fn nrows(&self, level: usize) -> usize;
+    /// A vector of `n` zeros.
+    fn zeros(&self, n: usize) -> Self::Vector;
+    /// `y = A_level x`.
+    fn apply(&self, level: usize, x: &Self::Vector, y: &mut Self::Vector);
+    /// `z = B⁻¹ r` of the smoother of `level` ([`super::blocks`]).
+    fn precondition(&self, level: usize, r: &Self::Vector, z: &mut Self::Vector);
+    /// The Chebyshev interval `[a, b]` and degree of the smoother of `level`.
+    fn chebyshev(&self, level: usize) -> (f64, f64, usize);
+    /// `d = a d + c z`, then `x = x + d`, entry by entry.
+    fn chebyshev_update(
+        &self,
+        a: f64,
+        c: f64,
+        z: &Self::Vector,
+        d: &mut Self::Vector,
+        x: &mut Self::Vector,
+    );
+    /// `r = r − v`.
+    fn sub_assign(&self, r: &mut Self::Vector, v: &Self::Vector);
+    /// `r = b − r`.
+    fn rsub_assign(&self, r: &mut Self::Vector, b: &Self::Vector);
+    /// `dst = src`.
+    fn copy(&self, src: &Self::Vector, dst: &mut Self::Vector);
+    /// `x = 0`.
+    fn fill_zero(&self, x: &mut Self::Vector);
+    /// `coarse = Pᵀ fine` from `level` to `level + 1` (overwrites).
+    fn restrict(&self, level: usize, fine: &Self::Vector, coarse: &mut Self::Vector);
+    /// `fine = fine + P coarse` from `level + 1` to `level`.
+    fn prolong_add(&self, level: usize, coarse: &Self::Vector, fine: &mut Self::Vector);
+    /// `x = A⁻¹ b` on the coarsest level.
+    fn coarse_solve(&self, b: &Self::Vector, x: &mut Self::Vector);
+}
+
+/// The vectors of one smoothed level: the smoother's residual, `B⁻¹` of it,
+/// update and `A d`, and the right-hand side and solution of the level
+/// below.
+pub struct LevelWork<V> {
+    r: V,
+    z: V,
+    d: V,
+    ad: V,
+    b_coarse: V,
+    x_coarse: V,
+}
+
+impl<V> LevelWork<V> {
+    /// The work of every smoothed level of `ops`, finest first.
+    pub fn all<O: CycleOps<Vector = V>>(ops: &O) -> Vec<LevelWork<V>> {
+        (0..ops.num_levels() - 1)
+            .map(|i| {
+                let (n, nc) = (ops.nrows(i), ops.nrows(i + 1));
+                LevelWork {
+                    r: ops.zeros(n),
+                    z: ops.zeros(n),
+                    d: ops.zeros(n),
+                    ad: ops.zeros(n),
+                    b_coarse: ops.zeros(nc),
+                    x_coarse: ops.zeros(nc),
+                }
+            })
+            .collect()
+    }
+}
+
+/// The V-cycle on `level` (module doc): `x ≈ A_level⁻¹ b`; `work` holds the
+/// vectors of `level` and the levels below.
+pub fn vcycle<O: CycleOps>(
+    ops: &O,
+    level: usize,
+    b: &O::Vector,
+    x: &mut O::Vector,
+    work: &mut [LevelWork<O::Vector>],
+) {
+    let Some((w, below)) = work.split_first_mut() else {
+        ops.coarse_solve(b, x);
+        return;
+    };
+    smooth(ops, level, b, x, true, w);
+    ops.apply(level, x, &mut w.r);
+    ops.rsub_assign(&mut w.r, b);
+    ops.restrict(level, &w.r, &mut w.b_coarse);
+    vcycle(ops, level + 1, &w.b_coarse, &mut w.x_coarse, below);
+    ops.prolong_add(level, &w.x_coarse, x);
+    smooth(ops, level, b, x, false, w);
+}
+
+/// One Chebyshev smoothing step on `A x = b` of `level` ([`super::smoother`]
+/// gives the recurrence), from `x = 0` when `zero_start` (saving the
+/// residual's apply), else from the `x` given.
+fn smooth<O: CycleOps>(
+    ops: &O,
+    level: usize,
+    b: &O::Vector,
+    x: &mut O::Vector,
+    zero_start: bool,
+    w: &mut LevelWork<O::Vector>,
+) {
+    let (lo, hi, degree) = ops.chebyshev(level);
+    let theta = 0.5 * (hi + lo);
+    let delta = 0.5 * (hi - lo);
+    let sigma = theta / delta;
+    if zero_start {
+        ops.copy(b, &mut w.r);
+        ops.fill_zero(x);
+    } else {
+        ops.apply(level, x, &mut w.r);
+        ops.rsub_assign(&mut w.r, b);
+    }
+    ops.fill_zero(&mut w.d);
+    ops.precondition(level, &w.r, &mut w.z);
+    ops.chebyshev_update(0.0, 1.0 / theta, &w.z, &mut w.d, x);
+    let mut rho = 1.0 / sigma;
+    for _ in 1..degree {
+        ops.apply(level, &w.d, &mut w.ad);
+        ops.sub_assign(&mut w.r, &w.ad);
+        let rho_next = 1.0 / (2.0 * sigma - rho);
+        let (a, c) = (rho_next * rho, 2.0 * rho_next / delta);
+        ops.precondition(level, &w.r, &mut w.z);
+        ops.chebyshev_update(a, c, &w.z, &mut w.d, x);
+        rho = rho_next;
+    }
+}
+
+/// The V-cycle of a hierarchy over the solve's operator `fine`, on the CPU.
 pub struct Multigrid<'a> {
+    levels: CpuLevels<'a>,
+    work: Mutex<CpuWork>,
+}
+
+/// The cycle's vectors on the CPU, with level 0's right-hand side and
+/// solution (the callers hand in slices).
+struct CpuWork {
+    levels: Vec<LevelWork<Vec<f64>>>,
+    b: Vec<f64>,
+    x: Vec<f64>,
+}
+
+/// The CPU's [`CycleOps`]: the hierarchy's operators, smoothers, transfers
+/// and Cholesky factor, with the factor's solve scratch.
+struct CpuLevels<'a> {
     fine: &'a ElasticOperator,
     hierarchy: &'a Hierarchy,
-    scratch: Mutex<Scratch>,
-}
-
-/// The cycle's vectors: per smoothed level its smoother's work and the
-/// right-hand side and solution of the level below; the Cholesky scratch.
-struct Scratch {
-    levels: Vec<LevelScratch>,
-    direct: MemBuffer,
-}
-
-struct LevelScratch {
-    work: Work,
-    b_coarse: Vec<f64>,
-    x_coarse: Vec<f64>,
+    direct: Mutex<MemBuffer>,
 }
 
 impl<'a> Multigrid<'a> {
     /// The preconditioner of `fine` (the operator `hierarchy` was built for).
     pub fn new(fine: &'a ElasticOperator, hierarchy: &'a Hierarchy) -> Multigrid<'a> {
-        let n = |i: usize| hierarchy.level(fine, i).nrows();
-        let levels = (0..hierarchy.num_levels() - 1)
-            .map(|i| LevelScratch {
-                work: Work::new(n(i)),
-                b_coarse: vec![0.0; n(i + 1)],
-                x_coarse: vec![0.0; n(i + 1)],
-            })
-            .collect();
-        Multigrid {
+        let levels = CpuLevels {
             fine,
             hierarchy,
-            scratch: Mutex::new(Scratch {
-                levels,
-                direct: hierarchy.direct.solve_scratch(),
-            }),
-        }
+            direct: Mutex::new(hierarchy.direct.solve_scratch()),
+        };
+        let n = fine.nrows();
+        let work = Mutex::new(CpuWork {
+            levels: LevelWork::all(&levels),
+            b: vec![0.0; n],
+            x: vec![0.0; n],
+        });
+        Multigrid { levels, work }
     }
 
     /// `z = M⁻¹ r`: one V-cycle from `x = 0` on the level-0 system `A z = r`.
@@ -72,42 +204,85 @@ impl<'a> Multigrid<'a> {
     /// # Panics
     /// If `r` or `z` do not have the size of the operator.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
-        let n = self.fine.nrows();
+        let n = self.levels.fine.nrows();
         assert!(r.len() == n && z.len() == n, "multigrid: vectors of {n}");
-        let mut guard = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
-        let Scratch { levels, direct } = &mut *guard;
-        self.vcycle(0, r, z, levels, direct);
-    }
-
-    /// The V-cycle on level `i` (module doc): `x ≈ A_i⁻¹ b`.
-    fn vcycle(
-        &self,
-        i: usize,
-        b: &[f64],
-        x: &mut [f64],
-        scratch: &mut [LevelScratch],
-        direct: &mut MemBuffer,
-    ) {
-        let h = self.hierarchy;
-        let Some((s, below)) = scratch.split_first_mut() else {
-            x.copy_from_slice(b);
-            h.direct.solve_in_place_with(x, direct);
-            return;
-        };
-        let op = h.level(self.fine, i);
-        let smoother = &h.smoothers[i];
-        let transfer = h.transfer(self.fine, i);
-        smoother.smooth(op, b, x, true, &mut s.work);
-        smoother.residual(op, b, x, &mut s.work);
-        transfer.restrict(s.work.residual(), &mut s.b_coarse);
-        self.vcycle(i + 1, &s.b_coarse, &mut s.x_coarse, below, direct);
-        transfer.prolong_add(&s.x_coarse, x);
-        smoother.smooth(op, b, x, false, &mut s.work);
+        let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        let CpuWork { levels, b, x } = &mut *guard;
+        b.copy_from_slice(r);
+        vcycle(&self.levels, 0, b, x, levels);
+        z.copy_from_slice(x);
     }
 }
 
 impl ApplyInverse<CpuBackend> for Multigrid<'_> {
     fn apply_inverse(&self, r: &Vec<f64>, z: &mut Vec<f64>) {
         self.apply(r, z);
+    }
+}
+
+impl CycleOps for CpuLevels<'_> {
+    type Vector = Vec<f64>;
+
+    fn num_levels(&self) -> usize {
+        self.hierarchy.num_levels()
+    }
+
+    fn nrows(&self, level: usize) -> usize {
+        self.hierarchy.level(self.fine, level).nrows()
+    }
+
+    fn zeros(&self, n: usize) -> Vec<f64> {
+        vec![0.0; n]
+    }
+
+    fn apply(&self, level: usize, x: &Vec<f64>, y: &mut Vec<f64>) {
+        self.hierarchy.level(self.fine, level).apply(x, y);
+    }
+
+    fn precondition(&self, level: usize, r: &Vec<f64>, z: &mut Vec<f64>) {
+        self.hierarchy.smoothers[level].pre.apply(r, z);
+    }
+
+    fn chebyshev(&self, level: usize) -> (f64, f64, usize) {
+        let s = &self.hierarchy.smoothers[level];
+        (s.lo, s.hi, s.degree)
+    }
+
+    fn chebyshev_update(&self, a: f64, c: f64, z: &Vec<f64>, d: &mut Vec<f64>, x: &mut Vec<f64>) {
+        chebyshev_update(a, c, z, d, x);
+    }
+
+    fn sub_assign(&self, r: &mut Vec<f64>, v: &Vec<f64>) {
+        sub_assign(r, v);
+    }
+
+    fn rsub_assign(&self, r: &mut Vec<f64>, b: &Vec<f64>) {
+        rsub_assign(r, b);
+    }
+
+    fn copy(&self, src: &Vec<f64>, dst: &mut Vec<f64>) {
+        dst.copy_from_slice(src);
+    }
+
+    fn fill_zero(&self, x: &mut Vec<f64>) {
+        x.fill(0.0);
+    }
+
+    fn restrict(&self, level: usize, fine: &Vec<f64>, coarse: &mut Vec<f64>) {
+        self.hierarchy
+            .transfer(self.fine, level)
+            .restrict(fine, coarse);
+    }
+
+    fn prolong_add(&self, level: usize, coarse: &Vec<f64>, fine: &mut Vec<f64>) {
+        self.hierarchy
+            .transfer(self.fine, level)
+            .prolong_add(coarse, fine);
+    }
+
+    fn coarse_solve(&self, b: &Vec<f64>, x: &mut Vec<f64>) {
+        x.copy_from_slice(b);
+        let mut scratch = self.direct.lock().unwrap_or_else(|e| e.into_inner());
+        self.hierarchy.direct.solve_in_place_with(x, &mut scratch);
     }
 }

@@ -167,10 +167,10 @@ pub struct Hierarchy {
     /// The rediscretised operators below level 0, finest first.
     coarse: Vec<ElasticOperator>,
     /// The smoothers of levels `0 … coarse.len() − 1` (all but the coarsest).
-    smoothers: Vec<Chebyshev>,
+    pub(crate) smoothers: Vec<Chebyshev>,
     /// The Cholesky factor of the coarsest level's assembled operator,
     /// shifted by `shift · D` ([`coarse_factor`]).
-    direct: Cholesky,
+    pub(crate) direct: Cholesky,
     /// The relative diagonal shift the coarsest factor needed (0 mostly).
     pub shift: f64,
     /// Seconds to build the coarse operators, the smoothers and the factor.
@@ -288,7 +288,7 @@ impl Hierarchy {
     }
 
     /// The operator of level `i` (0: `fine`, the solve's).
-    fn level<'a>(&'a self, fine: &'a ElasticOperator, i: usize) -> &'a ElasticOperator {
+    pub(crate) fn level<'a>(&'a self, fine: &'a ElasticOperator, i: usize) -> &'a ElasticOperator {
         if i == 0 {
             fine
         } else {
@@ -297,7 +297,7 @@ impl Hierarchy {
     }
 
     /// The transfer between level `i` and level `i + 1`.
-    fn transfer<'a>(&'a self, fine: &'a ElasticOperator, i: usize) -> Transfer<'a> {
+    pub(crate) fn transfer<'a>(&'a self, fine: &'a ElasticOperator, i: usize) -> Transfer<'a> {
         let lattice = |op: &'a ElasticOperator| Lattice {
             dims: op.grid.nodes_per_axis(op.dofs.order),
             dofs: &op.dofs,

@@ -59,39 +59,14 @@ const CHUNK: usize = 8192;
 
 /// The Chebyshev smoother of one level.
 pub struct Chebyshev {
-    pre: BlockJacobi,
+    pub(crate) pre: BlockJacobi,
     /// Degree `k` of the polynomial.
-    degree: usize,
+    pub(crate) degree: usize,
     /// The interval `[a, b]` of `B⁻¹A` it damps.
     pub lo: f64,
     pub hi: f64,
     /// Jacobi diagonal entries at round-off level that were floored.
     pub floored: usize,
-}
-
-/// The smoother's scratch vectors on one level: residual, `B⁻¹` of it,
-/// update and `A d`.
-pub struct Work {
-    r: Vec<f64>,
-    z: Vec<f64>,
-    d: Vec<f64>,
-    ad: Vec<f64>,
-}
-
-impl Work {
-    pub fn new(n: usize) -> Work {
-        Work {
-            r: vec![0.0; n],
-            z: vec![0.0; n],
-            d: vec![0.0; n],
-            ad: vec![0.0; n],
-        }
-    }
-
-    /// The residual `b − A x` left by the last [`Chebyshev::residual`].
-    pub fn residual(&self) -> &[f64] {
-        &self.r
-    }
 }
 
 impl Chebyshev {
@@ -131,51 +106,10 @@ impl Chebyshev {
     pub fn block_sizes(&self) -> (usize, usize) {
         self.pre.block_sizes()
     }
-
-    /// One smoothing step of degree `k` on `A x = b` (module doc),
-    /// from `x = 0` when `zero_start` (saving the residual's apply), else
-    /// from the `x` given.
-    pub fn smooth(
-        &self,
-        op: &dyn LinearOperator,
-        b: &[f64],
-        x: &mut [f64],
-        zero_start: bool,
-        w: &mut Work,
-    ) {
-        let theta = 0.5 * (self.hi + self.lo);
-        let delta = 0.5 * (self.hi - self.lo);
-        let sigma = theta / delta;
-        if zero_start {
-            w.r.copy_from_slice(b);
-            x.fill(0.0);
-        } else {
-            self.residual(op, b, x, w);
-        }
-        w.d.fill(0.0);
-        self.pre.apply(&w.r, &mut w.z);
-        chebyshev_update(0.0, 1.0 / theta, &w.z, &mut w.d, x);
-        let mut rho = 1.0 / sigma;
-        for _ in 1..self.degree {
-            op.apply(&w.d, &mut w.ad);
-            sub_assign(&mut w.r, &w.ad);
-            let rho_next = 1.0 / (2.0 * sigma - rho);
-            let (a, c) = (rho_next * rho, 2.0 * rho_next / delta);
-            self.pre.apply(&w.r, &mut w.z);
-            chebyshev_update(a, c, &w.z, &mut w.d, x);
-            rho = rho_next;
-        }
-    }
-
-    /// `w.r = b − A x`.
-    pub fn residual(&self, op: &dyn LinearOperator, b: &[f64], x: &[f64], w: &mut Work) {
-        op.apply(x, &mut w.r);
-        rsub_assign(&mut w.r, b);
-    }
 }
 
 /// `d = a d + c z` (`z = B⁻¹ r`), then `x = x + d`, entry by entry.
-fn chebyshev_update(a: f64, c: f64, z: &[f64], d: &mut [f64], x: &mut [f64]) {
+pub(crate) fn chebyshev_update(a: f64, c: f64, z: &[f64], d: &mut [f64], x: &mut [f64]) {
     d.par_chunks_mut(CHUNK)
         .zip(x.par_chunks_mut(CHUNK))
         .enumerate()
@@ -190,7 +124,7 @@ fn chebyshev_update(a: f64, c: f64, z: &[f64], d: &mut [f64], x: &mut [f64]) {
 }
 
 /// `r = r − v`.
-fn sub_assign(r: &mut [f64], v: &[f64]) {
+pub(crate) fn sub_assign(r: &mut [f64], v: &[f64]) {
     r.par_chunks_mut(CHUNK).enumerate().for_each(|(t, rc)| {
         let base = t * CHUNK;
         for i in 0..rc.len() {
@@ -200,7 +134,7 @@ fn sub_assign(r: &mut [f64], v: &[f64]) {
 }
 
 /// `r = b − r`.
-fn rsub_assign(r: &mut [f64], b: &[f64]) {
+pub(crate) fn rsub_assign(r: &mut [f64], b: &[f64]) {
     r.par_chunks_mut(CHUNK).enumerate().for_each(|(t, rc)| {
         let base = t * CHUNK;
         for i in 0..rc.len() {

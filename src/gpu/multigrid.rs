@@ -1,0 +1,397 @@
+//! The multigrid V-cycle on the device: the hierarchy the set-up built on
+//! the CPU ([`Hierarchy`]: level operators, Chebyshev intervals, cut-band
+//! blocks, coarsest factor) uploaded once, and the one V-cycle of
+//! [`crate::multigrid::cycle`] run over it ([`DeviceCycle`]), so that the
+//! cycle is the CPU's step for step:
+//!
+//! - the level operators as [`GpuOperator`]s (the Q1 plan; the gather for Q2);
+//! - the smoother's `B⁻¹`: `pointwise_mul` with `D⁻¹` (0 on the blocks), then
+//!   `block_rows`, each block entry's row of its block's inverse;
+//! - the Chebyshev step `chebyshev_update` and the vector kernels;
+//! - restriction and prolongation as gathers over the lattices' index maps
+//!   (`restrict`, `prolong_add`; no atomics);
+//! - the coarsest level by its dense inverse (`dense_matvec`), computed from
+//!   the Cholesky factor at upload; where the inverse would not fit one
+//!   storage binding, the coarsest right-hand side goes to the host, is
+//!   solved with the factor and comes back (a few thousand entries).
+//!
+//! Every array of the cycle is bound whole: a level vector or index map
+//! beyond one storage binding is [`Error::DeviceTooSmall`].
+
+use std::cell::RefCell;
+use std::sync::Mutex;
+
+use faer::dyn_stack::MemBuffer;
+use rayon::prelude::*;
+
+use super::backend::{GpuBackend, GpuVector};
+use super::kernels::{grid_2d, GatherParams, Kernel, WG};
+use super::operator::GpuOperator;
+use super::record::whole;
+use crate::backend::{Backend, LinearOperator};
+use crate::condition::sparse::Cholesky;
+use crate::error::{Error, Result};
+use crate::fem::operator::ElasticOperator;
+use crate::multigrid::cycle::{vcycle, CycleOps, LevelWork};
+use crate::multigrid::Hierarchy;
+use crate::solver::ApplyInverse;
+
+/// The hierarchy on the device, level 0's operator excepted (the solver's).
+pub struct DeviceMultigrid<'h> {
+    coarse: Vec<GpuOperator<'h>>,
+    smoothers: Vec<Smoother>,
+    lattices: Vec<Lattice>,
+    coarsest: Coarsest<'h>,
+    work: RefCell<Vec<LevelWork<GpuVector>>>,
+}
+
+/// One level's smoother: `D⁻¹` off the blocks, the blocks, the interval.
+struct Smoother {
+    point: GpuVector,
+    blocks: Option<Blocks>,
+    lo: f64,
+    hi: f64,
+    degree: usize,
+}
+
+/// The cut-band blocks of [`crate::multigrid::blocks::BlockJacobi`].
+struct Blocks {
+    entries: u32,
+    dofs: wgpu::Buffer,
+    block_of: wgpu::Buffer,
+    starts: wgpu::Buffer,
+    inv_starts: wgpu::Buffer,
+    inverses: wgpu::Buffer,
+}
+
+/// A level's nodal lattice: nodes per axis and the active ↔ node maps.
+struct Lattice {
+    dims: [u32; 3],
+    active: u32,
+    active_to_node: wgpu::Buffer,
+    node_to_active: wgpu::Buffer,
+}
+
+/// How the coarsest level is solved.
+enum Coarsest<'h> {
+    /// Its inverse, dense, on the device.
+    Dense { inverse: wgpu::Buffer, n: u32 },
+    /// On the host with the factor (the inverse would not fit one binding).
+    Host(&'h Cholesky, Mutex<MemBuffer>),
+}
+
+/// `A⁻¹` of the factored matrix, dense, column `j` at `j n`.
+fn dense_inverse(factor: &Cholesky, n: usize) -> Vec<f64> {
+    let mut a = vec![0.0; n * n];
+    a.par_chunks_mut(n.max(1)).enumerate().for_each_init(
+        || factor.solve_scratch(),
+        |mem, (j, col)| {
+            col[j] = 1.0;
+            factor.solve_in_place_with(col, mem);
+        },
+    );
+    a
+}
+
+/// `v` as a device buffer of u32.
+fn u32s(be: &GpuBackend, label: &str, v: impl Iterator<Item = usize>) -> wgpu::Buffer {
+    let v: Vec<u32> = v.map(|x| x as u32).collect();
+    be.buffer_init(label, bytemuck::cast_slice(&v))
+}
+
+impl<'h> DeviceMultigrid<'h> {
+    /// Uploads `hierarchy` (built for the host operator `fine`) to the device
+    /// of `be`.
+    pub fn new(
+        be: &GpuBackend,
+        fine: &'h ElasticOperator,
+        hierarchy: &'h Hierarchy,
+    ) -> Result<DeviceMultigrid<'h>> {
+        let levels = hierarchy.num_levels();
+        let ops: Vec<&ElasticOperator> = (0..levels).map(|i| hierarchy.level(fine, i)).collect();
+        let bytes = be.precision().bytes();
+        let max = be.bindings().max_bytes;
+        for op in &ops {
+            let lattice = op.dofs.node_to_active.len() as u64 * 4;
+            if op.nrows() as u64 * bytes > max || lattice > max {
+                return Err(Error::DeviceTooSmall {
+                    what: format!(
+                        "the multigrid level of {} dofs exceeds one storage binding of {max} \
+                         bytes; use solver.preconditioner = \"jacobi\" or --backend cpu",
+                        op.nrows()
+                    ),
+                });
+            }
+        }
+        let coarse = ops[1..]
+            .iter()
+            .map(|op| GpuOperator::new(be, op))
+            .collect::<Result<Vec<_>>>()?;
+        let smoothers = hierarchy
+            .smoothers
+            .iter()
+            .map(|s| Smoother::new(be, s))
+            .collect::<Result<Vec<_>>>()?;
+        let lattices = ops
+            .iter()
+            .map(|op| {
+                let d = op.grid.nodes_per_axis(op.dofs.order);
+                Lattice {
+                    dims: d.map(|x| x as u32),
+                    active: op.dofs.num_active() as u32,
+                    active_to_node: be.buffer_init(
+                        "active to node",
+                        bytemuck::cast_slice(&op.dofs.active_to_node),
+                    ),
+                    node_to_active: be.buffer_init(
+                        "node to active",
+                        bytemuck::cast_slice(&op.dofs.node_to_active),
+                    ),
+                }
+            })
+            .collect();
+        let n = ops[levels - 1].nrows();
+        let coarsest = if (n * n) as u64 * bytes <= max {
+            let inverse = dense_inverse(&hierarchy.direct, n);
+            Coarsest::Dense {
+                inverse: be.buffer_init("coarsest inverse", &be.to_bytes(&inverse)),
+                n: n as u32,
+            }
+        } else {
+            let scratch = Mutex::new(hierarchy.direct.solve_scratch());
+            Coarsest::Host(&hierarchy.direct, scratch)
+        };
+        Ok(DeviceMultigrid {
+            coarse,
+            smoothers,
+            lattices,
+            coarsest,
+            work: RefCell::new(Vec::new()),
+        })
+    }
+
+    /// The V-cycle over the solve's operator `fine` on the device, its work
+    /// vectors allocated on first use.
+    pub fn cycle<'a>(&'a self, be: &'a GpuBackend, fine: &'a GpuOperator<'a>) -> DeviceCycle<'a> {
+        let cycle = DeviceCycle { be, fine, mg: self };
+        if self.work.borrow().len() != self.coarse.len() {
+            *self.work.borrow_mut() = LevelWork::all(&cycle);
+        }
+        cycle
+    }
+}
+
+impl Smoother {
+    fn new(be: &GpuBackend, s: &crate::multigrid::smoother::Chebyshev) -> Result<Smoother> {
+        let pre = &s.pre;
+        let max = be.bindings().max_bytes;
+        let blocks = if pre.dofs.is_empty() {
+            None
+        } else {
+            if pre.inverses.len() as u64 * be.precision().bytes() > max {
+                return Err(Error::DeviceTooSmall {
+                    what: format!(
+                        "the smoother's cut-band blocks ({} entries) exceed one storage \
+                         binding of {max} bytes; use solver.preconditioner = \"jacobi\" \
+                         or --backend cpu",
+                        pre.inverses.len()
+                    ),
+                });
+            }
+            let block_of = (0..pre.starts.len() - 1)
+                .flat_map(|b| std::iter::repeat_n(b, pre.starts[b + 1] - pre.starts[b]));
+            Some(Blocks {
+                entries: pre.dofs.len() as u32,
+                dofs: u32s(be, "block dofs", pre.dofs.iter().copied()),
+                block_of: u32s(be, "block of entry", block_of),
+                starts: u32s(be, "block starts", pre.starts.iter().copied()),
+                inv_starts: u32s(
+                    be,
+                    "block inverse starts",
+                    pre.inverse_starts.iter().copied(),
+                ),
+                inverses: be.buffer_init("block inverses", &be.to_bytes(&pre.inverses)),
+            })
+        };
+        Ok(Smoother {
+            point: be.upload(&pre.point),
+            blocks,
+            lo: s.lo,
+            hi: s.hi,
+            degree: s.degree,
+        })
+    }
+}
+
+/// The V-cycle on the device: [`CycleOps`] over the uploaded hierarchy and
+/// the solve's operator, and the preconditioner of a GPU Krylov solve.
+pub struct DeviceCycle<'a> {
+    be: &'a GpuBackend,
+    fine: &'a GpuOperator<'a>,
+    mg: &'a DeviceMultigrid<'a>,
+}
+
+impl DeviceCycle<'_> {
+    fn op(&self, level: usize) -> &GpuOperator<'_> {
+        match level {
+            0 => self.fine,
+            i => &self.mg.coarse[i - 1],
+        }
+    }
+
+    /// Records and submits one gather kernel over `n` invocations.
+    fn gather(&self, kernel: Kernel, prm: GatherParams, binds: &[wgpu::BindingResource<'_>]) {
+        if prm.n == 0 {
+            return;
+        }
+        let (x, y, stride) = grid_2d(prm.n, WG, self.be.max_dim());
+        let prm = GatherParams { stride, ..prm };
+        let mut enc = self.be.encoder();
+        self.be
+            .record(&mut enc, kernel, bytemuck::bytes_of(&prm), binds, (x, y));
+        self.be.submit(enc);
+    }
+
+    /// The params of a transfer between `level` and `level + 1` over `n`.
+    fn transfer_params(&self, level: usize, n: u32) -> GatherParams {
+        let (f, c) = (&self.mg.lattices[level], &self.mg.lattices[level + 1]);
+        GatherParams {
+            n,
+            stride: 0,
+            fx: f.dims[0],
+            fy: f.dims[1],
+            fz: f.dims[2],
+            cx: c.dims[0],
+            cy: c.dims[1],
+            cz: c.dims[2],
+        }
+    }
+}
+
+impl ApplyInverse<GpuBackend> for DeviceCycle<'_> {
+    fn apply_inverse(&self, r: &GpuVector, z: &mut GpuVector) {
+        let mut work = self.mg.work.borrow_mut();
+        vcycle(self, 0, r, z, &mut work);
+    }
+}
+
+impl CycleOps for DeviceCycle<'_> {
+    type Vector = GpuVector;
+
+    fn num_levels(&self) -> usize {
+        self.mg.coarse.len() + 1
+    }
+
+    fn nrows(&self, level: usize) -> usize {
+        self.op(level).nrows()
+    }
+
+    fn zeros(&self, n: usize) -> GpuVector {
+        self.be.zeros(n)
+    }
+
+    fn apply(&self, level: usize, x: &GpuVector, y: &mut GpuVector) {
+        self.be.apply(self.op(level), x, y);
+    }
+
+    fn precondition(&self, level: usize, r: &GpuVector, z: &mut GpuVector) {
+        let s = &self.mg.smoothers[level];
+        self.be.pointwise_mul(&s.point, r, z);
+        if let Some(b) = &s.blocks {
+            let prm = GatherParams {
+                n: b.entries,
+                ..Default::default()
+            };
+            let binds = [
+                whole(&r.buf),
+                whole(&z.buf),
+                whole(&b.dofs),
+                whole(&b.block_of),
+                whole(&b.starts),
+                whole(&b.inv_starts),
+                whole(&b.inverses),
+            ];
+            self.gather(Kernel::BlockRows, prm, &binds);
+        }
+    }
+
+    fn chebyshev(&self, level: usize) -> (f64, f64, usize) {
+        let s = &self.mg.smoothers[level];
+        (s.lo, s.hi, s.degree)
+    }
+
+    fn chebyshev_update(
+        &self,
+        a: f64,
+        c: f64,
+        z: &GpuVector,
+        d: &mut GpuVector,
+        x: &mut GpuVector,
+    ) {
+        let bufs = [&self.be.scal, &z.buf, &d.buf, &x.buf];
+        self.be
+            .vec_call(Kernel::ChebyshevUpdate, x.len, &[a, c], &bufs);
+    }
+
+    fn sub_assign(&self, r: &mut GpuVector, v: &GpuVector) {
+        self.be.axpy(-1.0, v, r);
+    }
+
+    fn rsub_assign(&self, r: &mut GpuVector, b: &GpuVector) {
+        self.be.xpay(b, -1.0, r);
+    }
+
+    fn copy(&self, src: &GpuVector, dst: &mut GpuVector) {
+        self.be.copy(src, dst);
+    }
+
+    fn fill_zero(&self, x: &mut GpuVector) {
+        let mut enc = self.be.encoder();
+        enc.clear_buffer(&x.buf, 0, None);
+        self.be.submit(enc);
+    }
+
+    fn restrict(&self, level: usize, fine: &GpuVector, coarse: &mut GpuVector) {
+        let (f, c) = (&self.mg.lattices[level], &self.mg.lattices[level + 1]);
+        let binds = [
+            whole(&fine.buf),
+            whole(&coarse.buf),
+            whole(&c.active_to_node),
+            whole(&f.node_to_active),
+        ];
+        let prm = self.transfer_params(level, c.active);
+        self.gather(Kernel::Restrict, prm, &binds);
+    }
+
+    fn prolong_add(&self, level: usize, coarse: &GpuVector, fine: &mut GpuVector) {
+        let (f, c) = (&self.mg.lattices[level], &self.mg.lattices[level + 1]);
+        let binds = [
+            whole(&coarse.buf),
+            whole(&fine.buf),
+            whole(&f.active_to_node),
+            whole(&c.node_to_active),
+        ];
+        let prm = self.transfer_params(level, f.active);
+        self.gather(Kernel::ProlongAdd, prm, &binds);
+    }
+
+    fn coarse_solve(&self, b: &GpuVector, x: &mut GpuVector) {
+        match &self.mg.coarsest {
+            Coarsest::Dense { inverse, n } => {
+                let prm = GatherParams {
+                    n: *n,
+                    ..Default::default()
+                };
+                let binds = [whole(inverse), whole(&b.buf), whole(&x.buf)];
+                self.gather(Kernel::DenseMatvec, prm, &binds);
+            }
+            Coarsest::Host(factor, scratch) => {
+                let mut v = self.be.download(b);
+                let mut mem = scratch.lock().unwrap_or_else(|e| e.into_inner());
+                factor.solve_in_place_with(&mut v, &mut mem);
+                let queue = &self.be.context().queue;
+                queue.write_buffer(&x.buf, 0, &self.be.to_bytes(&v));
+            }
+        }
+    }
+}
