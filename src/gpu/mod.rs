@@ -18,6 +18,8 @@ pub mod linear;
 pub mod mirror;
 pub mod mirror_multigrid;
 pub mod multigrid;
+#[cfg(test)]
+mod multigrid_tests;
 pub mod operator;
 pub mod q1_operator;
 pub mod q1_terms;

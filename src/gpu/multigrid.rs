@@ -32,7 +32,9 @@ use crate::backend::{Backend, LinearOperator};
 use crate::condition::sparse::Cholesky;
 use crate::error::{Error, Result};
 use crate::fem::operator::ElasticOperator;
+use crate::multigrid::blocks::BlockJacobi;
 use crate::multigrid::cycle::{vcycle, CycleOps, LevelWork};
+use crate::multigrid::smoother::Chebyshev;
 use crate::multigrid::Hierarchy;
 use crate::solver::ApplyInverse;
 
@@ -81,7 +83,7 @@ enum Coarsest<'h> {
 }
 
 /// `A⁻¹` of the factored matrix, dense, column `j` at `j n`.
-fn dense_inverse(factor: &Cholesky, n: usize) -> Vec<f64> {
+pub(super) fn dense_inverse(factor: &Cholesky, n: usize) -> Vec<f64> {
     let mut a = vec![0.0; n * n];
     a.par_chunks_mut(n.max(1)).enumerate().for_each_init(
         || factor.solve_scratch(),
@@ -93,10 +95,29 @@ fn dense_inverse(factor: &Cholesky, n: usize) -> Vec<f64> {
     a
 }
 
-/// `v` as a device buffer of u32.
-fn u32s(be: &GpuBackend, label: &str, v: impl Iterator<Item = usize>) -> wgpu::Buffer {
-    let v: Vec<u32> = v.map(|x| x as u32).collect();
-    be.buffer_init(label, bytemuck::cast_slice(&v))
+/// The index arrays of `block_rows` for a block Jacobi preconditioner (the
+/// device's and the mirror's): each entry's unknown and block, each block's
+/// first entry (and one past the last) and the start of its inverse.
+pub struct BlockArrays {
+    pub dofs: Vec<u32>,
+    pub block_of: Vec<u32>,
+    pub starts: Vec<u32>,
+    pub inv_starts: Vec<u32>,
+}
+
+impl BlockArrays {
+    pub fn new(pre: &BlockJacobi) -> BlockArrays {
+        let u32s = |v: &[usize]| v.iter().map(|&x| x as u32).collect();
+        let block_of = (0..pre.starts.len() - 1)
+            .flat_map(|b| std::iter::repeat_n(b as u32, pre.starts[b + 1] - pre.starts[b]))
+            .collect();
+        BlockArrays {
+            dofs: u32s(&pre.dofs),
+            block_of,
+            starts: u32s(&pre.starts),
+            inv_starts: u32s(&pre.inverse_starts),
+        }
+    }
 }
 
 impl<'h> DeviceMultigrid<'h> {
@@ -182,7 +203,7 @@ impl<'h> DeviceMultigrid<'h> {
 }
 
 impl Smoother {
-    fn new(be: &GpuBackend, s: &crate::multigrid::smoother::Chebyshev) -> Result<Smoother> {
+    fn new(be: &GpuBackend, s: &Chebyshev) -> Result<Smoother> {
         let pre = &s.pre;
         let max = be.bindings().max_bytes;
         let blocks = if pre.dofs.is_empty() {
@@ -198,18 +219,14 @@ impl Smoother {
                     ),
                 });
             }
-            let block_of = (0..pre.starts.len() - 1)
-                .flat_map(|b| std::iter::repeat_n(b, pre.starts[b + 1] - pre.starts[b]));
+            let a = BlockArrays::new(pre);
+            let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
             Some(Blocks {
-                entries: pre.dofs.len() as u32,
-                dofs: u32s(be, "block dofs", pre.dofs.iter().copied()),
-                block_of: u32s(be, "block of entry", block_of),
-                starts: u32s(be, "block starts", pre.starts.iter().copied()),
-                inv_starts: u32s(
-                    be,
-                    "block inverse starts",
-                    pre.inverse_starts.iter().copied(),
-                ),
+                entries: a.dofs.len() as u32,
+                dofs: u32s("block dofs", &a.dofs),
+                block_of: u32s("block of entry", &a.block_of),
+                starts: u32s("block starts", &a.starts),
+                inv_starts: u32s("block inverse starts", &a.inv_starts),
                 inverses: be.buffer_init("block inverses", &be.to_bytes(&pre.inverses)),
             })
         };

@@ -9,8 +9,8 @@ use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 use super::context::Precision;
 use super::kernels::{
-    grid_2d, reduction_groups, ApplyParams, Kernel, Q1Params, RedParams, ScalParams, UpdateParams,
-    VecParams, ALIAS_F64,
+    grid_2d, reduction_groups, ApplyParams, GatherParams, Kernel, Q1Params, RedParams, ScalParams,
+    UpdateParams, VecParams, ALIAS_F64,
 };
 use super::mirror;
 
@@ -105,6 +105,7 @@ fn params_structs_match_their_wgsl_twins() {
     let q1 =
         rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, pad0, pad1, pad2);
     let update = rust_layout!(UpdateParams, n, groups, ia, ib, precond, pad0, pad1, pad2);
+    let gather = rust_layout!(GatherParams, n, stride, fx, fy, fz, cx, cy, cz);
     for k in Kernel::ALL {
         let m = validate(k, Precision::F64);
         let (name, rust) = match k {
@@ -112,6 +113,9 @@ fn params_structs_match_their_wgsl_twins() {
             Kernel::Apply => ("ApplyParams", &apply),
             Kernel::Q1Cells | Kernel::Q1Nodes => ("Q1Params", &q1),
             Kernel::CgUpdate => ("UpdateParams", &update),
+            Kernel::BlockRows | Kernel::ProlongAdd | Kernel::Restrict | Kernel::DenseMatvec => {
+                ("GatherParams", &gather)
+            }
             Kernel::ScalarRatio | Kernel::KrylovCheck => ("ScalParams", &scal),
             _ => ("VecParams", &vec),
         };
