@@ -4,7 +4,7 @@
 # end-to-end table for --backend gpu and --backend cpu (sphere Q1 L7, Q2 L5,
 # Hertz L4, sphere Q1 L8). Items run in that order; one that would start
 # past DEADLINE seconds (default 450) is listed as skipped, as is a run
-# named in SKIP (e.g. SKIP="hertz-L4 sphere-L8").
+# named in SKIP (e.g. SKIP="hertz-L4 sphere-L8"; "bench" skips the bench).
 #
 #   scripts/device-check.sh [BIN] [OUT_DIR]
 #
@@ -25,9 +25,13 @@ echo "== device check $(date -u +%FT%TZ), commit $COMMIT, $THREADS threads"
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>/dev/null
 "$BIN" info 2>&1 | grep -v XDG_RUNTIME_DIR
 
-echo "== bench (levels 7 and 8, no CSR)"
-timeout "$(left)" "$BIN" -q bench --backend gpu --level 7 --level 8 --threads "$THREADS" \
-  --no-solve --no-csr --budget 0.5 --out "$OUT_DIR/bench" 2>&1 | grep -v XDG_RUNTIME_DIR
+if [[ " ${SKIP:-} " == *" bench "* ]]; then
+  echo "skipped: bench (SKIP)"
+else
+  echo "== bench (levels 7 and 8, no CSR)"
+  timeout "$(left)" "$BIN" -q bench --backend gpu --level 7 --level 8 --threads "$THREADS" \
+    --no-solve --no-csr --budget 0.5 --out "$OUT_DIR/bench" 2>&1 | grep -v XDG_RUNTIME_DIR
+fi
 
 echo "== end to end"
 # name case level extra-sets...
