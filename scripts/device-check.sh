@@ -4,7 +4,8 @@
 # end-to-end table for --backend gpu and --backend cpu (sphere Q1 L7, Q2 L5,
 # Hertz L4, sphere Q1 L8). Items run in that order; one that would start
 # past DEADLINE seconds (default 450) is listed as skipped, as is a run
-# named in SKIP (e.g. SKIP="hertz-L4 sphere-L8"; "bench" skips the bench).
+# named in SKIP (e.g. SKIP="hertz-L4 sphere-L8-cpu": a run, or one backend
+# of it; "bench" skips the bench).
 #
 #   scripts/device-check.sh [BIN] [OUT_DIR]
 #
@@ -44,7 +45,7 @@ RUNS=(
 for spec in "${RUNS[@]}"; do
   read -r name case level sets <<<"$spec"
   for backend in gpu cpu; do
-    if [[ " ${SKIP:-} " == *" $name "* ]]; then
+    if [[ " ${SKIP:-} " == *" $name "* || " ${SKIP:-} " == *" $name-$backend "* ]]; then
       echo "skipped: $name $backend (SKIP)"
       continue
     fi
