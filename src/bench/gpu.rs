@@ -13,7 +13,10 @@
 //!   if every cached re-read were free);
 //! - `cg_iter`, `cgs_iter`: `(t(K+2) − t(2)) / K` of device-scalar iterations
 //!   ([`crate::gpu::device_krylov::run_iterations`]), residual read back at the
-//!   end of each run; the dispatches per iteration go to stderr.
+//!   end of each run; the dispatches per iteration go to stderr;
+//! - `vcycle` (f64): one multigrid V-cycle on the device
+//!   ([`crate::gpu::multigrid`]) over the hierarchy a run would build, its
+//!   levels and dispatches to stderr.
 //!
 //! No adapter is not an error here: the bench says so and has no GPU rows.
 
@@ -21,13 +24,16 @@ use std::sync::Arc;
 
 use super::{peak_resident_bytes, seconds_per_call, BenchOptions, Row};
 use crate::backend::Backend;
+use crate::case::Case;
 use crate::error::{Error, Result};
 use crate::fem::operator::ElasticOperator;
 use crate::fem::setup::Setup;
 use crate::gpu::device_krylov::run_iterations;
+use crate::gpu::multigrid::DeviceMultigrid;
 use crate::gpu::q1_operator::Q1Kernel;
-use crate::gpu::{GpuBackend, GpuContext, GpuOperator, Precision, PrecisionChoice};
-use crate::solver::KrylovMethod;
+use crate::gpu::{GpuBackend, GpuContext, GpuOperator, GpuVector, Precision, PrecisionChoice};
+use crate::multigrid::{Hierarchy, MultigridOptions};
+use crate::solver::{ApplyInverse, KrylovMethod};
 
 /// Iterations timed per method (beyond the 2 subtracted).
 const ITERATIONS: usize = 10;
@@ -100,8 +106,14 @@ pub fn bandwidth(be: &GpuBackend, budget: f64) -> Row {
     }
 }
 
-/// Apply and iteration rows of `be` on the set-up sphere.
-pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result<Vec<Row>> {
+/// Apply and iteration rows of `be` on the set-up sphere (`case`), and in
+/// f64 the row of one multigrid V-cycle on the device.
+pub fn throughput(
+    be: &GpuBackend,
+    case: &Case,
+    setup: &Setup,
+    opts: &BenchOptions,
+) -> Result<Vec<Row>> {
     let level = setup.grid.level;
     let op = GpuOperator::new(be, &setup.op)?;
     let n = be.nrows(&op);
@@ -183,7 +195,49 @@ pub fn throughput(be: &GpuBackend, setup: &Setup, opts: &BenchOptions) -> Result
             ..row(be, what, level, n, seconds)
         });
     }
+    if be.precision() == Precision::F64 {
+        rows.push(vcycle(be, case, setup, &op, &x, opts)?);
+    }
     Ok(rows)
+}
+
+/// One V-cycle of the set-up's hierarchy on the device (built here with the
+/// default options, as a run builds it), timed from the same `x`.
+fn vcycle(
+    be: &GpuBackend,
+    case: &Case,
+    setup: &Setup,
+    op: &GpuOperator<'_>,
+    x: &GpuVector,
+    opts: &BenchOptions,
+) -> Result<Row> {
+    let (problem, cells) = (&setup.problem, &setup.cells);
+    let h = Hierarchy::new(
+        case,
+        problem,
+        cells,
+        &setup.op,
+        &MultigridOptions::default(),
+    )?;
+    let mg = DeviceMultigrid::new(be, &setup.op, &h)?;
+    let cycle = mg.cycle(be, op);
+    let n = be.nrows(op);
+    let mut z = be.zeros(n);
+    let before = be.dispatches();
+    cycle.apply_inverse(x, &mut z);
+    eprintln!(
+        "bench: {} {} level {}: {} levels, {} dispatches per vcycle",
+        name(be),
+        precision(be),
+        setup.grid.level,
+        h.num_levels(),
+        be.dispatches() - before
+    );
+    let seconds = seconds_per_call(opts.budget, || {
+        cycle.apply_inverse(x, &mut z);
+        be.finish();
+    });
+    Ok(row(be, "vcycle", setup.grid.level, n, seconds))
 }
 
 /// Bytes of operator data on the device: the host operator's, with the cut

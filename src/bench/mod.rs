@@ -168,7 +168,7 @@ pub fn run(
                     emit(r);
                 }
                 for be in &gpus {
-                    for r in gpu::throughput(be, &setup, opts)? {
+                    for r in gpu::throughput(be, &case, &setup, opts)? {
                         emit(r);
                     }
                 }

@@ -47,6 +47,9 @@ pub struct GpuBackend {
     pub(super) bindings: BindingLimits,
     /// Kernels recorded so far ([`GpuBackend::dispatches`]).
     pub(super) dispatches: Cell<u64>,
+    /// Staging buffers of [`GpuBackend::write_vector`] and
+    /// [`GpuBackend::read_vector`].
+    pub(super) staging: RefCell<super::staging::Staging>,
 }
 
 fn check_len(kernel: &str, n: usize, others: &[usize]) {
@@ -82,6 +85,7 @@ impl GpuBackend {
             partials: RefCell::new(None),
             bindings,
             dispatches: Cell::new(0),
+            staging: RefCell::default(),
         }
     }
 

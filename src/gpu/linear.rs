@@ -1,6 +1,8 @@
 //! [`GpuSolver`]: the [`LinearSolver`] of the fixed-point loop on the GPU. The
-//! operator and its diagonal are uploaded once; each solve uploads the
-//! right-hand side and the warm start and downloads the solution.
+//! operator and its diagonal are uploaded once; each solve writes the
+//! right-hand side and the warm start into device vectors kept between
+//! solves and reads the solution back (through the backend's staging
+//! buffers, [`super::staging`]).
 //!
 //! - f64 device: CG and CGS with device scalars ([`super::device_krylov`]) by
 //!   default, or the generic [`crate::solver::solve`] with host scalars
@@ -44,6 +46,9 @@ pub struct GpuSolver<'o> {
     diag: GpuVector,
     scalars: Scalars,
     multigrid: Option<DeviceMultigrid<'o>>,
+    /// The right-hand side and solution on the device, kept between solves.
+    b: GpuVector,
+    x: GpuVector,
 }
 
 impl<'o> GpuSolver<'o> {
@@ -71,7 +76,11 @@ impl<'o> GpuSolver<'o> {
     /// both with a lowered binding size).
     pub fn with_operator(be: GpuBackend, op: GpuOperator<'o>, scalars: Scalars) -> Self {
         let diag = be.diagonal(&op);
+        let n = op.nrows();
+        let (b, x) = (be.zeros(n), be.zeros(n));
         GpuSolver {
+            b,
+            x,
             be,
             op,
             diag,
@@ -97,24 +106,25 @@ impl LinearSolver for GpuSolver<'_> {
         if be.precision() == Precision::F32 {
             return solve_defect_correction(be, op, diag, op.host(), rhs, u, opts);
         }
-        let b = be.upload(rhs);
-        let mut x = be.upload(u);
+        let (b, x) = (&mut self.b, &mut self.x);
+        be.write_vector(rhs, b);
+        match u.iter().all(|&v| v == 0.0) {
+            true => be.clear_vector(x),
+            false => be.write_vector(u, x),
+        }
         let with_multigrid = matches!(
             opts.preconditioner,
             Preconditioner::Multigrid | Preconditioner::Auto
         );
-        if let (Some(mg), true) = (&self.multigrid, with_multigrid) {
-            let result = solve_preconditioned(be, op, &mg.cycle(be, op), &b, &mut x, opts);
-            *u = be.download(&x);
-            return result;
-        }
         let device = self.scalars == Scalars::Device && opts.method != KrylovMethod::BiCgStab;
-        let result = if device {
-            solve_device(be, op, diag, &b, &mut x, opts, &DeviceOptions::default())
-        } else {
-            solve(be, op, diag, &b, &mut x, opts)
+        let result = match &self.multigrid {
+            Some(mg) if with_multigrid => {
+                solve_preconditioned(be, op, &mg.cycle(be, op), b, x, opts)
+            }
+            _ if device => solve_device(be, op, diag, b, x, opts, &DeviceOptions::default()),
+            _ => solve(be, op, diag, b, x, opts),
         };
-        *u = be.download(&x);
+        be.read_vector(x, u);
         result
     }
 }

@@ -24,6 +24,7 @@ pub mod operator;
 pub mod q1_operator;
 pub mod q1_terms;
 mod record;
+mod staging;
 #[cfg(test)]
 mod tests;
 pub mod windows;

@@ -34,7 +34,7 @@ use crate::error::{Error, Result};
 use crate::fem::operator::ElasticOperator;
 use crate::multigrid::blocks::BlockJacobi;
 use crate::multigrid::cycle::{vcycle, CycleOps, LevelWork};
-use crate::multigrid::smoother::Chebyshev;
+use crate::multigrid::smoother::{chebyshev_coefficients, Chebyshev};
 use crate::multigrid::Hierarchy;
 use crate::solver::ApplyInverse;
 
@@ -47,13 +47,16 @@ pub struct DeviceMultigrid<'h> {
     work: RefCell<Vec<LevelWork<GpuVector>>>,
 }
 
-/// One level's smoother: `D⁻¹` off the blocks, the blocks, the interval.
+/// One level's smoother: `D⁻¹` off the blocks, the blocks, the interval,
+/// and its constants on the device: the Chebyshev coefficients `(a, c)` of
+/// every update in turn, then `−1` (for `r − v` and `b − r`).
 struct Smoother {
     point: GpuVector,
     blocks: Option<Blocks>,
     lo: f64,
     hi: f64,
     degree: usize,
+    constants: wgpu::Buffer,
 }
 
 /// The cut-band blocks of [`crate::multigrid::blocks::BlockJacobi`].
@@ -194,7 +197,12 @@ impl<'h> DeviceMultigrid<'h> {
     /// The V-cycle over the solve's operator `fine` on the device, its work
     /// vectors allocated on first use.
     pub fn cycle<'a>(&'a self, be: &'a GpuBackend, fine: &'a GpuOperator<'a>) -> DeviceCycle<'a> {
-        let cycle = DeviceCycle { be, fine, mg: self };
+        let cycle = DeviceCycle {
+            be,
+            fine,
+            mg: self,
+            enc: RefCell::new(None),
+        };
         if self.work.borrow().len() != self.coarse.len() {
             *self.work.borrow_mut() = LevelWork::all(&cycle);
         }
@@ -230,22 +238,32 @@ impl Smoother {
                 inverses: be.buffer_init("block inverses", &be.to_bytes(&pre.inverses)),
             })
         };
+        let mut constants: Vec<f64> = chebyshev_coefficients(s.lo, s.hi, s.degree)
+            .into_iter()
+            .flat_map(|(a, c)| [a, c])
+            .collect();
+        constants.push(-1.0);
         Ok(Smoother {
             point: be.upload(&pre.point),
             blocks,
             lo: s.lo,
             hi: s.hi,
             degree: s.degree,
+            constants: be.buffer_init("smoother constants", &be.to_bytes(&constants)),
         })
     }
 }
 
 /// The V-cycle on the device: [`CycleOps`] over the uploaded hierarchy and
-/// the solve's operator, and the preconditioner of a GPU Krylov solve.
+/// the solve's operator, and the preconditioner of a GPU Krylov solve. Its
+/// steps record into one command encoder, submitted once per cycle (every
+/// scalar the cycle needs is on the device beforehand); [`DeviceCycle::flush`]
+/// submits what is recorded.
 pub struct DeviceCycle<'a> {
     be: &'a GpuBackend,
     fine: &'a GpuOperator<'a>,
     mg: &'a DeviceMultigrid<'a>,
+    enc: RefCell<Option<wgpu::CommandEncoder>>,
 }
 
 impl DeviceCycle<'_> {
@@ -256,17 +274,41 @@ impl DeviceCycle<'_> {
         }
     }
 
-    /// Records and submits one gather kernel over `n` invocations.
+    /// Records with `f` into the open encoder (opened if none is).
+    fn record(&self, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
+        let mut enc = self.enc.borrow_mut();
+        f(enc.get_or_insert_with(|| self.be.encoder()));
+    }
+
+    /// Submits what is recorded.
+    pub fn flush(&self) {
+        if let Some(enc) = self.enc.borrow_mut().take() {
+            self.be.submit(enc);
+        }
+    }
+
+    /// Records one gather kernel over `prm.n` invocations.
     fn gather(&self, kernel: Kernel, prm: GatherParams, binds: &[wgpu::BindingResource<'_>]) {
         if prm.n == 0 {
             return;
         }
         let (x, y, stride) = grid_2d(prm.n, WG, self.be.max_dim());
         let prm = GatherParams { stride, ..prm };
-        let mut enc = self.be.encoder();
-        self.be
-            .record(&mut enc, kernel, bytemuck::bytes_of(&prm), binds, (x, y));
-        self.be.submit(enc);
+        self.record(|enc| {
+            self.be
+                .record(enc, kernel, bytemuck::bytes_of(&prm), binds, (x, y))
+        });
+    }
+
+    /// Records an element-wise kernel over `n` entries, its scalars at slots
+    /// `slots` of `scalars`.
+    fn vector(&self, kernel: Kernel, n: usize, slots: (u32, u32), bufs: &[&wgpu::Buffer]) {
+        self.record(|enc| self.be.record_vec(enc, kernel, n, slots, bufs));
+    }
+
+    /// The slot of `−1` in `level`'s constants.
+    fn minus_one(&self, level: usize) -> u32 {
+        2 * self.mg.smoothers[level].degree as u32
     }
 
     /// The params of a transfer between `level` and `level + 1` over `n`.
@@ -289,6 +331,7 @@ impl ApplyInverse<GpuBackend> for DeviceCycle<'_> {
     fn apply_inverse(&self, r: &GpuVector, z: &mut GpuVector) {
         let mut work = self.mg.work.borrow_mut();
         vcycle(self, 0, r, z, &mut work);
+        self.flush();
     }
 }
 
@@ -308,12 +351,13 @@ impl CycleOps for DeviceCycle<'_> {
     }
 
     fn apply(&self, level: usize, x: &GpuVector, y: &mut GpuVector) {
-        self.be.apply(self.op(level), x, y);
+        self.record(|enc| self.op(level).record_apply(self.be, enc, &x.buf, &y.buf));
     }
 
     fn precondition(&self, level: usize, r: &GpuVector, z: &mut GpuVector) {
         let s = &self.mg.smoothers[level];
-        self.be.pointwise_mul(&s.point, r, z);
+        let bufs = [&s.point.buf, &r.buf, &z.buf];
+        self.vector(Kernel::PointwiseMul, r.len, (0, 0), &bufs);
         if let Some(b) = &s.blocks {
             let prm = GatherParams {
                 n: b.entries,
@@ -339,33 +383,35 @@ impl CycleOps for DeviceCycle<'_> {
 
     fn chebyshev_update(
         &self,
-        a: f64,
-        c: f64,
+        level: usize,
+        step: usize,
+        _coef: (f64, f64),
         z: &GpuVector,
         d: &mut GpuVector,
         x: &mut GpuVector,
     ) {
-        let bufs = [&self.be.scal, &z.buf, &d.buf, &x.buf];
-        self.be
-            .vec_call(Kernel::ChebyshevUpdate, x.len, &[a, c], &bufs);
+        let s = &self.mg.smoothers[level];
+        let bufs = [&s.constants, &z.buf, &d.buf, &x.buf];
+        let slots = (2 * step as u32, 2 * step as u32 + 1);
+        self.vector(Kernel::ChebyshevUpdate, x.len, slots, &bufs);
     }
 
-    fn sub_assign(&self, r: &mut GpuVector, v: &GpuVector) {
-        self.be.axpy(-1.0, v, r);
+    fn sub_assign(&self, level: usize, r: &mut GpuVector, v: &GpuVector) {
+        let bufs = [&self.mg.smoothers[level].constants, &v.buf, &r.buf];
+        self.vector(Kernel::Axpy, r.len, (self.minus_one(level), 0), &bufs);
     }
 
-    fn rsub_assign(&self, r: &mut GpuVector, b: &GpuVector) {
-        self.be.xpay(b, -1.0, r);
+    fn rsub_assign(&self, level: usize, r: &mut GpuVector, b: &GpuVector) {
+        let bufs = [&self.mg.smoothers[level].constants, &b.buf, &r.buf];
+        self.vector(Kernel::Xpay, r.len, (self.minus_one(level), 0), &bufs);
     }
 
     fn copy(&self, src: &GpuVector, dst: &mut GpuVector) {
-        self.be.copy(src, dst);
+        self.vector(Kernel::Copy, src.len, (0, 0), &[&src.buf, &dst.buf]);
     }
 
     fn fill_zero(&self, x: &mut GpuVector) {
-        let mut enc = self.be.encoder();
-        enc.clear_buffer(&x.buf, 0, None);
-        self.be.submit(enc);
+        self.record(|enc| enc.clear_buffer(&x.buf, 0, None));
     }
 
     fn restrict(&self, level: usize, fine: &GpuVector, coarse: &mut GpuVector) {
@@ -403,6 +449,7 @@ impl CycleOps for DeviceCycle<'_> {
                 self.gather(Kernel::DenseMatvec, prm, &binds);
             }
             Coarsest::Host(factor, scratch) => {
+                self.flush();
                 let mut v = self.be.download(b);
                 let mut mem = scratch.lock().unwrap_or_else(|e| e.into_inner());
                 factor.solve_in_place_with(&mut v, &mut mem);

@@ -15,7 +15,7 @@ use crate::backend::{Backend, LinearOperator};
 use crate::fem::operator::ElasticOperator;
 use crate::fem::setup::Setup;
 use crate::multigrid::cycle::{CycleOps, Multigrid};
-use crate::multigrid::smoother::chebyshev_update;
+use crate::multigrid::smoother::{chebyshev_coefficients, chebyshev_update};
 use crate::multigrid::tests::{scrambled, sphere};
 use crate::multigrid::Hierarchy;
 use crate::solver::ApplyInverse;
@@ -186,6 +186,7 @@ fn kernels_match_their_mirrors(ctx: std::sync::Arc<GpuContext>) {
             let xf = dev(&scrambled(f.nrows(), 2));
             let mut g = be.upload(&xf);
             cycle.prolong_add(i, &be.upload(&xc), &mut g);
+            cycle.flush();
             let mut want = xf.clone();
             let prm = transfer_params(f, c, f.dofs.num_active());
             mm::prolong_add(
@@ -204,6 +205,7 @@ fn kernels_match_their_mirrors(ctx: std::sync::Arc<GpuContext>) {
 
             let mut g = be.zeros(c.nrows());
             cycle.restrict(i, &be.upload(&xf), &mut g);
+            cycle.flush();
             let mut want = vec![0.0; c.nrows()];
             let prm = transfer_params(f, c, c.dofs.num_active());
             mm::restrict(
@@ -218,6 +220,7 @@ fn kernels_match_their_mirrors(ctx: std::sync::Arc<GpuContext>) {
             let pre = &h.smoothers[i].pre;
             let mut g = be.zeros(f.nrows());
             cycle.precondition(i, &be.upload(&xf), &mut g);
+            cycle.flush();
             let want = mirror_precondition(h, i, &dev(&pre.inverses), &dev(&pre.point), &xf);
             assert_close(
                 &format!("{what}: block Jacobi"),
@@ -228,8 +231,11 @@ fn kernels_match_their_mirrors(ctx: std::sync::Arc<GpuContext>) {
 
             let (z, d) = (dev(&scrambled(f.nrows(), 3)), dev(&scrambled(f.nrows(), 4)));
             let (mut gd, mut gx) = (be.upload(&d), be.upload(&xf));
-            let (a, cc) = (0.75, 1.5);
-            cycle.chebyshev_update(a, cc, &be.upload(&z), &mut gd, &mut gx);
+            let s = &h.smoothers[i];
+            let coef = chebyshev_coefficients(s.lo, s.hi, s.degree)[1];
+            cycle.chebyshev_update(i, 1, coef, &be.upload(&z), &mut gd, &mut gx);
+            cycle.flush();
+            let (a, cc) = (dev(&[coef.0])[0], dev(&[coef.1])[0]);
             let (mut wd, mut wx) = (d, xf);
             let vp = VecParams {
                 n: f.nrows() as u32,
@@ -255,6 +261,7 @@ fn kernels_match_their_mirrors(ctx: std::sync::Arc<GpuContext>) {
         let b = dev(&scrambled(n, 5));
         let mut g = be.zeros(n);
         cycle.coarse_solve(&be.upload(&b), &mut g);
+        cycle.flush();
         let mut want = vec![0.0; n];
         let gp = GatherParams {
             n: n as u32,

@@ -23,7 +23,7 @@ use std::sync::Mutex;
 
 use faer::dyn_stack::MemBuffer;
 
-use super::smoother::{chebyshev_update, rsub_assign, sub_assign};
+use super::smoother::{chebyshev_coefficients, chebyshev_update, rsub_assign, sub_assign};
 use super::Hierarchy;
 use crate::backend::{CpuBackend, LinearOperator};
 use crate::fem::operator::ElasticOperator;
@@ -45,19 +45,22 @@ pub trait CycleOps {
     fn precondition(&self, level: usize, r: &Self::Vector, z: &mut Self::Vector);
     /// The Chebyshev interval `[a, b]` and degree of the smoother of `level`.
     fn chebyshev(&self, level: usize) -> (f64, f64, usize);
-    /// `d = a d + c z`, then `x = x + d`, entry by entry.
+    /// `d = a d + c z`, then `x = x + d`, entry by entry: update `step` of
+    /// `level`'s smoothing step, `coef = (a, c)` its
+    /// [`chebyshev_coefficients`].
     fn chebyshev_update(
         &self,
-        a: f64,
-        c: f64,
+        level: usize,
+        step: usize,
+        coef: (f64, f64),
         z: &Self::Vector,
         d: &mut Self::Vector,
         x: &mut Self::Vector,
     );
-    /// `r = r − v`.
-    fn sub_assign(&self, r: &mut Self::Vector, v: &Self::Vector);
-    /// `r = b − r`.
-    fn rsub_assign(&self, r: &mut Self::Vector, b: &Self::Vector);
+    /// `r = r − v` on `level`.
+    fn sub_assign(&self, level: usize, r: &mut Self::Vector, v: &Self::Vector);
+    /// `r = b − r` on `level`.
+    fn rsub_assign(&self, level: usize, r: &mut Self::Vector, b: &Self::Vector);
     /// `dst = src`.
     fn copy(&self, src: &Self::Vector, dst: &mut Self::Vector);
     /// `x = 0`.
@@ -116,7 +119,7 @@ pub fn vcycle<O: CycleOps>(
     };
     smooth(ops, level, b, x, true, w);
     ops.apply(level, x, &mut w.r);
-    ops.rsub_assign(&mut w.r, b);
+    ops.rsub_assign(level, &mut w.r, b);
     ops.restrict(level, &w.r, &mut w.b_coarse);
     vcycle(ops, level + 1, &w.b_coarse, &mut w.x_coarse, below);
     ops.prolong_add(level, &w.x_coarse, x);
@@ -124,8 +127,9 @@ pub fn vcycle<O: CycleOps>(
 }
 
 /// One Chebyshev smoothing step on `A x = b` of `level` ([`super::smoother`]
-/// gives the recurrence), from `x = 0` when `zero_start` (saving the
-/// residual's apply), else from the `x` given.
+/// gives the recurrence, [`chebyshev_coefficients`] its coefficients), from
+/// `x = 0` when `zero_start` (saving the residual's apply), else from the `x`
+/// given.
 fn smooth<O: CycleOps>(
     ops: &O,
     level: usize,
@@ -135,28 +139,24 @@ fn smooth<O: CycleOps>(
     w: &mut LevelWork<O::Vector>,
 ) {
     let (lo, hi, degree) = ops.chebyshev(level);
-    let theta = 0.5 * (hi + lo);
-    let delta = 0.5 * (hi - lo);
-    let sigma = theta / delta;
     if zero_start {
         ops.copy(b, &mut w.r);
         ops.fill_zero(x);
     } else {
         ops.apply(level, x, &mut w.r);
-        ops.rsub_assign(&mut w.r, b);
+        ops.rsub_assign(level, &mut w.r, b);
     }
     ops.fill_zero(&mut w.d);
-    ops.precondition(level, &w.r, &mut w.z);
-    ops.chebyshev_update(0.0, 1.0 / theta, &w.z, &mut w.d, x);
-    let mut rho = 1.0 / sigma;
-    for _ in 1..degree {
-        ops.apply(level, &w.d, &mut w.ad);
-        ops.sub_assign(&mut w.r, &w.ad);
-        let rho_next = 1.0 / (2.0 * sigma - rho);
-        let (a, c) = (rho_next * rho, 2.0 * rho_next / delta);
+    for (step, coef) in chebyshev_coefficients(lo, hi, degree)
+        .into_iter()
+        .enumerate()
+    {
+        if step > 0 {
+            ops.apply(level, &w.d, &mut w.ad);
+            ops.sub_assign(level, &mut w.r, &w.ad);
+        }
         ops.precondition(level, &w.r, &mut w.z);
-        ops.chebyshev_update(a, c, &w.z, &mut w.d, x);
-        rho = rho_next;
+        ops.chebyshev_update(level, step, coef, &w.z, &mut w.d, x);
     }
 }
 
@@ -248,15 +248,23 @@ impl CycleOps for CpuLevels<'_> {
         (s.lo, s.hi, s.degree)
     }
 
-    fn chebyshev_update(&self, a: f64, c: f64, z: &Vec<f64>, d: &mut Vec<f64>, x: &mut Vec<f64>) {
+    fn chebyshev_update(
+        &self,
+        _level: usize,
+        _step: usize,
+        (a, c): (f64, f64),
+        z: &Vec<f64>,
+        d: &mut Vec<f64>,
+        x: &mut Vec<f64>,
+    ) {
         chebyshev_update(a, c, z, d, x);
     }
 
-    fn sub_assign(&self, r: &mut Vec<f64>, v: &Vec<f64>) {
+    fn sub_assign(&self, _level: usize, r: &mut Vec<f64>, v: &Vec<f64>) {
         sub_assign(r, v);
     }
 
-    fn rsub_assign(&self, r: &mut Vec<f64>, b: &Vec<f64>) {
+    fn rsub_assign(&self, _level: usize, r: &mut Vec<f64>, b: &Vec<f64>) {
         rsub_assign(r, b);
     }
 

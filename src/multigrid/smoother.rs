@@ -108,6 +108,25 @@ impl Chebyshev {
     }
 }
 
+/// The coefficients `(a, c)` of the `degree` updates `d = a d + c B⁻¹r`
+/// of one smoothing step over the interval `[lo, hi]` (module doc): `(0,
+/// 1/θ)` first, then `(ρ'ρ, 2ρ'/δ)` with `ρ' = 1/(2σ − ρ)`. Every backend's
+/// step takes them from here ([`super::cycle`]; the device keeps them in a
+/// buffer per level).
+pub fn chebyshev_coefficients(lo: f64, hi: f64, degree: usize) -> Vec<(f64, f64)> {
+    let theta = 0.5 * (hi + lo);
+    let delta = 0.5 * (hi - lo);
+    let sigma = theta / delta;
+    let mut out = vec![(0.0, 1.0 / theta)];
+    let mut rho = 1.0 / sigma;
+    for _ in 1..degree {
+        let rho_next = 1.0 / (2.0 * sigma - rho);
+        out.push((rho_next * rho, 2.0 * rho_next / delta));
+        rho = rho_next;
+    }
+    out
+}
+
 /// `d = a d + c z` (`z = B⁻¹ r`), then `x = x + d`, entry by entry.
 pub(crate) fn chebyshev_update(a: f64, c: f64, z: &[f64], d: &mut [f64], x: &mut [f64]) {
     d.par_chunks_mut(CHUNK)
