@@ -6,16 +6,18 @@
 // driver keeps NaN comparisons; other non-finite values are caught by the
 // host, which reads ‖r‖² back). Then scal[out] = q, scal[out + 1] = −q: after
 // done, α = 0 and x, r stay put. With roll = 1 then scal[den] = scal[num]
-// (ρ ← ρ' after β = ρ'/ρ).
+// (ρ ← ρ' after β = ρ'/ρ). With product = 1, q = scal[num] · scal[den]
+// instead, with no breakdown test (BiCGStab's β = (ρ/ρ_prev)(α/ω)).
 // CPU mirror: `cgfem_gpu::gpu::mirror::scalar_ratio` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
 
 // Keep in sync with `ScalParams` in src/gpu/kernels.rs. Fields are slot
-// indices into `scal` (the device scalars of a solve), `roll` and `positive` flags.
+// indices into `scal` (the device scalars of a solve); `roll`, `positive`,
+// `product` and `early` are flags.
 struct ScalParams {
     num: u32, den: u32, out: u32, roll: u32, done: u32, iters: u32, tol2: u32, positive: u32,
-    bad: u32, pad0: u32, pad1: u32, pad2: u32,
+    bad: u32, product: u32, early: u32, pad2: u32,
 }
 @group(0) @binding(0) var<uniform> prm: ScalParams;
 @group(0) @binding(1) var<storage, read_write> scal: array<real>;
@@ -30,7 +32,9 @@ fn main() {
         if (prm.positive != 0u) {
             broken = !(num > 0.0 && den > 0.0);
         }
-        if (broken) {
+        if (prm.product != 0u) {
+            q = num * den;
+        } else if (broken) {
             scal[prm.done] = 2.0;
             scal[prm.bad] = num;
             scal[prm.bad + 1u] = den;

@@ -282,19 +282,28 @@ fn scalar_kernels_match_their_mirrors() {
         bad: 15,
         ..Default::default()
     };
-    // (num, den, ‖r‖², done, positive): ratios, zero divisors, CG's
-    // non-positive (and NaN) p·Ap, and a done solve.
-    for (num, den, rr, done, positive) in [
-        (3.0, 4.0, 0.5, 0.0, 0),
-        (1.0, 0.0, 2.0, 0.0, 0),
-        (0.0, 3.0, 2.0, 0.0, 0),
-        (1.0, -3.0, 2.0, 0.0, 0),
-        (1.0, -3.0, 2.0, 0.0, 1),
-        (-1.0, 3.0, 2.0, 0.0, 1),
-        (1.0, f64::NAN, 2.0, 0.0, 1),
-        (2.0, 5.0, 1.0, 1.0, 0),
+    // (num, den, ‖r‖², done, positive, product, early): ratios, zero
+    // divisors, CG's non-positive (and NaN) p·Ap, a done solve, products
+    // (a zero factor is no breakdown), BiCGStab's half-step check met and not.
+    for (num, den, rr, done, positive, product, early) in [
+        (3.0, 4.0, 0.5, 0.0, 0, 0, 0),
+        (1.0, 0.0, 2.0, 0.0, 0, 0, 0),
+        (0.0, 3.0, 2.0, 0.0, 0, 0, 0),
+        (1.0, -3.0, 2.0, 0.0, 0, 0, 0),
+        (1.0, -3.0, 2.0, 0.0, 1, 0, 0),
+        (-1.0, 3.0, 2.0, 0.0, 1, 0, 0),
+        (1.0, f64::NAN, 2.0, 0.0, 1, 0, 0),
+        (2.0, 5.0, 1.0, 1.0, 0, 0, 0),
+        (3.0, -4.0, 0.5, 0.0, 0, 1, 1),
+        (0.0, 4.0, 2.0, 0.0, 0, 1, 1),
+        (3.0, 4.0, 0.5, 1.0, 0, 1, 0),
     ] {
-        let prm = ScalParams { positive, ..prm };
+        let prm = ScalParams {
+            positive,
+            product,
+            early,
+            ..prm
+        };
         let init = [num, den, 7.0, 7.0, done, 3.0, 1.0, 0.0, 0.0, 0.0];
         let mut want = init.to_vec();
         be.write_slots(8, &init);
@@ -303,7 +312,7 @@ fn scalar_kernels_match_their_mirrors() {
         m.extend_from_slice(&want);
         mirror::scalar_ratio(&prm, &mut m);
         let got = be.read_slots(8, 10);
-        let what = format!("scalar_ratio {num}/{den} positive={positive}");
+        let what = format!("scalar_ratio {num}, {den} positive={positive} product={product}");
         assert_eq!(format!("{got:?}"), format!("{:?}", &m[8..]), "{what}");
         want.copy_from_slice(&m[8..]);
         want[0] = rr;
@@ -317,7 +326,7 @@ fn scalar_kernels_match_their_mirrors() {
         assert_eq!(
             format!("{got:?}"),
             format!("{:?}", &m[8..]),
-            "krylov_check rr={rr}"
+            "krylov_check rr={rr} early={early}"
         );
     }
 }
@@ -487,14 +496,21 @@ fn assert_iterations_close(what: &str, a: &[usize], b: &[usize]) {
 }
 
 /// Host scalars at level 3 (the generic solver on the GPU backend), device
-/// scalars (the production path of Jacobi) at levels 3 and 4, and at level
+/// scalars (the production path of Jacobi) at levels 3 and 4 (CGS and
+/// BiCGStab; CG at level 3), and CGS at level
 /// 5 (66 627 dofs, about 20 s on lavapipe) in the long tier (`CGFEM_LONG=1`).
 #[test]
 fn sphere_solves_on_the_gpu_in_f64_like_on_the_cpu() {
     let Some(ctx) = context_or_skip(PrecisionChoice::F64) else {
         return;
     };
-    let mut runs = vec![(3, "cgs"), (4, "cgs"), (3, "cg")];
+    let mut runs = vec![
+        (3, "cgs"),
+        (4, "cgs"),
+        (3, "cg"),
+        (3, "bicgstab"),
+        (4, "bicgstab"),
+    ];
     if std::env::var_os("CGFEM_LONG").is_some() {
         runs.push((5, "cgs"));
     }

@@ -87,12 +87,7 @@ pub fn solve_defect_correction(
         let unit: Vec<f64> = r.iter().map(|v| v / r_norm).collect();
         let rd = be.upload(&unit);
         let mut d = be.zeros(n);
-        let result = match opts.method {
-            crate::solver::KrylovMethod::BiCgStab => {
-                crate::solver::solve(be, op, diag, &rd, &mut d, &inner)
-            }
-            _ => solve_device(be, op, diag, &rd, &mut d, &inner, &DeviceOptions::default()),
-        };
+        let result = solve_device(be, op, diag, &rd, &mut d, &inner, &DeviceOptions::default());
         match result {
             Ok(s) => {
                 stats.iterations += s.iterations;

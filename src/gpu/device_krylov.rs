@@ -1,4 +1,4 @@
-//! CG and CGS with their scalars on the device: ρ, σ, α, β live in
+//! CG, CGS and BiCGStab with their scalars on the device: ρ, σ, α, β (ω) live in
 //! slots of the backend's scalar buffer, computed by the one-invocation kernel
 //! `scalar_ratio` from the reductions of the same iteration; `krylov_check`
 //! counts iterations and marks the solve done when `‖r‖² ≤ (τ ‖b‖)²`. The
@@ -42,6 +42,15 @@ const RR: u32 = 17;
 const RHO_NEXT: u32 = 18;
 /// `scalar_ratio` records a breakdown's (num, den, out) here.
 const BAD: u32 = 19;
+/// BiCGStab: ω and −ω; ρ/ρ_prev and α/ω (each with its negative); ‖s‖²,
+/// t·s and t·t.
+const OMEGA: u32 = 22;
+const NOMEGA: u32 = 23;
+const RATIO_RHO: u32 = 24;
+const RATIO_ALPHA: u32 = 26;
+const SS: u32 = 28;
+const TS: u32 = 29;
+const TT: u32 = 30;
 
 /// How often the host looks.
 #[derive(Clone, Copy, Debug)]
@@ -56,9 +65,8 @@ impl Default for DeviceOptions {
     }
 }
 
-/// Solves `A x = b` with CG or CGS, scalars on the device, from the `x` given.
-/// BiCGStab is not offered here ([`Error::InvalidSolverOptions`]); use
-/// [`crate::solver::solve`] with the backend for it.
+/// Solves `A x = b` with CG, CGS or BiCGStab, scalars on the device, from the
+/// `x` given.
 pub fn solve_device(
     be: &GpuBackend,
     op: &GpuOperator<'_>,
@@ -68,12 +76,6 @@ pub fn solve_device(
     opts: &KrylovOptions,
     dev: &DeviceOptions,
 ) -> Result<KrylovStats> {
-    if opts.method == KrylovMethod::BiCgStab {
-        return Err(Error::InvalidSolverOptions {
-            what: "method".into(),
-            reason: "device-scalar solves are CG or CGS".into(),
-        });
-    }
     drive(be, op, b, x, opts, |b_norm| {
         Ok(Cycle {
             be,
@@ -179,8 +181,16 @@ impl Cycle<'_, '_> {
     /// The breakdown `scalar_ratio` recorded (its num, den, out).
     fn device_breakdown(&self, iterations: usize) -> Error {
         let s = self.be.read_slots(BAD, 3);
-        let (num, den, alpha) = (s[0], s[1], s[2] == ALPHA as f64);
-        let what = if self.opts.method == KrylovMethod::Cg {
+        let (num, den, alpha) = (s[0], s[1], s[2] == f64::from(ALPHA));
+        let what = if self.opts.method == KrylovMethod::BiCgStab {
+            let out = s[2] as u32;
+            match out {
+                ALPHA => describe("r̃·v", den, None),
+                OMEGA if num == 0.0 => describe("ω = t·s / t·t", num, None),
+                OMEGA => describe("t·t", den, None),
+                _ => describe("ρ = r̃·r", if num == 0.0 { num } else { den }, None),
+            }
+        } else if self.opts.method == KrylovMethod::Cg {
             let (pre, op) = (Some("the preconditioner"), Some("the operator"));
             if alpha && (num > 0.0) {
                 describe("p·Ap", den, op)
@@ -223,14 +233,25 @@ impl Cycle<'_, '_> {
         be.write_slots(BETA, &[0.0, 0.0]);
         let z = self.pre.scratch(be, n);
         let (p, q, v) = (be.zeros(n), be.zeros(n), be.zeros(n));
-        let cgs = self.opts.method == KrylovMethod::Cgs;
-        let rt = be.zeros(if cgs { n } else { 0 });
-        let u = be.zeros(if cgs { n } else { 0 });
+        let method = self.opts.method;
+        let cg = method == KrylovMethod::Cg;
+        let rt = be.zeros(if cg { 0 } else { n });
+        let u = match method {
+            KrylovMethod::Cg => be.zeros(0),
+            KrylovMethod::Cgs => be.zeros(n),
+            KrylovMethod::BiCgStab => self.pre.scratch(be, n),
+        };
         let mut enc = be.encoder();
-        if cgs {
+        if !cg {
             be.record_vec(&mut enc, Kernel::Copy, n, (0, 0), &[&r.buf, &rt.buf]);
             be.record_dot(&mut enc, n, &[&r.buf, &rt.buf], RHO);
-        } else {
+        }
+        if method == KrylovMethod::BiCgStab {
+            // ρ_prev = ρ, α = ω = 1: the first β is 1 and p = r (v = 0).
+            be.record_dot(&mut enc, n, &[&r.buf, &rt.buf], RHO_NEXT);
+            be.write_slots(ALPHA, &[1.0]);
+            be.write_slots(OMEGA, &[1.0]);
+        } else if cg {
             let zr = self.precond(&mut enc, &r.buf, &z.buf);
             be.record_vec(&mut enc, Kernel::Copy, n, (0, 0), &[zr, &p.buf]);
             be.record_dot(&mut enc, n, &[&r.buf, zr], RHO);
@@ -241,10 +262,14 @@ impl Cycle<'_, '_> {
             let left = self.opts.max_iterations - stats.iterations;
             let mut enc = be.encoder();
             for _ in 0..self.every.min(left) {
-                if cgs {
-                    self.cgs_iteration(&mut enc, x, r, [&rt, &u, &p, &q, &v, &z]);
-                } else {
-                    self.cg_iteration(&mut enc, x, r, [&p, &q, &z]);
+                match method {
+                    KrylovMethod::Cg => self.cg_iteration(&mut enc, x, r, [&p, &q, &z]),
+                    KrylovMethod::Cgs => {
+                        self.cgs_iteration(&mut enc, x, r, [&rt, &u, &p, &q, &v, &z])
+                    }
+                    KrylovMethod::BiCgStab => {
+                        self.bicgstab_iteration(&mut enc, x, r, [&rt, &p, &v, &q, &z, &u])
+                    }
                 }
             }
             be.submit(enc);
@@ -343,6 +368,62 @@ impl Cycle<'_, '_> {
             enc,
             Kernel::ScalarRatio,
             scal_params(RHO_NEXT, RHO, BETA, true, false),
+        );
+    }
+
+    /// One BiCGStab iteration (see `crate::solver` for the formulas; `x`
+    /// takes `α p̂` and `ω ŝ` in two steps). ρ_prev is in `RHO`, ρ in
+    /// `RHO_NEXT`; the half step's check counts the iteration only when `‖s‖`
+    /// meets the tolerance, and then ω = 0 leaves `x` and `r = s` as they are.
+    fn bicgstab_iteration(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        x: &GpuVector,
+        r: &GpuVector,
+        [rt, p, v, t, zp, zs]: [&GpuVector; 6],
+    ) {
+        let (be, n, s) = (self.be, self.n, &self.be.scal);
+        let ratio = |num, den, out, roll| scal_params(num, den, out, roll, false);
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            ratio(RHO_NEXT, RHO, RATIO_RHO, true),
+        );
+        self.scalar(
+            enc,
+            Kernel::ScalarRatio,
+            ratio(ALPHA, OMEGA, RATIO_ALPHA, false),
+        );
+        let beta = ScalParams {
+            product: 1,
+            ..ratio(RATIO_RHO, RATIO_ALPHA, BETA, false)
+        };
+        self.scalar(enc, Kernel::ScalarRatio, beta);
+        let bufs = [s, &r.buf, &v.buf, &p.buf];
+        be.record_vec(enc, Kernel::BicgstabUpdateP, n, (BETA, OMEGA), &bufs);
+        let ph = self.precond(enc, &p.buf, &zp.buf);
+        self.op.record_apply(be, enc, ph, &v.buf);
+        be.record_dot(enc, n, &[&rt.buf, &v.buf], SIGMA);
+        self.scalar(enc, Kernel::ScalarRatio, ratio(RHO, SIGMA, ALPHA, false));
+        be.record_vec(enc, Kernel::Axpy, n, (NALPHA, 0), &[s, &v.buf, &r.buf]);
+        be.record_vec(enc, Kernel::Axpy, n, (ALPHA, 0), &[s, ph, &x.buf]);
+        be.record_dot(enc, n, &[&r.buf, &r.buf], SS);
+        let half = ScalParams {
+            early: 1,
+            ..scal_params(SS, 0, 0, false, false)
+        };
+        self.scalar(enc, Kernel::KrylovCheck, half);
+        let sh = self.precond(enc, &r.buf, &zs.buf);
+        self.op.record_apply(be, enc, sh, &t.buf);
+        be.record_dot(enc, n, &[&t.buf, &r.buf, &t.buf], TS);
+        self.scalar(enc, Kernel::ScalarRatio, ratio(TS, TT, OMEGA, false));
+        be.record_vec(enc, Kernel::Axpy, n, (OMEGA, 0), &[s, sh, &x.buf]);
+        be.record_vec(enc, Kernel::Axpy, n, (NOMEGA, 0), &[s, &t.buf, &r.buf]);
+        be.record_dot(enc, n, &[&r.buf, &r.buf, &rt.buf], RR);
+        self.scalar(
+            enc,
+            Kernel::KrylovCheck,
+            scal_params(RR, 0, 0, false, false),
         );
     }
 }

@@ -128,7 +128,7 @@ pub struct GatherParams {
 }
 
 /// Params of the one-invocation kernels `scalar_ratio`, `krylov_check`: slots
-/// and the flags `roll` and `positive` (see scalar_ratio.wgsl).
+/// and the flags `roll`, `positive`, `product` and `early` (see the shaders).
 /// Keep in sync with `ScalParams` in scalar_ratio.wgsl, krylov_check.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -142,8 +142,8 @@ pub struct ScalParams {
     pub tol2: u32,
     pub positive: u32,
     pub bad: u32,
-    pub pad0: u32,
-    pub pad1: u32,
+    pub product: u32,
+    pub early: u32,
     pub pad2: u32,
 }
 

@@ -4,9 +4,9 @@
 //! solves and reads the solution back (through the backend's staging
 //! buffers, [`super::staging`]).
 //!
-//! - f64 device: CG and CGS with device scalars ([`super::device_krylov`]) by
-//!   default, or the generic [`crate::solver::solve`] with host scalars
-//!   ([`Scalars::Host`], and always for BiCGStab);
+//! - f64 device: CG, CGS and BiCGStab with device scalars
+//!   ([`super::device_krylov`]) by default, or the generic
+//!   [`crate::solver::solve`] with host scalars ([`Scalars::Host`]);
 //! - f32 device: f32 inner solves in f64 defect correction ([`super::defect`]);
 //! - with a multigrid hierarchy (f64 device, `preconditioner = "multigrid"`
 //!   or `"auto"`): the generic solver preconditioned by the V-cycle on the
@@ -20,7 +20,7 @@ use crate::fem::linear::LinearSolver;
 use crate::fem::operator::ElasticOperator;
 use crate::fem::setup::Setup;
 use crate::solver::Preconditioner;
-use crate::solver::{solve, solve_preconditioned, KrylovMethod, KrylovOptions, KrylovStats};
+use crate::solver::{solve, solve_preconditioned, KrylovOptions, KrylovStats};
 
 use super::backend::{GpuBackend, GpuVector};
 use super::context::{GpuContext, Precision};
@@ -116,7 +116,7 @@ impl LinearSolver for GpuSolver<'_> {
             opts.preconditioner,
             Preconditioner::Multigrid | Preconditioner::Auto
         );
-        let device = self.scalars == Scalars::Device && opts.method != KrylovMethod::BiCgStab;
+        let device = self.scalars == Scalars::Device;
         let result = match &self.multigrid {
             Some(mg) if with_multigrid => {
                 solve_preconditioned(be, op, &mg.cycle(be, op), b, x, opts)

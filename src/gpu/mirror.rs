@@ -382,6 +382,7 @@ pub fn q1_nodes(
 /// with `positive` a `num` or `den` not `> 0`) sets done = 2, q = 0 and
 /// `scal[bad..bad + 3] = (num, den, out)`. Then `scal[out] = q`,
 /// `scal[out + 1] = −q` (0 once done); with `roll`, `scal[den] = scal[num]`.
+/// With `product`, `q = scal[num] · scal[den]` and no breakdown test.
 pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
     let mut q = 0.0;
     if scal[prm.done as usize] == 0.0 {
@@ -391,7 +392,9 @@ pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
         } else {
             num == 0.0 || den == 0.0
         };
-        if broken {
+        if prm.product != 0 {
+            q = num * den;
+        } else if broken {
             scal[prm.done as usize] = 2.0;
             let bad = prm.bad as usize;
             scal[bad..bad + 3].copy_from_slice(&[num, den, prm.out as f64]);
@@ -406,13 +409,17 @@ pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
     }
 }
 
-/// Unless done: count the iteration; done = 1 when `scal[num] ≤ scal[tol2]`.
+/// Unless done: count the iteration (with `early`, only when it is the
+/// last); done = 1 when `scal[num] ≤ scal[tol2]`.
 pub fn krylov_check(prm: &ScalParams, scal: &mut [f64]) {
     if scal[prm.done as usize] != 0.0 {
         return;
     }
-    scal[prm.iters as usize] += 1.0;
-    if scal[prm.num as usize] <= scal[prm.tol2 as usize] {
+    let met = scal[prm.num as usize] <= scal[prm.tol2 as usize];
+    if prm.early == 0 || met {
+        scal[prm.iters as usize] += 1.0;
+    }
+    if met {
         scal[prm.done as usize] = 1.0;
     }
 }

@@ -311,11 +311,19 @@ impl DeviceCycle<'_> {
         2 * self.mg.smoothers[level].degree as u32
     }
 
-    /// The params of a transfer between `level` and `level + 1` over `n`.
-    fn transfer_params(&self, level: usize, n: u32) -> GatherParams {
+    /// Records a transfer between `level` and `level + 1` (`restrict` or
+    /// `prolong_add`): one invocation per active node of the lattice written,
+    /// gathering from the lattice read.
+    fn transfer(
+        &self,
+        kernel: Kernel,
+        level: usize,
+        (input, from): (&GpuVector, &Lattice),
+        (output, to): (&GpuVector, &Lattice),
+    ) {
         let (f, c) = (&self.mg.lattices[level], &self.mg.lattices[level + 1]);
-        GatherParams {
-            n,
+        let prm = GatherParams {
+            n: to.active,
             stride: 0,
             fx: f.dims[0],
             fy: f.dims[1],
@@ -323,7 +331,14 @@ impl DeviceCycle<'_> {
             cx: c.dims[0],
             cy: c.dims[1],
             cz: c.dims[2],
-        }
+        };
+        let binds = [
+            whole(&input.buf),
+            whole(&output.buf),
+            whole(&to.active_to_node),
+            whole(&from.node_to_active),
+        ];
+        self.gather(kernel, prm, &binds);
     }
 }
 
@@ -416,26 +431,12 @@ impl CycleOps for DeviceCycle<'_> {
 
     fn restrict(&self, level: usize, fine: &GpuVector, coarse: &mut GpuVector) {
         let (f, c) = (&self.mg.lattices[level], &self.mg.lattices[level + 1]);
-        let binds = [
-            whole(&fine.buf),
-            whole(&coarse.buf),
-            whole(&c.active_to_node),
-            whole(&f.node_to_active),
-        ];
-        let prm = self.transfer_params(level, c.active);
-        self.gather(Kernel::Restrict, prm, &binds);
+        self.transfer(Kernel::Restrict, level, (fine, f), (coarse, c));
     }
 
     fn prolong_add(&self, level: usize, coarse: &GpuVector, fine: &mut GpuVector) {
         let (f, c) = (&self.mg.lattices[level], &self.mg.lattices[level + 1]);
-        let binds = [
-            whole(&coarse.buf),
-            whole(&fine.buf),
-            whole(&f.active_to_node),
-            whole(&c.node_to_active),
-        ];
-        let prm = self.transfer_params(level, f.active);
-        self.gather(Kernel::ProlongAdd, prm, &binds);
+        self.transfer(Kernel::ProlongAdd, level, (coarse, c), (fine, f));
     }
 
     fn coarse_solve(&self, b: &GpuVector, x: &mut GpuVector) {

@@ -81,7 +81,7 @@ fn params_structs_match_their_wgsl_twins() {
     let vec = rust_layout!(VecParams, n, ia, ib, stride);
     let red = rust_layout!(RedParams, n, out, groups, comps, base, total, pad0, pad1);
     let scal = rust_layout!(
-        ScalParams, num, den, out, roll, done, iters, tol2, positive, bad, pad0, pad1, pad2
+        ScalParams, num, den, out, roll, done, iters, tol2, positive, bad, product, early, pad2
     );
     let apply = rust_layout!(
         ApplyParams,
