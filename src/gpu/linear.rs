@@ -107,6 +107,7 @@ impl LinearSolver for GpuSolver<'_> {
             return solve_defect_correction(be, op, diag, op.host(), rhs, u, opts);
         }
         let (b, x) = (&mut self.b, &mut self.x);
+        let t = std::time::Instant::now();
         be.write_vector(rhs, b);
         match u.iter().all(|&v| v == 0.0) {
             true => be.clear_vector(x),
@@ -116,6 +117,8 @@ impl LinearSolver for GpuSolver<'_> {
             opts.preconditioner,
             Preconditioner::Multigrid | Preconditioner::Auto
         );
+        be.finish();
+        let written = t.elapsed().as_secs_f64();
         let device = self.scalars == Scalars::Device;
         let result = match &self.multigrid {
             Some(mg) if with_multigrid => {
@@ -124,7 +127,15 @@ impl LinearSolver for GpuSolver<'_> {
             _ if device => solve_device(be, op, diag, b, x, opts, &DeviceOptions::default()),
             _ => solve(be, op, diag, b, x, opts),
         };
+        be.finish();
+        let solved = t.elapsed().as_secs_f64();
         be.read_vector(x, u);
+        tracing::debug!(
+            written,
+            solved = solved - written,
+            read = t.elapsed().as_secs_f64() - solved,
+            "gpu solve: seconds to write b and x, solve, read x"
+        );
         result
     }
 }
