@@ -38,7 +38,7 @@ echo "== end to end"
 # name case level extra-sets...
 RUNS=(
   "sphere-L7 cases/sphere.toml 7 solver.method=cg solver.preconditioner=auto"
-  "sphere_q2-L5 cases/sphere_q2.toml 5"
+  "sphere_q2-L5 cases/sphere_q2.toml 5 solver.preconditioner=auto"
   "hertz-L4 cases/hertz.toml 4"
   "sphere-L8 cases/sphere.toml 8 solver.method=cg solver.preconditioner=auto"
 )
