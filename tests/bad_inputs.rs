@@ -363,6 +363,41 @@ fn multigrid_on_the_gpu_backend() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A hierarchy whose level vectors exceed one storage binding (lowered with
+/// `CGFEM_MAX_BINDING_BYTES`) and an explicit `"multigrid"`: exit code 2
+/// naming the binding. (`"auto"` takes Jacobi on the GPU instead:
+/// `gpu::multigrid_tests` in the library.)
+#[test]
+fn multigrid_beyond_one_binding_on_the_gpu() {
+    use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
+    if context_or_skip(PrecisionChoice::F64).is_none() {
+        return;
+    }
+    let dir = scratch("mg_binding");
+    let case = dir.join("mg.toml");
+    std::fs::write(&case, edit("\"jacobi\"", "\"multigrid\"")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .arg("run")
+        .arg(&case)
+        .args([
+            "--level",
+            "4",
+            "--backend",
+            "gpu",
+            "--precision",
+            "f64",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .env("CGFEM_MAX_BINDING_BYTES", "65536")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("exceeds one storage binding"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// An `stl` geometry on `path`, the rest as [`GOOD`].
 fn stl_case(path: &Path) -> String {
     format!(

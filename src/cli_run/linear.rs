@@ -22,7 +22,7 @@ use cgfem_gpu::fem::solve::solve_with_progress;
 use cgfem_gpu::fem::surface_output::{write_surface, SurfaceFields};
 use cgfem_gpu::geometry::Aabb;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
-use cgfem_gpu::gpu::{BackendChoice, GpuContext, Precision};
+use cgfem_gpu::gpu::{BackendChoice, GpuBackend, GpuContext, Precision};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::plot::{deformed_svg, SurfacePicture};
 use cgfem_gpu::report::newton::ReactionRow;
@@ -142,7 +142,9 @@ pub fn run(
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let gpu = super::open_device(device)?;
+    let auto = case.spec.solver.preconditioner == Preconditioner::Auto;
     resolve_preconditioner(&mut case, gpu.as_deref())?;
+    let mut solver_spec = case.spec.solver.clone();
     let mut report = Report::new(&case);
     let mut fp = FixedPointReport::default();
     // Every step after the case is read; a solver failure on the way (the
@@ -209,7 +211,13 @@ pub fn run(
         };
         let solver: &mut dyn LinearSolver = match &gpu {
             Some(ctx) => {
-                gpu_solver = GpuSolver::for_setup(ctx.clone(), &setup, Scalars::Device)?;
+                let be = GpuBackend::new(ctx.clone());
+                let (solver, too_small) = GpuSolver::for_setup(be, &setup, Scalars::Device, auto)?;
+                if let Some(e) = too_small {
+                    println!("note: {e}; Jacobi on the GPU instead");
+                    solver_spec.preconditioner = Preconditioner::Jacobi;
+                }
+                gpu_solver = solver;
                 report.backend = "gpu".into();
                 report.adapter = Some(ctx.adapter.name.clone());
                 report.precision = ctx.precision.name().into();
@@ -233,7 +241,7 @@ pub fn run(
             report.precision
         );
         let t = Instant::now();
-        let result = solve_with_progress(&setup, &case.spec.solver, solver, fp, progress);
+        let result = solve_with_progress(&setup, &solver_spec, solver, fp, progress);
         progress.finish();
         report
             .timings
@@ -242,7 +250,7 @@ pub fn run(
         report
             .timings
             .insert("recovery".into(), fp.recovery_seconds);
-        let so = &case.spec.solver;
+        let so = &solver_spec;
         report.krylov = Some(Krylov {
             method: so.method.name().into(),
             preconditioner: format!("{:?}", so.preconditioner).to_lowercase(),

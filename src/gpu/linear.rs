@@ -15,7 +15,7 @@
 use std::sync::Arc;
 
 use crate::backend::Backend;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::fem::linear::LinearSolver;
 use crate::fem::operator::ElasticOperator;
 use crate::fem::setup::Setup;
@@ -60,16 +60,33 @@ impl<'o> GpuSolver<'o> {
         Ok(Self::with_operator(be, dop, scalars))
     }
 
-    /// The solver of a set-up's operator, with its multigrid hierarchy on
-    /// the device when the set-up built one and the device computes in f64.
-    pub fn for_setup(ctx: Arc<GpuContext>, setup: &'o Setup, scalars: Scalars) -> Result<Self> {
-        let mut solver = Self::new(ctx, &setup.op, scalars)?;
-        if let Some(h) = setup.multigrid.as_ref() {
-            if solver.be.precision() == Precision::F64 {
-                solver.multigrid = Some(DeviceMultigrid::new(&solver.be, &setup.op, h)?);
+    /// The solver of a set-up's operator on `be`, with its multigrid
+    /// hierarchy on the device when the set-up built one and the device
+    /// computes in f64. A hierarchy the device cannot hold is
+    /// [`crate::error::Error::DeviceTooSmall`], unless `jacobi_instead`
+    /// (the case said `"auto"`): then the solver has no hierarchy and the
+    /// error comes back beside it, for a note (solve with Jacobi).
+    pub fn for_setup(
+        be: GpuBackend,
+        setup: &'o Setup,
+        scalars: Scalars,
+        jacobi_instead: bool,
+    ) -> Result<(Self, Option<Error>)> {
+        let op = GpuOperator::new(&be, &setup.op)?;
+        let mut solver = Self::with_operator(be, op, scalars);
+        let Some(h) = setup.multigrid.as_ref() else {
+            return Ok((solver, None));
+        };
+        if solver.be.precision() == Precision::F64 {
+            match DeviceMultigrid::new(&solver.be, &setup.op, h) {
+                Ok(mg) => solver.multigrid = Some(mg),
+                Err(e @ Error::DeviceTooSmall { .. }) if jacobi_instead => {
+                    return Ok((solver, Some(e)))
+                }
+                Err(e) => return Err(e),
             }
         }
-        Ok(solver)
+        Ok((solver, None))
     }
 
     /// The solver over an operator already uploaded to `be` (tests give

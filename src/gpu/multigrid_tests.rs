@@ -301,3 +301,33 @@ fn device_v_cycle_equals_the_cpu_v_cycle() {
         assert_close("V-cycle", &be.download(&z), &want, 1e-11);
     }
 }
+
+/// A hierarchy whose level vectors exceed one storage binding: refused
+/// ([`crate::error::Error::DeviceTooSmall`]), or, where the case said
+/// `"auto"`, the solver without it and the error beside it for the note.
+#[test]
+fn a_hierarchy_beyond_one_binding_is_refused_or_left_to_jacobi() {
+    use super::linear::{GpuSolver, Scalars};
+    use crate::error::Error;
+    let Some(ctx) = super::context_or_skip(PrecisionChoice::F64) else {
+        return;
+    };
+    let setup = Setup::new(&sphere("q1", 0.01), Some(4)).unwrap();
+    let half_a_vector = 4 * setup.op.nrows() as u64;
+    let small = || GpuBackend::with_max_binding_bytes(ctx.clone(), half_a_vector);
+    match GpuSolver::for_setup(small(), &setup, Scalars::Device, false) {
+        Err(Error::DeviceTooSmall { what }) => {
+            assert!(what.contains("exceeds one storage binding"), "{what}")
+        }
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("a hierarchy beyond one binding was taken"),
+    }
+    let (_, note) = GpuSolver::for_setup(small(), &setup, Scalars::Device, true).unwrap();
+    assert!(
+        matches!(note, Some(Error::DeviceTooSmall { .. })),
+        "{note:?}"
+    );
+    let (_, note) =
+        GpuSolver::for_setup(GpuBackend::new(ctx), &setup, Scalars::Device, true).unwrap();
+    assert!(note.is_none(), "{note:?}");
+}

@@ -12,7 +12,7 @@ use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
-use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
+use cgfem_gpu::gpu::{context_or_skip, GpuBackend, PrecisionChoice};
 
 use super::{case_with, solve_sphere};
 
@@ -54,7 +54,8 @@ fn multigrid_cg_on_the_gpu_like_on_the_cpu() {
     for (name, level) in [("sphere", 5), ("sphere_q2", q2_level)] {
         let (case, setup) = case_with(name, level, &set);
         let (_, it_cpu, _, e_cpu) = solve_sphere(&case, &setup, &mut CpuSolver::for_setup(&setup));
-        let mut gpu = GpuSolver::for_setup(ctx.clone(), &setup, Scalars::Device).unwrap();
+        let be = GpuBackend::new(ctx.clone());
+        let (mut gpu, _) = GpuSolver::for_setup(be, &setup, Scalars::Device, false).unwrap();
         let (_, it, res, e) = solve_sphere(&case, &setup, &mut gpu);
         let what = format!("{name} level {level}");
         assert_within_one(&what, &it, &it_cpu);
@@ -67,7 +68,8 @@ fn multigrid_cg_on_the_gpu_like_on_the_cpu() {
     }
     let (case, setup) = case_with("bracket", 5, &set);
     let (e_cpu, it_cpu) = energy_and_iterations(&case, &setup, &mut CpuSolver::for_setup(&setup));
-    let mut gpu = GpuSolver::for_setup(ctx, &setup, Scalars::Device).unwrap();
+    let (mut gpu, _) =
+        GpuSolver::for_setup(GpuBackend::new(ctx), &setup, Scalars::Device, false).unwrap();
     let (e, it) = energy_and_iterations(&case, &setup, &mut gpu);
     assert_within_one("bracket level 5", &it, &it_cpu);
     let d = relative(e, e_cpu);
