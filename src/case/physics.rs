@@ -28,7 +28,7 @@
 //!
 //! [solver]
 //! method = "cg"             # cg | cgs | bicgstab
-//! preconditioner = "auto"   # auto (multigrid on the CPU, jacobi on a GPU) | multigrid | jacobi | none
+//! preconditioner = "auto"   # auto (multigrid; jacobi on an f32-only GPU) | multigrid | jacobi | none
 //! outer = "fgmres"          # fgmres | picard (the paper's fixed point)
 //! inner_rel_tol = 1e-3      # fgmres: tolerance of each inner solve with A
 //! rel_tol = 1e-8            # picard: Krylov tolerance of the first solve (τ0)

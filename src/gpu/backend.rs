@@ -198,13 +198,7 @@ impl GpuBackend {
         enc.copy_buffer_to_buffer(buf, offset, &staging, 0, size);
         self.ctx.queue.submit([enc.finish()]);
         let slice = staging.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |r| {
-            r.expect("gpu backend: mapping a staging buffer failed")
-        });
-        self.ctx
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .expect("gpu backend: device lost while waiting");
+        self.map_and_wait(slice, wgpu::MapMode::Read);
         let data = slice
             .get_mapped_range()
             .expect("gpu backend: reading a mapped staging buffer failed");

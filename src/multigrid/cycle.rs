@@ -167,7 +167,7 @@ pub struct Multigrid<'a> {
 }
 
 /// The cycle's vectors on the CPU, with level 0's right-hand side and
-/// solution (the callers hand in slices).
+/// solution for the callers that hand in slices ([`Multigrid::apply`]).
 struct CpuWork {
     levels: Vec<LevelWork<Vec<f64>>>,
     b: Vec<f64>,
@@ -215,8 +215,13 @@ impl<'a> Multigrid<'a> {
 }
 
 impl ApplyInverse<CpuBackend> for Multigrid<'_> {
+    /// [`Multigrid::apply`] on whole vectors: the cycle runs on `r` and `z`
+    /// themselves, without the copies a slice needs.
     fn apply_inverse(&self, r: &Vec<f64>, z: &mut Vec<f64>) {
-        self.apply(r, z);
+        let n = self.levels.fine.nrows();
+        assert!(r.len() == n && z.len() == n, "multigrid: vectors of {n}");
+        let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        vcycle(&self.levels, 0, r, z, &mut guard.levels);
     }
 }
 

@@ -89,10 +89,11 @@ pub enum Preconditioner {
     /// `M = diag(A)`.
     Jacobi,
     /// `M⁻¹` = one geometric multigrid V-cycle on the case's nested grids
-    /// ([`crate::multigrid`]; CPU backend only).
+    /// ([`crate::multigrid`] on the CPU, `crate::gpu::multigrid` on an f64
+    /// GPU).
     Multigrid,
-    /// Multigrid where the solve runs on the CPU, Jacobi on a GPU (the
-    /// default): the runner resolves it once the
+    /// Multigrid on the CPU and on an f64 GPU, Jacobi on an f32-only GPU
+    /// (the default): the runner resolves it once the
     /// backend is known; a solve given no hierarchy takes Jacobi.
     Auto,
 }

@@ -100,7 +100,7 @@ impl<'p, B: Backend> Precond<'p, B> {
                 return Err(Error::InvalidSolverOptions {
                     what: "preconditioner".into(),
                     reason: "multigrid needs the case's grid hierarchy: it is built with \
-                             the set-up (crate::multigrid) and runs on the CPU backend"
+                             the set-up (crate::multigrid) and handed to the solve"
                         .into(),
                 })
             }
