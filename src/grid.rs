@@ -11,7 +11,7 @@
 
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
-use crate::geometry::Aabb;
+use crate::spatial::Aabb;
 
 /// Highest level accepted at all (the memory budget usually stops earlier).
 pub const MAX_LEVEL: u32 = 12;

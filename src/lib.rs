@@ -36,6 +36,7 @@ pub mod recovery;
 pub mod report;
 pub mod reproduce;
 pub mod solver;
+pub mod spatial;
 pub mod vtu;
 
 pub use error::{Error, Result};

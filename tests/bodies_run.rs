@@ -12,7 +12,7 @@ use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::ElementOrder;
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution};
@@ -21,6 +21,7 @@ use cgfem_gpu::hyper::problem::{
 };
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::solver::Preconditioner;
+use cgfem_gpu::spatial::Aabb;
 use serde_json::Value;
 
 #[cfg(unix)]

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::ElementOrder;
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::gpu::hyper::GpuHyperBody;
 use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
 use cgfem_gpu::grid::Grid;
@@ -16,6 +16,7 @@ use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::mirror::{hyper_tangent, HyperTangentParams, InsideTangentData};
 use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 use cgfem_gpu::hyper::tangent::TangentOperator;
+use cgfem_gpu::spatial::Aabb;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -14,12 +14,13 @@ use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::fem::operator::{AssembledOperator, ElasticOperator, OperatorParams};
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 use cgfem_gpu::hyper::residual::{energy, residual};
 use cgfem_gpu::hyper::tangent::TangentOperator;
+use cgfem_gpu::spatial::Aabb;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::{tensor_gauss_rule, ElementOrder};
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions};
@@ -18,6 +18,7 @@ use cgfem_gpu::hyper::residual::{energy, residual};
 use cgfem_gpu::hyper::tangent::TangentOperator;
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::solver::{KrylovMethod, KrylovOptions, Preconditioner};
+use cgfem_gpu::spatial::Aabb;
 
 const E: f64 = 1000.0;
 const NU: f64 = 0.3;

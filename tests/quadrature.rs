@@ -3,9 +3,10 @@
 
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::ElementOrder;
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::quadrature::saye::box_rule;
+use cgfem_gpu::spatial::Aabb;
 use std::f64::consts::PI;
 
 fn unit_sphere_errors(order: ElementOrder, level: u32) -> (f64, f64) {

@@ -7,8 +7,9 @@
 //! the rule's error.
 
 use cgfem_gpu::cells::Cells;
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
+use cgfem_gpu::spatial::Aabb;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

@@ -203,9 +203,10 @@ pub fn normal_traction(sigma: &[f64; 6], n: [f64; 3]) -> f64 {
 mod tests {
     use super::*;
     use crate::cells::cut_rule_points;
-    use crate::geometry::{Aabb, Geometry};
+    use crate::geometry::Geometry;
     use crate::hyper::material::Material;
     use crate::hyper::problem::Loads;
+    use crate::spatial::Aabb;
 
     /// Patch test: under a homogeneous deformation `x = F0 X` of a ball the
     /// FE stress is the same constant at every point, SPR reproduces it, and

@@ -5,7 +5,7 @@ use serde::Deserialize;
 
 use super::Case;
 use crate::error::Result;
-use crate::geometry::Aabb;
+use crate::spatial::Aabb;
 
 /// One `[[contact]]` pair.
 #[derive(Clone, Debug, Deserialize, PartialEq)]

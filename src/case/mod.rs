@@ -57,9 +57,10 @@ use serde::Deserialize;
 
 use crate::cells::{cut_rule_points, Cells};
 use crate::error::{Error, Result};
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::solver::{KrylovMethod, Preconditioner};
+use crate::spatial::Aabb;
 pub use body::{
     Body, BodySpec, GridSpec, MaterialSpec, Model, QuadratureSpec, PLANE_STRAIN_CAP, SHORTHAND_BODY,
 };

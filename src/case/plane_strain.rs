@@ -11,8 +11,9 @@
 use super::{Case, PLANE_STRAIN_CAP};
 use crate::case::GridSpec;
 use crate::error::Result;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::spatial::Aabb;
 
 impl Case {
     /// The `[grid]` of plane-strain body `i`: its x–y box, `z ∈ [−h/2, h/2]`.

@@ -6,9 +6,10 @@
 //! makes the face terms of the consistency correction cancel between
 //! neighbours (see [`crate::fem::flux_consistency`]).
 
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::quadrature::saye::{box_rule, VolumePoint};
+use crate::spatial::Aabb;
 
 /// The box of the face of `cell` normal to `axis`, on its low (`side = 0`) or
 /// high (`side = 1`) end: degenerate along `axis`.

@@ -14,8 +14,9 @@ use nalgebra::{DMatrix, Matrix6, SymmetricEigen};
 
 use super::{CellKind, Cells};
 use crate::error::Error;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::spatial::Aabb;
 
 /// The piece of a cell that does not meet the body.
 pub const NO_PIECE: u32 = u32::MAX;

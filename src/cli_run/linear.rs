@@ -20,7 +20,6 @@ use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve_with_progress;
 use cgfem_gpu::fem::surface_output::{write_surface, SurfaceFields};
-use cgfem_gpu::geometry::Aabb;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{BackendChoice, GpuBackend, GpuContext, Precision};
 use cgfem_gpu::output::write_atomic;
@@ -28,6 +27,7 @@ use cgfem_gpu::plot::{deformed_svg, SurfacePicture};
 use cgfem_gpu::report::newton::ReactionRow;
 use cgfem_gpu::report::{BodyReport, Condition, FixedPoint, Krylov, Report};
 use cgfem_gpu::solver::Preconditioner;
+use cgfem_gpu::spatial::Aabb;
 use cgfem_gpu::vtu::write_pvd_parts;
 
 use super::{Device, Outputs};

@@ -21,8 +21,8 @@ use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
 use super::enforce_normals::CornerNormals;
 use super::enforce_tangent::PointTangent;
 use super::search::{area_ratio, current_normal, MasterSurface};
-use super::vec3::dot;
 use crate::element::{shape_gradients, shape_values};
+use crate::spatial::vec3::dot;
 
 /// Local contributions of one point: global dofs, `R` and, when asked
 /// for, the factored tangent.

@@ -21,7 +21,7 @@ use super::enforce_gap::{M, NVAR};
 use super::enforce_local::{cell_shape, Jacobian};
 use super::enforce_tangent::{NormalPair, NormalTerms, VertexShape};
 use super::surface::Surface;
-use super::vec3::{cross, sub};
+use crate::spatial::vec3::{cross, sub};
 
 /// The corners' vertices and their neighbourhoods: which vertex positions
 /// enter `m_k`, and how each depends on the dofs.

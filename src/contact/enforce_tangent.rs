@@ -13,7 +13,7 @@
 use faer::sparse::Triplet;
 
 use super::enforce_gap::NVAR;
-use super::vec3::cross;
+use crate::spatial::vec3::cross;
 
 /// One active point's factors.
 #[derive(Clone, Debug)]

@@ -23,9 +23,9 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use super::vec3::{dot, lerp, norm, sub, triangle_normal_scaled};
 use crate::element::ElementOrder;
 use crate::grid::Grid;
+use crate::spatial::vec3::{dot, lerp, norm, sub, triangle_normal_scaled};
 
 /// The raw zero-set mesh: vertices (with a cell containing each) and
 /// triangles (with the cell whose tetrahedron produced them).
@@ -244,7 +244,7 @@ mod tests {
         for t in &TETS {
             let p = t.map(corner);
             let e = [sub(p[1], p[0]), sub(p[2], p[0]), sub(p[3], p[0])];
-            let vol = dot(e[0], super::super::vec3::cross(e[1], e[2])).abs() / 6.0;
+            let vol = dot(e[0], crate::spatial::vec3::cross(e[1], e[2])).abs() / 6.0;
             assert!((vol - 1.0 / 6.0).abs() < 1e-15);
             total += vol;
         }

@@ -5,8 +5,8 @@
 //!   configuration, extracted from its level set on its Cartesian grid by
 //!   marching tetrahedra, and mapped to the current configuration
 //!   `x = X + u(X)`.
-//! - [`bvh`]: a bounding-volume hierarchy over the current triangles, with
-//!   nearest-hit line queries (Möller–Trumbore).
+//! - the bounding-volume hierarchy over the current triangles, with
+//!   nearest-hit line queries, is [`crate::spatial::Bvh`].
 //! - [`patch`]: the curved (PN) master patches on those triangles, from the
 //!   current vertex normals, and the ray–patch intersection.
 //! - [`search`]: the ray-tracing search of the paper's eq. 2 — from a slave
@@ -18,7 +18,6 @@
 //!   on the two bodies' dofs.
 //! - [`report`]: the per-pair, per-step `contact` row of the report.
 
-pub mod bvh;
 pub mod enforce;
 mod enforce_dual;
 mod enforce_gap;
@@ -31,9 +30,7 @@ pub mod patch;
 pub mod report;
 pub mod search;
 pub mod surface;
-pub(crate) mod vec3;
 
-pub use bvh::{intersect_line, Bvh, Hit, NodeView};
 pub use enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
     Enforcement, FrictionState, MasterPoint, PointHistory, PointState, SlaveQuadraturePoint,

@@ -26,13 +26,13 @@
 
 use rayon::prelude::*;
 
-use super::bvh::Bvh;
 use super::patch::{cofactor_times, Patch};
 use super::surface::Surface;
-use super::vec3::{cross, dot, norm, normalize, scale, sub, triangle_normal_scaled};
 use crate::fem::dofs::DofMap;
 use crate::fem::field::value_and_gradient;
 use crate::grid::Grid;
+use crate::spatial::bvh::Bvh;
+use crate::spatial::vec3::{cross, dot, norm, normalize, scale, sub, triangle_normal_scaled};
 
 /// The master surface in its current configuration, ready for searches.
 #[derive(Clone, Debug)]

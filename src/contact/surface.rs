@@ -40,13 +40,13 @@
 use rayon::prelude::*;
 
 use super::marching;
-use super::vec3::{add, dot, norm, normalize, triangle_normal_scaled};
 use crate::fem::dofs::DofMap;
 use crate::fem::field::value_and_gradient;
 use crate::geometry::scalar::Dual;
 use crate::geometry::surface::Leaf;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::spatial::vec3::{add, dot, norm, normalize, triangle_normal_scaled};
 
 /// One triangle of a [`Surface`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -280,7 +280,7 @@ pub(crate) fn polarity_on_boundary(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Aabb;
+    use crate::spatial::Aabb;
 
     #[test]
     fn a_plane_is_meshed_exactly_with_its_normal() {

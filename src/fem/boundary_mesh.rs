@@ -53,15 +53,16 @@ use rayon::prelude::*;
 use crate::cells::CellKind;
 use crate::contact::marching;
 use crate::contact::surface::{polarity_on_boundary, Polarity};
-use crate::contact::vec3::{cross, sub};
 use crate::geometry::scalar::Dual;
-use crate::geometry::surface::normalize;
 use crate::geometry::surface::Leaf;
-use crate::geometry::{Aabb, Geometry, LocalSolid};
+use crate::geometry::{Geometry, LocalSolid};
 use crate::grid::Grid;
 use crate::mesh::MeshSolid;
 use crate::quadrature::mixed::on_boundary;
 use crate::quadrature::saye::SurfacePoint;
+use crate::spatial::vec3::normalize;
+use crate::spatial::vec3::{cross, sub};
+use crate::spatial::Aabb;
 
 /// A triangulated boundary with host cells and tags.
 #[derive(Clone, Debug, Default)]
@@ -309,7 +310,7 @@ fn add_mesh_piece(
     let at_centroid = side(centroid);
     let nudged = c.map(|v| [0, 1, 2].map(|i| 0.9 * v[i] + 0.1 * centroid[i]));
     let longest = (0..3)
-        .map(|k| crate::contact::vec3::norm(sub(c[(k + 1) % 3], c[k])))
+        .map(|k| crate::spatial::vec3::norm(sub(c[(k + 1) % 3], c[k])))
         .fold(0.0, f64::max);
     if longest > 0.25 * h && nudged.iter().any(|&x| side(x) != at_centroid) {
         let m = [0, 1, 2].map(|k| [0, 1, 2].map(|i| 0.5 * (c[k][i] + c[(k + 1) % 3][i])));

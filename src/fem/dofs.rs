@@ -94,7 +94,7 @@ pub fn node_cells(grid: &Grid, order: ElementOrder, node: usize, out: &mut Vec<(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Aabb;
+    use crate::spatial::Aabb;
 
     #[test]
     fn node_cells_invert_cell_nodes() {

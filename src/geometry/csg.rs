@@ -1,8 +1,10 @@
 //! CSG operations, rigid motions and boundary-tag editing on [`Geometry`].
 
-use super::surface::{norm, Frame};
-use super::{Aabb, Geometry, Node};
+use super::surface::Frame;
+use super::{Geometry, Node};
 use crate::error::{Error, Result};
+use crate::spatial::vec3::norm;
+use crate::spatial::Aabb;
 
 impl Node {
     fn shifted(self, by: usize) -> Node {
@@ -137,7 +139,7 @@ impl Geometry {
         for (j, col) in r.iter_mut().enumerate() {
             let mut e = [0.0; 3];
             e[j] = 1.0;
-            let kxe = super::surface::cross(k, e);
+            let kxe = crate::spatial::vec3::cross(k, e);
             for i in 0..3 {
                 col[i] = c * e[i] + s * kxe[i] + (1.0 - c) * k[j] * k[i];
             }

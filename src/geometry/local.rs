@@ -13,9 +13,11 @@
 
 use std::sync::Arc;
 
+use super::scalar::box_intervals;
 use super::surface::{Frame, Leaf, Shape};
-use super::{Aabb, Geometry, Node};
+use super::{Geometry, Node};
 use crate::mesh::MeshSolid;
+use crate::spatial::Aabb;
 
 /// A solid over one box.
 pub enum LocalSolid {
@@ -85,7 +87,7 @@ impl Geometry {
         match node {
             Node::Leaf(i) => {
                 let leaf = &self.leaves[*i];
-                let natural = leaf.eval(b.intervals());
+                let natural = leaf.eval(box_intervals(&b));
                 let v = if natural.strictly_signed() {
                     natural
                 } else {

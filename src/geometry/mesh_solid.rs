@@ -10,8 +10,9 @@
 
 use std::sync::Arc;
 
-use super::{Aabb, Geometry, Node};
+use super::{Geometry, Node};
 use crate::mesh::MeshSolid;
+use crate::spatial::Aabb;
 
 impl Geometry {
     /// The solid bounded by `mesh`, whose triangle tags index `tags`.

@@ -25,62 +25,9 @@ pub use local::LocalSolid;
 use std::sync::Arc;
 
 use crate::mesh::MeshSolid;
-use scalar::{Dual, Interval, Lattice, Scalar};
+use crate::spatial::Aabb;
+use scalar::{box_intervals, Dual, Interval, Lattice, Scalar};
 use surface::Leaf;
-
-/// An axis-aligned box; components may be infinite (half-spaces).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aabb {
-    pub lo: [f64; 3],
-    pub hi: [f64; 3],
-}
-
-impl Aabb {
-    pub fn new(lo: [f64; 3], hi: [f64; 3]) -> Self {
-        Aabb { lo, hi }
-    }
-    /// The smallest box holding `points` (empty for none).
-    pub fn around<'a>(points: impl IntoIterator<Item = &'a [f64; 3]>) -> Aabb {
-        let mut b = Aabb::new([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for p in points {
-            for i in 0..3 {
-                b.lo[i] = b.lo[i].min(p[i]);
-                b.hi[i] = b.hi[i].max(p[i]);
-            }
-        }
-        b
-    }
-    pub const EVERYTHING: Aabb = Aabb {
-        lo: [f64::NEG_INFINITY; 3],
-        hi: [f64::INFINITY; 3],
-    };
-    pub fn is_finite(&self) -> bool {
-        self.lo.iter().chain(&self.hi).all(|v| v.is_finite())
-    }
-    pub fn is_empty(&self) -> bool {
-        (0..3).any(|i| self.lo[i] > self.hi[i])
-    }
-    pub fn union(&self, o: &Aabb) -> Aabb {
-        let mut b = *self;
-        for i in 0..3 {
-            b.lo[i] = b.lo[i].min(o.lo[i]);
-            b.hi[i] = b.hi[i].max(o.hi[i]);
-        }
-        b
-    }
-    pub fn intersection(&self, o: &Aabb) -> Aabb {
-        let mut b = *self;
-        for i in 0..3 {
-            b.lo[i] = b.lo[i].max(o.lo[i]);
-            b.hi[i] = b.hi[i].min(o.hi[i]);
-        }
-        b
-    }
-    /// The box as intervals, one per axis.
-    pub fn intervals(&self) -> [Interval; 3] {
-        [0, 1, 2].map(|i| Interval::new(self.lo[i], self.hi[i]))
-    }
-}
 
 /// A node of the CSG tree; leaves index [`Geometry::leaves`].
 #[derive(Clone, Debug, PartialEq)]
@@ -142,14 +89,14 @@ impl Geometry {
 
     /// Unit outward normal at (or near) a boundary point.
     pub fn normal(&self, x: [f64; 3]) -> [f64; 3] {
-        surface::normalize(self.gradient(x))
+        crate::spatial::vec3::normalize(self.gradient(x))
     }
 
     /// Bounds of φ over a box: each leaf's tight enclosure ([`Leaf::bounds`])
     /// combined through the tree.
     pub fn bounds(&self, b: &Aabb) -> Interval {
         // The natural extension is cheap and often decisive already.
-        let natural: Interval = self.eval(b.intervals());
+        let natural: Interval = self.eval(box_intervals(&b));
         if natural.strictly_signed() {
             return natural;
         }
@@ -160,7 +107,7 @@ impl Geometry {
     fn combine(&self, node: &Node, leaf_values: &[Interval], bx: &Aabb) -> Interval {
         match node {
             Node::Leaf(i) => leaf_values[*i],
-            Node::Mesh(m) => Interval::mesh_level_set(m, bx.intervals()),
+            Node::Mesh(m) => Interval::mesh_level_set(m, box_intervals(bx)),
             Node::Const(inside) => Interval::cst(const_level_set(*inside)),
             Node::Union(a, b) => {
                 self.combine(a, leaf_values, bx)

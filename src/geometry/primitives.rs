@@ -1,9 +1,11 @@
 //! Constructors of the primitive solids. Each validates its parameters and
 //! names its boundary parts with default tags (documented per constructor).
 
-use super::surface::{norm, normalize, Frame, Leaf, Shape};
-use super::{Aabb, Geometry, Node};
+use super::surface::{Frame, Leaf, Shape};
+use super::{Geometry, Node};
 use crate::error::{Error, Result};
+use crate::spatial::vec3::{norm, normalize};
+use crate::spatial::Aabb;
 
 fn check_positive(what: &str, name: &str, v: f64) -> Result<()> {
     if v.is_finite() && v > 0.0 {

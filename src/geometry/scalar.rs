@@ -5,6 +5,7 @@
 use std::ops::{Add, Mul, Neg, Sub};
 
 use crate::mesh::MeshSolid;
+use crate::spatial::Aabb;
 
 /// Arithmetic a level set needs: ring operations and constants.
 pub trait Scalar:
@@ -59,6 +60,11 @@ impl Lattice for f64 {
 pub struct Interval {
     pub lo: f64,
     pub hi: f64,
+}
+
+/// A box as intervals, one per axis.
+pub fn box_intervals(b: &Aabb) -> [Interval; 3] {
+    [0, 1, 2].map(|i| Interval::new(b.lo[i], b.hi[i]))
 }
 
 impl Interval {
@@ -145,7 +151,7 @@ impl Lattice for Interval {
         Interval::new(self.lo.max(o.lo), self.hi.max(o.hi))
     }
     fn mesh_level_set(mesh: &MeshSolid, x: [Self; 3]) -> Self {
-        let b = crate::geometry::Aabb::new(x.map(|i| i.lo), x.map(|i| i.hi));
+        let b = Aabb::new(x.map(|i| i.lo), x.map(|i| i.hi));
         if mesh.crosses(&b) {
             Interval::new(-0.5, 0.5)
         } else {

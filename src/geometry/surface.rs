@@ -6,7 +6,8 @@
 //! what the cut-cell quadrature relies on.
 
 use super::scalar::{Dual, Dual2, Interval, Scalar};
-use super::Aabb;
+use crate::spatial::vec3::{cross, normalize};
+use crate::spatial::Aabb;
 
 /// The shape of a leaf in its local frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -149,27 +150,11 @@ impl Leaf {
     }
 }
 
-pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-pub fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
-
-pub fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = norm(a);
-    [a[0] / n, a[1] / n, a[2] / n]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::scalar::Dual;
+    use crate::spatial::vec3::norm;
 
     fn grad(leaf: &Leaf, x: [f64; 3]) -> [f64; 3] {
         leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)])

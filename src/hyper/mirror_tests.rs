@@ -13,10 +13,11 @@ use super::*;
 use crate::backend::LinearOperator;
 use crate::cells::{cut_rule_points, Cells};
 use crate::element::ElementOrder;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::material::Material;
 use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
+use crate::spatial::Aabb;
 
 fn validate(precision: Precision) -> naga::Module {
     let src = source(precision);

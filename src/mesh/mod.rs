@@ -24,9 +24,9 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::contact::vec3::{cross, dot, norm, sub};
-use crate::contact::Bvh;
-use crate::geometry::Aabb;
+use crate::spatial::vec3::{cross, dot, norm, sub};
+use crate::spatial::Aabb;
+use crate::spatial::Bvh;
 use winding::FarField;
 
 /// What loading and cleaning a mesh found, for `report.json` and stderr.
@@ -211,7 +211,7 @@ impl MeshSolid {
                     if ids[o].iter().any(|v| tid.contains(v)) {
                         return;
                     }
-                    if let Some((s, bary)) = crate::contact::intersect_line(self.triangle(o), a, d)
+                    if let Some((s, bary)) = crate::spatial::intersect_line(self.triangle(o), a, d)
                     {
                         let inside = bary.iter().all(|&w| w > INTERIOR);
                         if inside && s > INTERIOR && s < 1.0 - INTERIOR {

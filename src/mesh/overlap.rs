@@ -8,8 +8,8 @@
 //! box's size count as overlapping, so a facet in a box's face plane meets
 //! that box (the cut rules decide its side by their own conventions).
 
-use crate::contact::vec3::{cross, dot, sub};
-use crate::geometry::Aabb;
+use crate::spatial::vec3::{cross, dot, sub};
+use crate::spatial::Aabb;
 
 /// True when the triangle `t` meets the closed box `b` (within the slack of
 /// the module doc).

@@ -48,9 +48,9 @@ pub fn write_binary_stl(path: &Path, triangles: &[[[f64; 3]; 3]]) -> Result<()> 
         .iter()
         .map(|t| {
             let v = t.map(|p| stl_io::Vertex::new(p.map(|c| c as f32)));
-            let n = crate::contact::vec3::normalize(crate::contact::vec3::cross(
-                crate::contact::vec3::sub(t[1], t[0]),
-                crate::contact::vec3::sub(t[2], t[0]),
+            let n = crate::spatial::vec3::normalize(crate::spatial::vec3::cross(
+                crate::spatial::vec3::sub(t[1], t[0]),
+                crate::spatial::vec3::sub(t[2], t[0]),
             ));
             stl_io::Triangle {
                 normal: stl_io::Normal::new(n.map(|c| c as f32)),

@@ -21,8 +21,8 @@
 //! 0 or 1, far from the threshold ½; near the surface every triangle is exact.
 
 use super::MeshSolid;
-use crate::contact::vec3::{cross, dot, norm, scale, sub};
-use crate::contact::Bvh;
+use crate::spatial::vec3::{cross, dot, norm, scale, sub};
+use crate::spatial::Bvh;
 
 /// Far-field radius factor `β`.
 const BETA: f64 = 3.0;

@@ -3,7 +3,8 @@
 //! since its integrand has a kink there.
 
 use crate::geometry::scalar::{Dual, Interval};
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
+use crate::spatial::Aabb;
 
 use super::restricted::Restricted;
 

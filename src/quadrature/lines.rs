@@ -5,7 +5,7 @@
 
 use super::roots::roots_on_segment;
 use super::saye::{BoxRule, Ctx, Restricted, SurfacePoint, VolumePoint};
-use crate::geometry::Aabb;
+use crate::spatial::Aabb;
 
 /// A line of a sweep: direction `k` through `x`, carrying the weight `w`.
 pub(super) struct Line {

@@ -30,8 +30,9 @@
 use super::gauss::gauss_legendre_unit;
 use super::polyhedral::mesh_box_rule;
 use super::saye::{box_rule, halves, BoxRule, SurfacePoint, VolumePoint};
-use crate::geometry::{Aabb, Geometry, LocalSolid};
+use crate::geometry::{Geometry, LocalSolid};
 use crate::mesh::MeshSolid;
+use crate::spatial::Aabb;
 
 /// Halvings of a box where a mesh meets another surface: boxes of `h/8`.
 pub const MAX_DEPTH: u32 = 3;

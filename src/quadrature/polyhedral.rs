@@ -60,10 +60,10 @@
 //! cell and the rules stay exact there (tested on boxes aligned with the
 //! lattice).
 
-use crate::contact::intersect_line;
-use crate::contact::vec3::{cross, norm, sub};
-use crate::geometry::Aabb;
 use crate::mesh::MeshSolid;
+use crate::spatial::intersect_line;
+use crate::spatial::vec3::{cross, norm, sub};
+use crate::spatial::Aabb;
 
 use super::gauss::{gauss_jacobi_u_unit, gauss_legendre_unit};
 use super::repaired;

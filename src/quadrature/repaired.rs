@@ -19,8 +19,8 @@
 //! clean mesh, keep the exact rule.
 
 use super::saye::{BoxRule, SurfacePoint, VolumePoint};
-use crate::geometry::Aabb;
 use crate::mesh::MeshSolid;
+use crate::spatial::Aabb;
 
 /// Sub-cells per axis of a repaired cell's volume rule.
 pub const SUBDIVISIONS: usize = 6;

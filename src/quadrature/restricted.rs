@@ -3,8 +3,9 @@
 //! restriction to a face of a box), optionally restricted to a plane leaf (an
 //! edge function), with its value, gradient and interval bounds.
 
-use crate::geometry::scalar::{Dual, Interval, Scalar};
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::scalar::{box_intervals, Dual, Interval, Scalar};
+use crate::geometry::Geometry;
+use crate::spatial::Aabb;
 
 /// A leaf level set with some coordinates pinned (its restriction to a face),
 /// and optionally restricted to a plane leaf: `x_k` replaced by the plane's
@@ -103,7 +104,7 @@ impl Restricted {
             return active(bd.v).then_some(bd);
         }
         // The natural extension is cheap and usually decides far-away leaves.
-        if !active(leaf.eval(pb.intervals())) {
+        if !active(leaf.eval(box_intervals(&pb))) {
             return None;
         }
         let bd = leaf.bounds(&pb);

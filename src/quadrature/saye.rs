@@ -33,7 +33,8 @@ use super::lines::{gauss_segment, split_line, sweep_line, Line};
 pub(super) use super::restricted::Restricted;
 use crate::geometry::scalar::{Dual, Interval};
 use crate::geometry::surface::Shape;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
+use crate::spatial::Aabb;
 
 /// A volume quadrature point.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,8 +6,8 @@
 use super::*;
 use crate::cells::CellKind;
 use crate::element::{tensor_gauss_rule, ElementOrder};
-use crate::geometry::Aabb;
 use crate::grid::Grid;
+use crate::spatial::Aabb;
 
 /// A vector field symmetric about x = 0 (`u_x` odd in x, `u_y`, `u_z` even),
 /// outside the quadratic fit space.

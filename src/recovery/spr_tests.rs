@@ -7,9 +7,10 @@ use super::*;
 use crate::cells::{cut_rule_points, CellKind, Cells};
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Error;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::recovery::recover_planned;
+use crate::spatial::Aabb;
 
 const CENTER: [f64; 3] = [0.031, -0.017, 0.009];
 

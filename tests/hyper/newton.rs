@@ -7,7 +7,7 @@ use std::sync::Arc;
 use cgfem_gpu::cells::{cut_rule_points, Cells};
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::error::Error;
-use cgfem_gpu::geometry::{Aabb, Geometry};
+use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::{Material, MaterialModel};
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions};
@@ -15,6 +15,7 @@ use cgfem_gpu::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp, V
 use cgfem_gpu::hyper::residual::{point_fields, residual};
 use cgfem_gpu::progress::{Event, Progress, Silent};
 use cgfem_gpu::solver::{KrylovMethod, KrylovOptions, Preconditioner};
+use cgfem_gpu::spatial::Aabb;
 
 use super::{BETA, E, NU};
 
