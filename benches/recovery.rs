@@ -16,7 +16,7 @@ use std::sync::OnceLock;
 use std::time::Instant;
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::interpolate;
+use cgfem_gpu::discrete::field::interpolate;
 use cgfem_gpu::fem::recovery::{recover_stress, recovered_tractions, traction_patch_nodes};
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::stabilisation::{recover_displacement, s_rhs};

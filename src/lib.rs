@@ -17,6 +17,7 @@ pub mod case;
 pub mod cells;
 pub mod condition;
 pub mod contact;
+pub mod discrete;
 pub mod element;
 pub mod error;
 pub mod expr;

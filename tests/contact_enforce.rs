@@ -9,8 +9,8 @@ use cgfem_gpu::contact::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,
     Enforcement, FrictionState, PointHistory, SlaveQuadraturePoint, Surface,
 };
+use cgfem_gpu::discrete::dofs::DofMap;
 use cgfem_gpu::element::ElementOrder;
-use cgfem_gpu::fem::dofs::DofMap;
 use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use rand::{Rng, SeedableRng};

@@ -10,8 +10,8 @@
 use cgfem_gpu::cells::{CellKind, Cells};
 use cgfem_gpu::contact::search::deformation_gradient;
 use cgfem_gpu::contact::{area_ratio, current_normal, slave_point, MasterSurface, Surface};
+use cgfem_gpu::discrete::dofs::DofMap;
 use cgfem_gpu::element::ElementOrder;
-use cgfem_gpu::fem::dofs::DofMap;
 use cgfem_gpu::geometry::Geometry;
 use cgfem_gpu::grid::Grid;
 use cgfem_gpu::spatial::vec3::{cross, norm, normalize};

@@ -89,7 +89,7 @@ fn matrix_free_equals_assembled_on_random_vectors() {
     }
 }
 
-use cgfem_gpu::fem::field::{error_norms, interpolate, ErrorNorms};
+use cgfem_gpu::discrete::field::{error_norms, interpolate, ErrorNorms};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::solve::solve;
 

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use cgfem_gpu::backend::{Backend, LinearOperator};
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::error_norms;
+use cgfem_gpu::discrete::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::setup::Setup;

@@ -7,7 +7,7 @@
 
 use cgfem_gpu::case::physics::OuterMethod;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::error_norms;
+use cgfem_gpu::discrete::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::setup::Setup;

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::{error_norms, ErrorNorms};
+use cgfem_gpu::discrete::field::{error_norms, ErrorNorms};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;

@@ -5,7 +5,7 @@
 
 use cgfem_gpu::case::physics::OuterMethod;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::error_norms;
+use cgfem_gpu::discrete::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::{solve, RecoveredLoad};

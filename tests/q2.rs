@@ -4,7 +4,7 @@
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::{error_norms, interpolate, ErrorNorms};
+use cgfem_gpu::discrete::field::{error_norms, interpolate, ErrorNorms};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::output::write_solution;
 use cgfem_gpu::fem::setup::Setup;

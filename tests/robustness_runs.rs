@@ -57,7 +57,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::{error_norms, interpolate};
+use cgfem_gpu::discrete::field::{error_norms, interpolate};
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;

@@ -240,9 +240,9 @@ fn q2_the_s_term_bounds_the_condition_number() {
 /// most 3e-14 of the larger of the two.
 #[test]
 fn the_s_term_puts_no_net_force_or_moment_on_the_body() {
+    use cgfem_gpu::discrete::field::{interpolate, value_and_gradient};
     use cgfem_gpu::element::tensor_gauss_rule;
     use cgfem_gpu::expr::{Expr, VectorExpr};
-    use cgfem_gpu::fem::field::{interpolate, value_and_gradient};
     use cgfem_gpu::fem::stabilisation::{recover_displacement, s_rhs};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/bracket.toml");
     let offset = ["grid.offset=[0.1, 0.9, 0.05]".to_string()];

@@ -10,7 +10,7 @@
 //! `CGFEM_STL_SPHERE_LEVELS=3,4,5,6` runs other levels.
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::field::error_norms;
+use cgfem_gpu::discrete::field::error_norms;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::solve;

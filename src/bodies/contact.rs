@@ -41,8 +41,8 @@ use crate::contact::enforce::{
     PointHistory, SlaveQuadraturePoint,
 };
 use crate::contact::{ContactPoints, ContactRow, ContactTangent, Surface};
+use crate::discrete::dofs::DofMap;
 use crate::error::Result;
-use crate::fem::dofs::DofMap;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::problem::HyperProblem;

@@ -14,7 +14,7 @@
 //! `friction` (0 off, 1 stick, 2 slip) and
 //! `normal`, as the part after the bodies'. Each body `b` also adds
 //! `DIR/<b>_surface_<k>.vtp`, its boundary as triangles on the reference
-//! positions ([`crate::fem::boundary_mesh`]) with the point data
+//! positions ([`crate::discrete::boundary_mesh`]) with the point data
 //! `displacement` and `von_mises` (of its host cell's mean Cauchy stress, as
 //! in the `.vtu`) and the cell data `tag`, as the parts after the contact
 //! pairs'.
@@ -25,10 +25,10 @@ use nalgebra::Matrix3;
 
 use super::setup::BodySetup;
 use crate::contact::ContactPoints;
+use crate::discrete::boundary_mesh::BoundaryMesh;
+use crate::discrete::field::value_and_gradient;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
-use crate::fem::boundary_mesh::BoundaryMesh;
-use crate::fem::field::value_and_gradient;
 use crate::fem::output::{level_set, von_mises};
 use crate::fem::surface_output::write_tagged_triangles;
 use crate::hyper::problem::HyperProblem;

@@ -21,9 +21,9 @@
 //! plane ([`Cells::fit_points`]).
 
 use crate::cells::Cells;
+use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
-use crate::fem::dofs::DofMap;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::recovery::Mirror;

@@ -12,8 +12,8 @@ use anyhow::Context;
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
-use cgfem_gpu::fem::boundary_mesh::BoundaryMesh;
-use cgfem_gpu::fem::field::solution_and_interpolant_errors;
+use cgfem_gpu::discrete::boundary_mesh::BoundaryMesh;
+use cgfem_gpu::discrete::field::solution_and_interpolant_errors;
 use cgfem_gpu::fem::fixed_point::FixedPointReport;
 use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::output::write_solution;

@@ -61,7 +61,7 @@ use super::report::{ContactPoints, ContactRow, SlaveSample};
 use super::search::MasterSurface;
 use super::surface::Surface;
 use crate::cells::Cells;
-use crate::fem::dofs::DofMap;
+use crate::discrete::dofs::DofMap;
 use crate::grid::Grid;
 
 /// One body's discretisation and where its dofs start in the global vector.

@@ -25,7 +25,6 @@ mod enforce_law;
 mod enforce_local;
 mod enforce_normals;
 mod enforce_tangent;
-pub(crate) mod marching;
 pub mod patch;
 pub mod report;
 pub mod search;

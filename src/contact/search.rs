@@ -28,8 +28,8 @@ use rayon::prelude::*;
 
 use super::patch::{cofactor_times, Patch};
 use super::surface::Surface;
-use crate::fem::dofs::DofMap;
-use crate::fem::field::value_and_gradient;
+use crate::discrete::dofs::DofMap;
+use crate::discrete::field::value_and_gradient;
 use crate::grid::Grid;
 use crate::spatial::bvh::Bvh;
 use crate::spatial::vec3::{cross, dot, norm, normalize, scale, sub, triangle_normal_scaled};

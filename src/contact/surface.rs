@@ -34,19 +34,18 @@
 //! with `u` evaluated in the cell of a triangle using the vertex (the vertex
 //! lies in that cell's closure) — by a closure, or from a nodal field with the
 //! grid's numbering through the cell's shape functions
-//! ([`crate::fem::field::value_and_gradient`]). The displacement is continuous
+//! ([`crate::discrete::field::value_and_gradient`]). The displacement is continuous
 //! across cells, so the choice of cell does not matter.
 
 use rayon::prelude::*;
 
-use super::marching;
-use crate::fem::dofs::DofMap;
-use crate::fem::field::value_and_gradient;
-use crate::geometry::scalar::Dual;
-use crate::geometry::surface::Leaf;
+use crate::discrete::dofs::DofMap;
+use crate::discrete::field::value_and_gradient;
+use crate::discrete::marching;
+use crate::geometry::polarity::{polarity_on_boundary, Polarity};
 use crate::geometry::Geometry;
 use crate::grid::Grid;
-use crate::spatial::vec3::{add, dot, norm, normalize, triangle_normal_scaled};
+use crate::spatial::vec3::{add, norm, normalize, triangle_normal_scaled};
 
 /// One triangle of a [`Surface`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -241,45 +240,10 @@ impl Surface {
     }
 }
 
-/// How a leaf enters the body's level set where it is the boundary.
-pub(crate) enum Polarity {
-    /// `φ = ψ` there: the outward normal is `∇ψ/|∇ψ|`.
-    Added,
-    /// `φ = −ψ` there (a difference's subtrahend): the outward normal is
-    /// `−∇ψ/|∇ψ|`.
-    Subtracted,
-}
-
-/// Whether the point of `leaf`'s zero set nearest `x` (one Newton step) is on
-/// the body's boundary as this leaf, and with which polarity.
-pub(crate) fn polarity_on_boundary(
-    geometry: &Geometry,
-    leaf: &Leaf,
-    x: [f64; 3],
-    h: f64,
-) -> Option<Polarity> {
-    let at = |x: [f64; 3]| leaf.eval([Dual::var(x[0], 0), Dual::var(x[1], 1), Dual::var(x[2], 2)]);
-    let d = at(x);
-    let g2 = dot(d.d, d.d);
-    if g2 == 0.0 {
-        return None;
-    }
-    let p = [0, 1, 2].map(|a| x[a] - d.v * d.d[a] / g2);
-    let n = normalize(at(p).d);
-    let q = [0, 1, 2].map(|a| p[a] + 1e-6 * h * n[a]);
-    let (phi, psi) = (geometry.phi(q), leaf.eval(q));
-    if phi == psi {
-        Some(Polarity::Added)
-    } else if phi == -psi {
-        Some(Polarity::Subtracted)
-    } else {
-        None
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spatial::vec3::dot;
     use crate::spatial::Aabb;
 
     #[test]

@@ -4,13 +4,13 @@
 //! [`check_finite`], which names the case key and a point where a value is
 //! not finite, instead of letting NaN reach the solver.
 
-use super::dofs::{node_cells, DofMap};
 use super::problem::{Boundary, Problem};
 use super::rhs::DirichletPoint;
 use crate::case::boundary::DirichletValue;
 use crate::case::physics::FieldValue;
 use crate::case::Case;
 use crate::cells::{CellKind, Cells};
+use crate::discrete::dofs::{node_cells, DofMap};
 use crate::element::tensor_gauss_rule;
 use crate::error::{Error, Result};
 use crate::grid::Grid;

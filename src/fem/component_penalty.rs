@@ -16,8 +16,8 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use super::dofs::DofMap;
 use crate::cells::Cells;
+use crate::discrete::dofs::DofMap;
 use crate::element::{shape_values, ElementOrder};
 use crate::grid::Grid;
 

@@ -67,11 +67,11 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
-use super::dofs::DofMap;
 use super::moment_fit::{lagrange, lagrange_derivative, FitBasis};
 use super::problem::{Boundary, Problem};
 use super::rhs::{add_cell_loads, add_element_point_load, add_point_load, DirichletPoint};
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
+use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::geometry::Geometry;

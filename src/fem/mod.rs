@@ -1,13 +1,10 @@
 //! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
 //! assembled), right-hand sides, the discrete field and its error norms.
 pub mod assembled;
-pub mod boundary_mesh;
 pub mod checks;
 pub mod component_penalty;
 pub mod cut_apply;
-pub mod dofs;
 pub mod fast_apply;
-pub mod field;
 pub mod fixed_point;
 pub mod flux_consistency;
 pub mod linear;

@@ -9,10 +9,10 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::field::{stress_voigt, value_and_gradient, CellField};
 use super::rhs::DirichletPoint;
 use super::setup::Setup;
 use crate::cells::CellKind;
+use crate::discrete::field::{stress_voigt, value_and_gradient, CellField};
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::recovery::{recover_planned, FitPlans, Recovered, SprOptions};

@@ -6,9 +6,9 @@
 
 use rayon::prelude::*;
 
-use super::dofs::DofMap;
 use super::problem::{Boundary, Problem};
 use crate::cells::{CellKind, Cells};
+use crate::discrete::dofs::DofMap;
 use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::grid::Grid;

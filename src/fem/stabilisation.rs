@@ -26,13 +26,13 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::field::CellField;
 use super::problem::Boundary;
 use super::recovery::{sample_positions, vertex_nodes_of};
 use super::rhs::add_point_load;
 use super::rigid_resultant::RigidFit;
 use super::setup::Setup;
 use crate::cells::Cells;
+use crate::discrete::field::CellField;
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;

@@ -6,7 +6,7 @@
 //!
 //! Point data, at each vertex `x` with host cell `K` (the active cell through
 //! whose shape functions `N_a` the point is evaluated, see
-//! [`crate::fem::boundary_mesh`]):
+//! [`crate::discrete::boundary_mesh`]):
 //! - `displacement`: `u_h(x) = Σ_a N_a(ξ) u_a` over the Q1 or Q2 nodes of `K`,
 //!   `ξ = (x − x_K) / h` ([`value_and_gradient`]);
 //! - `stress`: the SPR-recovered stress `σ̂(x) = Σ_i N_i^lin(ξ) σ*_i(x)`, the
@@ -24,11 +24,11 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::boundary_mesh::BoundaryMesh;
-use super::field::value_and_gradient;
 use super::output::von_mises;
 use super::recovery::{recover_stress, vertex_nodes_of};
 use super::setup::Setup;
+use crate::discrete::boundary_mesh::BoundaryMesh;
+use crate::discrete::field::value_and_gradient;
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::vtu::{write_vtp_triangles, DataArray, VtuEncoding};

@@ -16,6 +16,7 @@
 mod csg;
 mod local;
 mod mesh_solid;
+pub mod polarity;
 mod primitives;
 pub mod scalar;
 pub mod surface;

@@ -11,9 +11,9 @@
 use std::sync::Arc;
 
 use crate::cells::{CellKind, Cells};
+use crate::discrete::dofs::DofMap;
 use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::{Error, Result};
-use crate::fem::dofs::DofMap;
 use crate::fem::rhs::add_point_load;
 use crate::geometry::Geometry;
 use crate::grid::Grid;

@@ -31,7 +31,7 @@
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::fem::dofs::node_cells;
+use crate::discrete::dofs::node_cells;
 use crate::fem::operator::ElasticOperator;
 
 /// Entries per parallel task of the pointwise part.

@@ -19,7 +19,7 @@
 //! the Q2 lattice, since Q1 ⊂ Q2).
 //!
 //! # Active nodes
-//! Unknowns live on active nodes only ([`crate::fem::dofs`]). A row of `P` for
+//! Unknowns live on active nodes only ([`crate::discrete::dofs`]). A row of `P` for
 //! a fine active node keeps the coarse nodes that are active; a coarse node
 //! that is not (its coarse cells all classified outside, which only happens
 //! for slivers at the round-off level) contributes nothing. `R` applies the
@@ -32,7 +32,7 @@
 
 use rayon::prelude::*;
 
-use crate::fem::dofs::DofMap;
+use crate::discrete::dofs::DofMap;
 
 /// Nodes per rayon task.
 const NODES_PER_TASK: usize = 256;

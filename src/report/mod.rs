@@ -211,13 +211,13 @@ pub struct BodyReport {
     pub mesh: Option<crate::mesh::MeshDiagnostics>,
     /// Errors against the exact field, when the body has one.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub error: Option<crate::fem::field::ErrorNorms>,
+    pub error: Option<crate::discrete::field::ErrorNorms>,
     /// The same norms for the nodal interpolant of the exact field (the
     /// best-approximation reference): absent without an exact field,
     /// `Some(None)` (`null`) where they would mean nothing, with the reason
-    /// in `interpolant_error_note` ([`crate::fem::field::solution_and_interpolant_errors`]).
+    /// in `interpolant_error_note` ([`crate::discrete::field::solution_and_interpolant_errors`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub interpolant_error: Option<Option<crate::fem::field::ErrorNorms>>,
+    pub interpolant_error: Option<Option<crate::discrete::field::ErrorNorms>>,
     /// Why `interpolant_error` is `null`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interpolant_error_note: Option<String>,

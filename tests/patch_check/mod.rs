@@ -5,7 +5,7 @@
 #![allow(dead_code)] // each test crate uses a part
 
 use cgfem_gpu::backend::LinearOperator;
-use cgfem_gpu::fem::field::{error_norms, interpolate};
+use cgfem_gpu::discrete::field::{error_norms, interpolate};
 use cgfem_gpu::fem::setup::Setup;
 use cgfem_gpu::fem::solve::RecoveredLoad;
 

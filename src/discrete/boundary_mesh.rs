@@ -51,8 +51,8 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use crate::cells::CellKind;
-use crate::contact::marching;
-use crate::contact::surface::{polarity_on_boundary, Polarity};
+use crate::discrete::marching;
+use crate::geometry::polarity::{polarity_on_boundary, Polarity};
 use crate::geometry::scalar::Dual;
 use crate::geometry::surface::Leaf;
 use crate::geometry::{Geometry, LocalSolid};
