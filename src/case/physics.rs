@@ -292,7 +292,7 @@ pub struct NewtonSpec {
     pub max_fixed_point: usize,
     /// With recovered terms: `"passes"` (between Newton solves),
     /// `"embedded"` (after every Newton update) or `"step"` (once per step).
-    pub recovery: crate::hyper::newton::RecoveryMode,
+    pub recovery: RecoveryMode,
 }
 
 impl Default for NewtonSpec {
@@ -305,7 +305,24 @@ impl Default for NewtonSpec {
             max_cuts: 5,
             fixed_point_tol: 1e-6,
             max_fixed_point: 30,
-            recovery: crate::hyper::newton::RecoveryMode::Passes,
+            recovery: RecoveryMode::Passes,
         }
     }
+}
+
+/// When the recovered terms are re-evaluated (`crate::hyper::newton`'s module doc, *Recovered terms*).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RecoveryMode {
+    /// Between whole Newton solves (passes): each pass converges
+    /// quadratically; the passes repeat until `u` settles.
+    #[default]
+    Passes,
+    /// After every Newton update, inside one Newton loop (the paper's fixed
+    /// point embedded in the solver): fewer linear solves, but the lagged
+    /// terms make the last iterations linear.
+    Embedded,
+    /// Once per step attempt, at the last converged `u`, and held for the
+    /// whole step (the terms lag one load step; no extra Newton work).
+    Step,
 }

@@ -6,10 +6,10 @@
 use std::sync::Mutex;
 
 use cgfem_gpu::backend::LinearOperator;
+use cgfem_gpu::case::physics::RecoveryMode;
 use cgfem_gpu::error::Result;
 use cgfem_gpu::hyper::newton::{
     solve_load_steps, CpuTangentSolver, HyperSolution, NewtonOptions, NonlinearProblem,
-    RecoveryMode,
 };
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::solver::{KrylovMethod, KrylovOptions, Preconditioner};

@@ -85,7 +85,9 @@ mod tangent_solver;
 
 pub use history::{HyperSolution, PassReport, StepReport};
 use line_search::{line_search, NON_MONOTONE_STEPS};
-pub use options::{NewtonOptions, RecoveryMode};
+pub use options::NewtonOptions;
+
+use crate::case::physics::RecoveryMode;
 pub use tangent_solver::{CpuTangentSolver, TangentSolver};
 
 use super::problem::HyperProblem;

@@ -1,6 +1,7 @@
 //! The settings of the nonlinear solve ([`NewtonOptions`]) and when its
 //! recovered terms are re-evaluated ([`RecoveryMode`]).
 
+use crate::case::physics::RecoveryMode;
 use crate::error::{Error, Result};
 use crate::solver::{KrylovMethod, KrylovOptions, Preconditioner};
 
@@ -30,23 +31,6 @@ pub struct NewtonOptions {
     pub max_fixed_point: usize,
     /// How recovered terms are brought up to date (module doc).
     pub recovery: RecoveryMode,
-}
-
-/// When the recovered terms are re-evaluated (module doc, *Recovered terms*).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RecoveryMode {
-    /// Between whole Newton solves (passes): each pass converges
-    /// quadratically; the passes repeat until `u` settles.
-    #[default]
-    Passes,
-    /// After every Newton update, inside one Newton loop (the paper's fixed
-    /// point embedded in the solver): fewer linear solves, but the lagged
-    /// terms make the last iterations linear.
-    Embedded,
-    /// Once per step attempt, at the last converged `u`, and held for the
-    /// whole step (the terms lag one load step; no extra Newton work).
-    Step,
 }
 
 impl Default for NewtonOptions {
