@@ -214,7 +214,7 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// The binding size and offset alignment the kernels' windows use.
     pub bindings: BindingLimits,
-    pub(super) pipelines: Pipelines,
+    pub(crate) pipelines: Pipelines,
 }
 
 /// The adapter's binding limits, with the binding size lowered to `lowered`

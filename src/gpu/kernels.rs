@@ -7,6 +7,8 @@
 //! [`WG`]; more than `max_compute_workgroups_per_dimension` (65535) workgroups
 //! go in 2D, `x·stride`-major: entry = `gid.x + gid.y · stride`.
 
+use std::sync::OnceLock;
+
 use bytemuck::{Pod, Zeroable};
 
 use super::context::Precision;
@@ -173,11 +175,12 @@ pub enum Kernel {
     ProlongAdd,
     Restrict,
     DenseMatvec,
+    HyperTangent,
 }
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 23] = [
+    pub const ALL: [Kernel; 24] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -201,6 +204,7 @@ impl Kernel {
         Kernel::ProlongAdd,
         Kernel::Restrict,
         Kernel::DenseMatvec,
+        Kernel::HyperTangent,
     ];
 
     /// The file stem in `shaders/` (= the CPU mirror's name).
@@ -229,6 +233,7 @@ impl Kernel {
             Kernel::ProlongAdd => "prolong_add",
             Kernel::Restrict => "restrict",
             Kernel::DenseMatvec => "dense_matvec",
+            Kernel::HyperTangent => "hyper_tangent",
         }
     }
 
@@ -274,6 +279,7 @@ impl Kernel {
             Kernel::ProlongAdd => include_str!("../../shaders/prolong_add.wgsl"),
             Kernel::Restrict => include_str!("../../shaders/restrict.wgsl"),
             Kernel::DenseMatvec => include_str!("../../shaders/dense_matvec.wgsl"),
+            Kernel::HyperTangent => include_str!("../../shaders/hyper_tangent.wgsl"),
         }
     }
 
@@ -305,41 +311,51 @@ pub fn reduction_groups(n: u32) -> u32 {
     n.div_ceil(WG * PER)
 }
 
-/// The compiled pipelines of one device and precision, with their bind
-/// group layouts (fetched once: `get_bind_group_layout` makes a new handle).
+/// The pipelines of one device and precision, with their bind group layouts
+/// (fetched once: `get_bind_group_layout` makes a new handle). Each kernel is
+/// compiled on its first use, so a run pays only for the kernels it
+/// dispatches.
 pub struct Pipelines {
-    pipelines: Vec<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    device: wgpu::Device,
+    precision: Precision,
+    table: Vec<OnceLock<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>,
 }
 
 impl Pipelines {
-    /// Compiles every kernel for `precision`.
+    /// An empty table for `precision` on `device`.
     pub fn new(device: &wgpu::Device, precision: Precision) -> Self {
-        let pipelines = Kernel::ALL
-            .iter()
-            .map(|k| {
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(k.name()),
-                    source: wgpu::ShaderSource::Wgsl(k.source(precision).into()),
-                });
-                let p = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(k.name()),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                });
-                let layout = p.get_bind_group_layout(0);
-                (p, layout)
-            })
-            .collect();
-        Pipelines { pipelines }
+        Pipelines {
+            device: device.clone(),
+            precision,
+            table: Kernel::ALL.iter().map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    fn compile(&self, kernel: Kernel) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(kernel.name()),
+                source: wgpu::ShaderSource::Wgsl(kernel.source(self.precision).into()),
+            });
+        let p = self
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(kernel.name()),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        let layout = p.get_bind_group_layout(0);
+        (p, layout)
     }
 
     /// The pipeline of `kernel` and its bind group layout.
     pub fn get(&self, kernel: Kernel) -> (&wgpu::ComputePipeline, &wgpu::BindGroupLayout) {
         let i = Kernel::ALL.iter().position(|k| *k == kernel).unwrap();
-        let (p, l) = &self.pipelines[i];
+        let (p, l) = self.table[i].get_or_init(|| self.compile(kernel));
         (p, l)
     }
 }

@@ -12,7 +12,6 @@ pub mod backend;
 pub mod context;
 pub mod defect;
 pub mod device_krylov;
-pub mod hyper;
 pub mod kernels;
 pub mod linear;
 pub mod mirror;

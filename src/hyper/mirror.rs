@@ -14,11 +14,7 @@ use rayon::prelude::*;
 
 use super::problem::{HyperProblem, NODES};
 use super::tangent::TangentOperator;
-use crate::gpu::kernels::ALIAS_F64;
-use crate::gpu::Precision;
 
-/// The kernel source as written (f64).
-pub const SOURCE_F64: &str = include_str!("../../shaders/hyper_tangent.wgsl");
 /// Workgroup size of the kernel (`@workgroup_size(64)`).
 pub const WORKGROUP: u32 = 64;
 /// `inside_index` of a cell that is not inside.
@@ -27,14 +23,6 @@ pub const NOT_INSIDE: u32 = u32::MAX;
 pub const RULE_STRIDE: usize = 25;
 /// Reals per inside point in `state`: Σ, M, G (row-major) and c.
 pub const STATE_STRIDE: usize = 28;
-
-/// The kernel source for `precision` (f32: the alias line swapped).
-pub fn source(precision: Precision) -> String {
-    match precision {
-        Precision::F64 => SOURCE_F64.to_string(),
-        Precision::F32 => SOURCE_F64.replacen(ALIAS_F64, "alias real = f32;", 1),
-    }
-}
 
 /// Params of `hyper_tangent`: active nodes, 2D row stride, cells per axis.
 /// Keep in sync with `HyperTangentParams` in shaders/hyper_tangent.wgsl.

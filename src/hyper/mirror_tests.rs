@@ -1,11 +1,9 @@
-//! Tests that need no GPU: the kernel validates with naga in both precisions,
-//! its params struct has the WGSL layout, and the mirror plus the CPU's cut
-//! cells is the tangent.
+//! Tests that need no GPU: the mirror plus the CPU's cut cells is the
+//! tangent. The kernel's validation and its params layout are checked with
+//! every kernel of the registry (`crate::gpu`'s tests).
 
-use std::mem::size_of;
 use std::sync::Arc;
 
-use naga::valid::{Capabilities, ValidationFlags, Validator};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -18,44 +16,6 @@ use crate::grid::Grid;
 use crate::hyper::material::Material;
 use crate::hyper::problem::{DirichletCondition, HyperProblem, Loads, Ramp};
 use crate::spatial::Aabb;
-
-fn validate(precision: Precision) -> naga::Module {
-    let src = source(precision);
-    let module = naga::front::wgsl::parse_str(&src)
-        .unwrap_or_else(|e| panic!("hyper_tangent: {}", e.emit_to_string(&src)));
-    let caps = match precision {
-        Precision::F64 => Capabilities::FLOAT64,
-        Precision::F32 => Capabilities::empty(),
-    };
-    Validator::new(ValidationFlags::all(), caps)
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("hyper_tangent ({precision}): {e:?}"));
-    module
-}
-
-#[test]
-fn the_kernel_validates_in_both_precisions_with_the_params_layout() {
-    assert_eq!(SOURCE_F64.matches(ALIAS_F64).count(), 1);
-    let m = validate(Precision::F64);
-    validate(Precision::F32);
-    assert_eq!(m.entry_points.len(), 1, "one kernel per file");
-    assert_eq!(m.entry_points[0].name, "main");
-    assert_eq!(m.entry_points[0].workgroup_size, [WORKGROUP, 1, 1]);
-    let (_, ty) = m
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some("HyperTangentParams"))
-        .expect("the params struct");
-    let naga::TypeInner::Struct { members, span } = &ty.inner else {
-        panic!("HyperTangentParams is a struct");
-    };
-    assert_eq!(*span as usize, size_of::<HyperTangentParams>());
-    let names: Vec<&str> = members.iter().filter_map(|m| m.name.as_deref()).collect();
-    assert_eq!(
-        names,
-        ["n_active", "stride", "ncx", "ncy", "ncz", "pad0", "pad1", "pad2"]
-    );
-}
 
 /// The unit sphere on a shifted level-3 grid at a large smooth displacement.
 fn sphere_tangent_inputs(material: Material) -> (HyperProblem, Vec<f64>) {

@@ -40,6 +40,7 @@
 //! # Ok(()) }
 //! ```
 pub mod convergence;
+pub mod gpu;
 pub mod material;
 pub mod mirror;
 pub mod newton;

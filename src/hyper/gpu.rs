@@ -6,8 +6,8 @@
 //! CPU. The Krylov iterations stay on the host: each apply writes `x` to the
 //! device, runs the kernel and reads `y` back.
 //!
-//! [`GpuHyperBody`] holds what does not change during a run (the pipeline,
-//! the node maps, `x`, `y` and the read-back buffer); [`GpuHyperBody::bind`]
+//! The kernel comes from the device's registry ([`Kernel::HyperTangent`]).
+//! [`GpuHyperBody`] holds what does not change during a run (the node maps, `x`, `y` and the read-back buffer); [`GpuHyperBody::bind`]
 //! uploads one tangent's point data ([`InsideTangentData`], 28 reals per
 //! inside point) for the applies of one Newton iteration. f64 only (the
 //! tangent coefficients span many orders of magnitude near inversion). The
@@ -18,21 +18,17 @@ use std::sync::Arc;
 
 use wgpu::util::DeviceExt;
 
-use super::context::{GpuContext, Precision};
-use super::kernels::grid_2d;
+use super::mirror::{HyperTangentParams, InsideTangentData, STATE_STRIDE, WORKGROUP};
+use super::problem::HyperProblem;
+use super::tangent::TangentOperator;
 use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
-use crate::hyper::mirror::{
-    source, HyperTangentParams, InsideTangentData, STATE_STRIDE, WORKGROUP,
-};
-use crate::hyper::problem::HyperProblem;
-use crate::hyper::tangent::TangentOperator;
+use crate::gpu::kernels::{grid_2d, Kernel};
+use crate::gpu::{GpuContext, Precision};
 
 /// One body's device side of the tangent.
 pub struct GpuHyperBody {
     ctx: Arc<GpuContext>,
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
     groups: (u32, u32),
     params: wgpu::Buffer,
     active_to_node: wgpu::Buffer,
@@ -89,19 +85,6 @@ impl GpuHyperBody {
         let (gx, gy, stride) = grid_2d(n_active, WORKGROUP, max_dim);
         let prm = HyperTangentParams::new(problem, stride);
         let dev = &ctx.device;
-        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("hyper_tangent"),
-            source: wgpu::ShaderSource::Wgsl(source(Precision::F64).into()),
-        });
-        let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("hyper_tangent"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let layout = pipeline.get_bind_group_layout(0);
         let params = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("hyper_tangent params"),
             contents: bytemuck::bytes_of(&prm),
@@ -117,8 +100,6 @@ impl GpuHyperBody {
         };
         use wgpu::BufferUsages as U;
         Ok(GpuHyperBody {
-            pipeline,
-            layout,
             groups: (gx, gy),
             params,
             active_to_node: storage(
@@ -184,9 +165,10 @@ impl GpuHyperBody {
                 resource: b.as_entire_binding(),
             })
             .collect();
+        let (_, layout) = ctx.pipelines.get(Kernel::HyperTangent);
         let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("hyper_tangent"),
-            layout: &self.layout,
+            layout,
             entries: &entries,
         });
         GpuTangent {
@@ -211,7 +193,7 @@ impl GpuHyperBody {
                 label: Some("hyper_tangent"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(self.ctx.pipelines.get(Kernel::HyperTangent).0);
             pass.set_bind_group(0, bind, &[]);
             pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
         }
