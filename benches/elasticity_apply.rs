@@ -9,8 +9,8 @@
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::bench::{csr_bytes, RayonCsr};
 use cgfem_gpu::case::Case;
+use cgfem_gpu::driver::setup::Setup;
 use cgfem_gpu::fem::operator::AssembledOperator;
-use cgfem_gpu::fem::setup::Setup;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
 fn apply(c: &mut Criterion) {

@@ -17,9 +17,9 @@ use std::time::Instant;
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::interpolate;
-use cgfem_gpu::fem::recovery::{recover_stress, recovered_tractions, traction_patch_nodes};
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::stabilisation::{recover_displacement, s_rhs};
+use cgfem_gpu::driver::recovery::{recover_stress, recovered_tractions, traction_patch_nodes};
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::stabilisation::{recover_displacement, s_rhs};
 
 fn best_of<T>(reps: usize, mut f: impl FnMut() -> T) -> f64 {
     (0..reps)

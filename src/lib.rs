@@ -1,8 +1,20 @@
 //! cgfem-gpu: Cartesian grid finite elements for 3D solid mechanics.
 //!
-//! The foundation: implicit geometry ([`geometry`]), the Cartesian grid
-//! ([`grid`]), cell classification and cut-cell quadrature ([`cells`],
-//! [`quadrature`]) and the hex8/hex27 elements ([`element`]).
+//! The modules are declared in layer order, bottom first: each imports only
+//! modules declared above it (`python3 scripts/layers.py` checks it, and CI
+//! runs it). docs/ARCHITECTURE.md walks through the layers and a run.
+//!
+//! | layer | modules |
+//! |---|---|
+//! | utilities | [`error`], [`progress`] |
+//! | geometry utilities and writers | [`spatial`], [`output`], [`vtu`], [`plot`], [`expr`] |
+//! | geometry and cut cells | [`mesh`], [`geometry`], [`quadrature`], [`element`], [`grid`], [`cells`], [`recovery`] |
+//! | discretisation | [`discrete`] |
+//! | linear algebra | [`backend`], [`solver`], [`condition`] |
+//! | the case model | [`case`] |
+//! | physics | [`fem`], [`contact`], [`multigrid`] |
+//! | drivers and devices | [`driver`], [`gpu`], [`hyper`] |
+//! | runs and reports | [`report`], [`bodies`], [`inspect`], [`bench`], [`reproduce`] |
 // Kernels are written with explicit index loops, to read side by side with
 // their WGSL twins and the formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -10,34 +22,43 @@
 // public item's doc may point at the private helper that does the work.
 #![allow(rustdoc::private_intra_doc_links)]
 
-pub mod backend;
-pub mod bench;
-pub mod bodies;
-pub mod case;
-pub mod cells;
-pub mod condition;
-pub mod contact;
-pub mod discrete;
-pub mod element;
 pub mod error;
-pub mod expr;
-pub mod fem;
-pub mod geometry;
-pub mod gpu;
-pub mod grid;
-pub mod hyper;
-pub mod inspect;
-pub mod mesh;
-pub mod multigrid;
-pub mod output;
-pub mod plot;
 pub mod progress;
-pub mod quadrature;
-pub mod recovery;
-pub mod report;
-pub mod reproduce;
-pub mod solver;
+
 pub mod spatial;
+pub mod output;
 pub mod vtu;
+pub mod plot;
+pub mod expr;
+
+pub mod mesh;
+pub mod geometry;
+pub mod quadrature;
+pub mod element;
+pub mod grid;
+pub mod cells;
+pub mod recovery;
+
+pub mod discrete;
+
+pub mod backend;
+pub mod solver;
+pub mod condition;
+
+pub mod case;
+
+pub mod fem;
+pub mod contact;
+pub mod multigrid;
+
+pub mod driver;
+pub mod gpu;
+pub mod hyper;
+
+pub mod report;
+pub mod bodies;
+pub mod inspect;
+pub mod bench;
+pub mod reproduce;
 
 pub use error::{Error, Result};

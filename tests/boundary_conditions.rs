@@ -8,9 +8,9 @@
 
 use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{solve, Solution};
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::{solve, Solution};
 use cgfem_gpu::progress::Silent;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -3,8 +3,8 @@
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
+use cgfem_gpu::driver::setup::Setup;
 use cgfem_gpu::fem::operator::AssembledOperator;
-use cgfem_gpu::fem::setup::Setup;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -90,8 +90,8 @@ fn matrix_free_equals_assembled_on_random_vectors() {
 }
 
 use cgfem_gpu::discrete::field::{error_norms, interpolate, ErrorNorms};
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::solve::solve;
 
 /// Solves `case` at `level`; returns the errors of the solution and of the
 /// interpolant, and the loop's report.

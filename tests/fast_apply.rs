@@ -4,8 +4,8 @@
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
+use cgfem_gpu::driver::setup::Setup;
 use cgfem_gpu::fem::operator::AssembledOperator;
-use cgfem_gpu::fem::setup::Setup;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

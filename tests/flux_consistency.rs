@@ -12,7 +12,7 @@
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::cells::{face_neighbour, face_rule, CellKind};
-use cgfem_gpu::fem::setup::Setup;
+use cgfem_gpu::driver::setup::Setup;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

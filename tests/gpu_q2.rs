@@ -8,10 +8,10 @@
 use cgfem_gpu::case::physics::OuterMethod;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::error_norms;
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve_with;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::linear::{CpuSolver, LinearSolver};
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve_with;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
 use cgfem_gpu::solver::{KrylovOptions, KrylovStats};

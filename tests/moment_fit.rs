@@ -6,11 +6,11 @@
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::stabilisation::cell_s_matrix;
 use cgfem_gpu::element::reference::{add_btdb, elasticity_matrix, strain_displacement};
 use cgfem_gpu::element::{shape_values, ElementOrder};
 use cgfem_gpu::fem::operator::{AssembledOperator, ElasticOperator, OperatorParams};
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::stabilisation::cell_s_matrix;
 use nalgebra::DMatrix;
 
 fn sphere(overrides: &[&str]) -> Case {

@@ -9,9 +9,9 @@ use std::path::Path;
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::{error_norms, ErrorNorms};
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve;
 
 /// Runs `file` at `level` with `preconditioner`: the displacement, the error
 /// norms and the fixed-point report.

@@ -6,9 +6,9 @@
 use cgfem_gpu::case::physics::OuterMethod;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::error_norms;
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{solve, RecoveredLoad};
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::{solve, RecoveredLoad};
 
 fn case(name: &str) -> Case {
     let path = format!("{}/cases/{name}.toml", env!("CARGO_MANIFEST_DIR"));

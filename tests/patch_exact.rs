@@ -30,7 +30,7 @@
 //! nearly every cell is pathological and, rotated, every cell is a sliver.
 //! Its outer FGMRES needs 50–110 iterations, and it reaches the tolerance
 //! only because the outer loop confirms its residual estimate with the true
-//! residual (`cgfem_gpu::fem::outer_krylov`): before that (2026-11-26) the
+//! residual (`cgfem_gpu::driver::outer_krylov`): before that (2026-11-26) the
 //! estimate drifted from the true residual, the rotated Q1 placements
 //! stopped at energy errors of 7e-11 to 1.1e-10, and the Q2 ones were not
 //! solved (aligned 7.2e-10; rotated, still 3.5e-8 after 300 s).
@@ -39,9 +39,9 @@
 //! the aligned one (default 1).
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve;
 use cgfem_gpu::solver::Preconditioner;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -5,10 +5,10 @@
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::{error_norms, interpolate, ErrorNorms};
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::output::write_solution;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::{solve, RecoveredLoad};
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::output::write_solution;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::{solve, RecoveredLoad};
 
 /// Solves `case` at `level`: the errors of `u_h` and of the nodal
 /// interpolant, the fixed-point report and the number of pathological cells.

@@ -58,9 +58,9 @@ use std::time::Instant;
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::{error_norms, interpolate};
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

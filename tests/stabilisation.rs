@@ -3,7 +3,7 @@
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
-use cgfem_gpu::fem::setup::Setup;
+use cgfem_gpu::driver::setup::Setup;
 
 fn sphere_kappa(k2: f64) -> (f64, bool, usize) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sphere.toml");
@@ -49,8 +49,8 @@ fn s_reproduces_a_quadratic_field_inside_and_outside_the_body() {
 /// and checks it equals the field to 1e-10 at `points`³ Gauss points of each
 /// whole cell, some inside and some outside Ω.
 fn s_reproduces_the_exact_field(file: &str, overrides: &[String], level: u32, points: usize) {
+    use cgfem_gpu::driver::stabilisation::recover_displacement_of;
     use cgfem_gpu::element::tensor_gauss_rule;
-    use cgfem_gpu::fem::stabilisation::recover_displacement_of;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
     let case = Case::from_file_with(&path, overrides).unwrap();
     let setup = Setup::new(&case, Some(level)).unwrap();
@@ -138,8 +138,8 @@ fn the_s_term_keeps_accuracy_and_iterations_grow_like_one_over_h() {
 /// sphere at level 4 whose whole surface is a Neumann part with `traction`,
 /// for the quadratic field `u` (S sampled from `u` itself).
 fn neumann_sphere_s_error(traction: &str) -> f64 {
+    use cgfem_gpu::driver::stabilisation::recover_displacement_of;
     use cgfem_gpu::element::tensor_gauss_rule;
-    use cgfem_gpu::fem::stabilisation::recover_displacement_of;
     let text = format!(
         r#"
 name = "neumann_sphere"
@@ -241,9 +241,9 @@ fn q2_the_s_term_bounds_the_condition_number() {
 #[test]
 fn the_s_term_puts_no_net_force_or_moment_on_the_body() {
     use cgfem_gpu::discrete::field::{interpolate, value_and_gradient};
+    use cgfem_gpu::driver::stabilisation::{recover_displacement, s_rhs};
     use cgfem_gpu::element::tensor_gauss_rule;
     use cgfem_gpu::expr::{Expr, VectorExpr};
-    use cgfem_gpu::fem::stabilisation::{recover_displacement, s_rhs};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/bracket.toml");
     let offset = ["grid.offset=[0.1, 0.9, 0.05]".to_string()];
     let case = Case::from_file_with(&path, &offset).unwrap();

@@ -11,9 +11,9 @@
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::error_norms;
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve;
 use cgfem_gpu::mesh::stl::read_stl;
 use cgfem_gpu::mesh::stl::write_binary_stl;
 use cgfem_gpu::mesh::tessellated_sphere;

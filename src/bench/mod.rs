@@ -47,10 +47,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::{CpuBackend, LinearOperator};
 use crate::case::Case;
+use crate::driver::setup::Setup;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::fem::operator::AssembledOperator;
-use crate::fem::setup::Setup;
 use crate::solver::{solve, KrylovMethod, KrylovOptions, Preconditioner};
 
 pub use csr::{csr_bytes, RayonCsr};

@@ -27,10 +27,10 @@ use super::setup::BodySetup;
 use crate::contact::ContactPoints;
 use crate::discrete::boundary_mesh::BoundaryMesh;
 use crate::discrete::field::value_and_gradient;
+use crate::driver::output::{level_set, von_mises};
+use crate::driver::surface_output::write_tagged_triangles;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
-use crate::fem::output::{level_set, von_mises};
-use crate::fem::surface_output::write_tagged_triangles;
 use crate::hyper::problem::HyperProblem;
 use crate::hyper::residual::point_fields;
 use crate::vtu::{

@@ -4,7 +4,7 @@
 //!
 //! **Samples.** At the 2×2×2 Gauss points of an inside cell and at most 16
 //! points of a cut cell ([`Cells::fit_points`], strided: fewer than the
-//! linear recovery of [`crate::fem::recovery::sample_positions`] takes) the Cauchy stress of the
+//! linear recovery of [`crate::driver::recovery::sample_positions`] takes) the Cauchy stress of the
 //! current state, `σ = P Fᵀ / J`, stored as Voigt `(xx, yy, zz, yz, xz, xy)`
 //! at the point's **reference** position `X`.
 //!
@@ -24,9 +24,9 @@ use nalgebra::Matrix3;
 
 use crate::cells::pieces::Pieces;
 use crate::cells::{CellKind, Cells};
+use crate::driver::recovery::voigt_times;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
-use crate::fem::recovery::voigt_times;
 use crate::grid::Grid;
 use crate::hyper::material::PointState;
 use crate::hyper::problem::{quad_point, HyperProblem, QuadPoint};

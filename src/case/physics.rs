@@ -192,10 +192,10 @@ impl Default for StabilisationSpec {
 #[serde(rename_all = "lowercase")]
 pub enum OuterMethod {
     /// Flexible GMRES on `(A − R) U = F`, preconditioned by inner solves
-    /// with `A` ([`crate::fem::outer_krylov`]).
+    /// with `A` ([`crate::driver::outer_krylov`]).
     #[default]
     Fgmres,
-    /// The paper's fixed point: `A U_{k+1} = F + R(U_k)` ([`crate::fem::fixed_point`]).
+    /// The paper's fixed point: `A U_{k+1} = F + R(U_k)` ([`crate::driver::fixed_point`]).
     Picard,
 }
 

@@ -204,8 +204,8 @@ pub fn check_rules(
 #[cfg(test)]
 mod tests {
     use crate::case::Case;
+    use crate::driver::setup::Setup;
     use crate::error::Error;
-    use crate::fem::setup::Setup;
 
     const STEEL: &str = "young = 1000\npoisson = 0.3";
     const CLAMP: &str = "[dirichlet.xmin]\nvalue = [\"0\", \"0\", \"0\"]\n";

@@ -229,7 +229,7 @@ pub fn add_element_point_load(
 }
 
 /// `F_T = Σ_q w_q N_qᵀ t̂_q` for recovered tractions `t̂` at the Dirichlet
-/// points (already masked, [`super::recovery::recovered_tractions`]).
+/// points (already masked, [`crate::driver::recovery::recovered_tractions`]).
 pub fn traction_rhs(
     grid: &Grid,
     dofs: &DofMap,

@@ -39,7 +39,7 @@
 //!   the 50 outer iterations (none with the paper's `F_S`);
 //! - one projection over Ω* with the FGMRES restarted every 10 directions:
 //!   13 of 120; restarted every 20: none, in at most 41 iterations (the
-//!   cycle is now longer where memory allows, `super::outer_krylov`);
+//!   cycle is now longer where memory allows, `crate::driver::outer_krylov`);
 //! - a level-6 bracket at half scale (1 991 pathological cells): 56 outer
 //!   iterations with the paper's `F_S`, 95 with this one (its reaction
 //!   differs by 1.9 %), hence the default budget of 200.

@@ -15,10 +15,10 @@
 use std::sync::Arc;
 
 use crate::backend::Backend;
+use crate::driver::linear::LinearSolver;
+use crate::driver::setup::Setup;
 use crate::error::{Error, Result};
-use crate::fem::linear::LinearSolver;
 use crate::fem::operator::ElasticOperator;
-use crate::fem::setup::Setup;
 use crate::solver::Preconditioner;
 use crate::solver::{solve, solve_preconditioned, KrylovOptions, KrylovStats};
 

@@ -190,7 +190,7 @@ fn reduction_mirrors_sum_like_the_cpu_backend() {
 fn apply_mirror_equals_the_host_operator_in_one_or_several_chunks() {
     use crate::backend::LinearOperator;
     use crate::case::Case;
-    use crate::fem::setup::Setup;
+    use crate::driver::setup::Setup;
     // Not held, so no multigrid (its coarsest factor needs a held body).
     let text = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
                 [material]\nyoung = 1000.0\npoisson = 0.3\n\
@@ -303,7 +303,7 @@ fn q1_mirrors_equal_the_host_operator() {
         let path = format!("{}/cases/{name}.toml", env!("CARGO_MANIFEST_DIR"));
         let set = ["stabilisation.k2=0.01".to_string()];
         let case = crate::case::Case::from_file_with(std::path::Path::new(&path), &set).unwrap();
-        let setup = crate::fem::setup::Setup::new(&case, Some(4)).unwrap();
+        let setup = crate::driver::setup::Setup::new(&case, Some(4)).unwrap();
         let op = &setup.op;
         let n = op.nrows();
         let x: Vec<f64> = (0..n).map(|i| ((i * 31) % 17) as f64 - 8.0).collect();
@@ -382,13 +382,13 @@ fn only_buffers_beyond_the_largest_buffer_are_refused() {
 }
 
 /// The level-4 sphere of radius 1 (Q1).
-fn sphere_setup(level: u32) -> crate::fem::setup::Setup {
+fn sphere_setup(level: u32) -> crate::driver::setup::Setup {
     // Not held, so no multigrid (its coarsest factor needs a held body).
     let text = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
                 [material]\nyoung = 1000.0\npoisson = 0.3\n\
                 [solver]\npreconditioner = \"jacobi\"\n";
     let case = crate::case::Case::from_str("sphere.toml", text).unwrap();
-    crate::fem::setup::Setup::new(&case, Some(level)).unwrap()
+    crate::driver::setup::Setup::new(&case, Some(level)).unwrap()
 }
 
 /// Apply windows under a 32 KiB binding: the level-4 sphere splits into

@@ -22,7 +22,7 @@
 //! blended by CPE ([`crate::recovery::recover`]); the patch polynomials
 //! extend `S` over the whole cell. The fit is a plain least-squares fit to
 //! `u_h`, *without* the equilibrium rows of the linear S-term
-//! ([`crate::fem::stabilisation`]): there `∇·σ(û) + b = 0` is linear in `û`
+//! ([`crate::driver::stabilisation`]): there `∇·σ(û) + b = 0` is linear in `û`
 //! (`σ = D ε`), here the stress is `P(F(û))` of a hyperelastic material, and
 //! collocating the linear operator at a finitely strained state would pull
 //! `S` towards a field that is not the body's equilibrium; a plain fit of the
@@ -44,9 +44,10 @@ use super::problem::{HyperProblem, CELL_DOFS, NODES};
 use super::residual::CellVector;
 use crate::cells::pieces::Pieces;
 use crate::cells::{CellKind, Cells};
+use crate::driver::stabilisation::cell_s_matrix;
 use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
-use crate::fem::stabilisation::{cell_s_matrix, pathological_cells};
+use crate::fem::level::pathological_cells;
 use crate::geometry::Geometry;
 use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
 

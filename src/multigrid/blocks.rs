@@ -259,7 +259,7 @@ fn inverted(a: DMatrix<f64>, nodes: &[usize]) -> Option<Block> {
 mod tests {
     use super::*;
     use crate::backend::LinearOperator;
-    use crate::fem::setup::Setup;
+    use crate::driver::setup::Setup;
     use crate::multigrid::tests::{scrambled, sphere};
 
     /// On the cut Q2 sphere: every block of `B⁻¹` inverts the assembled

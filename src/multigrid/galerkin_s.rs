@@ -77,9 +77,10 @@ impl FineSTerm<'_> {
 mod tests {
     use super::*;
     use crate::backend::LinearOperator;
+    use crate::driver::setup::Setup;
     use crate::element::ElementOrder;
-    use crate::fem::setup::{LevelOperator, Setup};
-    use crate::fem::stabilisation::pathological_cells;
+    use crate::fem::level::pathological_cells;
+    use crate::fem::level::LevelOperator;
     use crate::multigrid::tests::{dot, scrambled, sphere};
     use crate::multigrid::transfer::{Lattice, Transfer};
 

@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::backend::CpuBackend;
-use crate::fem::setup::Setup;
+use crate::driver::setup::Setup;
 use crate::solver::{solve, solve_preconditioned, KrylovMethod, KrylovOptions, Preconditioner};
 
 /// The paper's sphere (Problem 1) in `element` with S-term weight `k2`.
@@ -175,7 +175,7 @@ fn multigrid_cg_solves_the_same_system_as_jacobi_cg() {
 /// hierarchy settings (the coarsest level small for the test: 300 dofs).
 #[test]
 fn first_solve_iterations_are_bounded_over_the_levels() {
-    use crate::fem::linear::{CpuSolver, LinearSolver};
+    use crate::driver::linear::{CpuSolver, LinearSolver};
     let runs = [("q1", 3..=5, 20), ("q2", 3..=4, 30)];
     for (k2, (element, levels, bound)) in [0.0, 0.01]
         .into_iter()
@@ -187,7 +187,7 @@ fn first_solve_iterations_are_bounded_over_the_levels() {
         for level in levels {
             let mut setup = Setup::new(&case, Some(level)).unwrap();
             setup.multigrid = Some(hierarchy(&case, &setup, &SMALL));
-            let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
+            let opts = crate::driver::solve::fixed_point_options(&case.spec.solver).krylov;
             let mut u = vec![0.0; setup.op.nrows()];
             let stats = CpuSolver::for_setup(&setup)
                 .solve(&setup.fixed_rhs, &mut u, &opts)

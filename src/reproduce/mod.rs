@@ -22,11 +22,11 @@ use crate::case::physics::OuterMethod;
 use crate::case::Case;
 use crate::condition::{condition_number, ConditionEstimate, ConditionOptions};
 use crate::discrete::field::error_norms;
+use crate::driver::fixed_point::FixedPointReport;
+use crate::driver::linear::{CpuSolver, LinearSolver};
+use crate::driver::setup::Setup;
+use crate::driver::solve::solve;
 use crate::error::{Error, Result};
-use crate::fem::fixed_point::FixedPointReport;
-use crate::fem::linear::{CpuSolver, LinearSolver};
-use crate::fem::setup::Setup;
-use crate::fem::solve::solve;
 use crate::output::write_atomic;
 use crate::progress::{Event, Phase, Progress};
 use crate::solver::{KrylovMethod, Preconditioner};
@@ -141,7 +141,7 @@ pub fn run_sphere(case: &Case, cfg: &RunConfig) -> Result<RunOutcome> {
         return Ok(out);
     }
     if cfg.first_solve_only {
-        let opts = crate::fem::solve::fixed_point_options(&case.spec.solver).krylov;
+        let opts = crate::driver::solve::fixed_point_options(&case.spec.solver).krylov;
         let mut u = vec![0.0; setup.fixed_rhs.len()];
         match CpuSolver::for_setup(&setup).solve(&setup.fixed_rhs, &mut u, &opts) {
             Ok(stats) => {

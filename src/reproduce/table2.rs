@@ -41,7 +41,7 @@ use crate::bodies::setup::BodiesSetup;
 use crate::case::physics::RecoveryMode;
 use crate::case::Case;
 use crate::error::Result;
-use crate::fem::stabilisation::pathological_cells;
+use crate::fem::level::pathological_cells;
 use crate::plot::{Chart, Series};
 use crate::progress::{Progress, Silent};
 use crate::report::newton::LoadStepRow;

@@ -19,9 +19,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use cgfem_gpu::bodies::setup::BodiesSetup;
 use cgfem_gpu::case::{Case, SolutionPath};
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve;
 use cgfem_gpu::Error;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};

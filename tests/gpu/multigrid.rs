@@ -7,10 +7,10 @@
 //! bracket at level 5.
 
 use cgfem_gpu::backend::LinearOperator;
-use cgfem_gpu::fem::fixed_point::FixedPointReport;
-use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::solve_with;
+use cgfem_gpu::driver::fixed_point::FixedPointReport;
+use cgfem_gpu::driver::linear::{CpuSolver, LinearSolver};
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::solve_with;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{context_or_skip, GpuBackend, PrecisionChoice};
 

@@ -8,8 +8,8 @@
 //! iterations for the solve, as for the unsplit GPU).
 
 use cgfem_gpu::backend::{Backend, CpuBackend, LinearOperator};
+use cgfem_gpu::driver::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::error::Error;
-use cgfem_gpu::fem::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::fem::operator::ElasticOperator;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{context_or_skip, GpuBackend, GpuOperator, PrecisionChoice};

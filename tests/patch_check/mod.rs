@@ -6,8 +6,8 @@
 
 use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::discrete::field::{error_norms, interpolate};
-use cgfem_gpu::fem::setup::Setup;
-use cgfem_gpu::fem::solve::RecoveredLoad;
+use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::solve::RecoveredLoad;
 
 /// Tight solves, so that what is left is the discretisation's: the outer
 /// FGMRES to a residual of 1e-14 (at 1e-13 the rotated bracket kept 2e-10 of

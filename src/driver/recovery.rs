@@ -9,12 +9,12 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::rhs::DirichletPoint;
 use super::setup::Setup;
 use crate::cells::CellKind;
 use crate::discrete::field::{stress_voigt, value_and_gradient, CellField};
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
+use crate::fem::rhs::DirichletPoint;
 use crate::recovery::{recover_planned, FitPlans, Recovered, SprOptions};
 
 /// The Q1 vertex nodes of the cells holding Dirichlet points and of the cells

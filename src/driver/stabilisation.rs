@@ -15,7 +15,7 @@
 //! polynomials are blended by CPE, `S(x) = Σ_i N_i^lin(x) û_i(x)`. `S` is a
 //! polynomial in each cell, so it is defined on the part of the cell outside
 //! Ω too. `F_S` is evaluated with `S + R a`, `R a` the rigid-body part of
-//! `u_h − S` on Ω* (`super::rigid_resultant`): the paper's `F_S` puts a net
+//! `u_h − S` on Ω* (`crate::fem::rigid_resultant`): the paper's `F_S` puts a net
 //! force on the body that no reaction balances; this one does not, and it
 //! equals the paper's whenever `S(u_h) = u_h`. `[stabilisation] balanced =
 //! false` keeps the paper's (what `reproduce` runs). Where the patch's cut cells carry Neumann points, boundary
@@ -26,32 +26,20 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::problem::Boundary;
 use super::recovery::{sample_positions, vertex_nodes_of};
-use super::rhs::add_point_load;
-use super::rigid_resultant::RigidFit;
 use super::setup::Setup;
-use crate::cells::Cells;
 use crate::discrete::field::CellField;
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
+use crate::fem::problem::Boundary;
+use crate::fem::rhs::add_point_load;
+use crate::fem::rigid_resultant::RigidFit;
 use crate::quadrature::saye::SurfacePoint;
 use crate::recovery::{
     recover_planned, FitPlans, LinearConstraints, Monomials, Patch, PatchSamples, Recovered,
     Sample, SprOptions,
 };
-
-/// Pathological cells: cut cells with `0 < A_c < a`, ascending.
-pub fn pathological_cells(cells: &Cells, a: f64) -> Vec<usize> {
-    cells
-        .cut
-        .iter()
-        .zip(&cells.fraction)
-        .filter(|(_, &f)| f > 0.0 && f < a)
-        .map(|(&c, _)| c)
-        .collect()
-}
 
 /// `K_S` of one cell, row-major: `(k2 E / h²) h³ M_ref`.
 pub fn cell_s_matrix(order: ElementOrder, factor: f64, h: f64) -> Vec<f64> {

@@ -9,11 +9,11 @@ use super::fixed_point::{fixed_point_with_progress, FixedPointOptions, FixedPoin
 use super::linear::{CpuSolver, LinearSolver};
 use super::outer_krylov::fgmres_fixed_point;
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
-use super::rhs::traction_rhs;
 use super::setup::Setup;
 use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
+use crate::fem::rhs::traction_rhs;
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::recovery::FitPlans;
 use crate::solver::KrylovOptions;

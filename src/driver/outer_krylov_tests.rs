@@ -4,8 +4,8 @@
 //! slowly. Inner solves are CG + Jacobi on the CPU to `inner_rel_tol`.
 
 use super::*;
-use crate::fem::fixed_point::fixed_point_with_progress;
-use crate::fem::linear::CpuSolver;
+use crate::driver::fixed_point::fixed_point_with_progress;
+use crate::driver::linear::CpuSolver;
 use crate::progress::Silent;
 use crate::solver::test_operators::{laplacian_extreme_eigenvalues, Stencil7};
 use crate::solver::{KrylovMethod, KrylovOptions, Preconditioner};

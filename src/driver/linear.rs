@@ -5,8 +5,8 @@
 //! `A u = rhs` from the `u` given.
 
 use crate::backend::{CpuBackend, LinearOperator};
+use crate::driver::setup::Setup;
 use crate::error::Result;
-use crate::fem::setup::Setup;
 use crate::multigrid::Multigrid;
 use crate::solver::{solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner};
 
