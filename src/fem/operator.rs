@@ -3,8 +3,9 @@
 //!
 //! Every inside cell has the same element matrix `h K_ref`, so
 //! inside cells store nothing; each cut cell stores the moment-fitted weights
-//! of its matrix `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN` (DESIGN
-//! §3.1) at the `(2p+1)³` Gauss points of the cell ([`super::moment_fit`]:
+//! of its matrix `Σ_vol w BᵀDB + Σ_{Dirichlet points} w (β/h) NᵀN`
+//! (docs/method.md, *Stabilised Dirichlet conditions*) at the `(2p+1)³`
+//! Gauss points of the cell ([`super::moment_fit`]:
 //! exact, 250 numbers for Q2 instead of 6561), for Q1 rearranged into the
 //! factored form of [`super::q1_forms`] (114 numbers instead of 576), and
 //! the S-stabilisation adds its whole-cell mass to the mass part of the cells
