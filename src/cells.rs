@@ -46,7 +46,7 @@ pub enum CellKind {
 /// Gauss order) and 4 for Q2 (one more than its Gauss order).
 ///
 /// Saye's rules converge at about order 2q in h on curved boundaries (measured
-/// on the unit sphere, see `tests/quadrature.rs`): q = 2 gives 4th order,
+/// on the unit sphere, see `tests/suite/geometry/quadrature.rs`): q = 2 gives 4th order,
 /// above the 2nd that Q1 needs. Q2 needs 3rd order, which q = 3 would give, but
 /// the cell-by-cell divergence theorem to 1e-10 at level 5 needs q = 4 (q = 3
 /// leaves 3e-9 on the few cells whose cut is strongly curved relative to h).
@@ -59,13 +59,13 @@ pub fn cut_rule_points(order: ElementOrder) -> usize {
 
 /// A cut cell gives its fits all of its points up to this many
 /// ([`Cells::fit_points`]): Q1 cut cells have about 14 with the default
-/// rule (the plate with a hole of `tests/symmetry.rs`: 8 to 128), Q2 64 to
+/// rule (the plate with a hole of `tests/suite/fem/symmetry.rs`: 8 to 128), Q2 64 to
 /// 384 on the sphere at level 3; only cells refined where several surfaces
 /// meet have more (Hertz's ball at its pole on two symmetry planes: over
 /// 1 000). With every point, `quadrature.points = 8` made the recovery of a
 /// level-3 patch test minutes long (512 points a cell). Lower caps cost the
 /// Q2 fixed point its conditioning: with 128 the Q2 sphere's Jacobi and
-/// multigrid answers were 2.6e-7 apart (`tests/multigrid_fixed_point.rs`
+/// multigrid answers were 2.6e-7 apart (`tests/suite/fem/multigrid_fixed_point.rs`
 /// asks 1e-7), as with a density-following symmetric subset of 64.
 pub const MAX_FIT_POINTS: usize = 384;
 
@@ -224,7 +224,7 @@ impl Cells {
     /// All points, where they are not too many, because a strided subset is
     /// not mirror symmetric: a mirror image of the cell lists its points in
     /// another order, so a symmetric problem would get a recovery that is
-    /// not symmetric (`tests/symmetry.rs`). A cell over the cap (a raised
+    /// not symmetric (`tests/suite/fem/symmetry.rs`). A cell over the cap (a raised
     /// `quadrature.points`, or a cell refined where several surfaces meet)
     /// is strided and not symmetric.
     pub fn fit_points(&self, i: usize, max: usize) -> Vec<[f64; 3]> {

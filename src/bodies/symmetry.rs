@@ -14,7 +14,7 @@
 //! quadrature, which they do when the plane is a CSG cut on cell faces
 //! (`crate::quadrature::saye`'s face-plane sweeps), and wherever their
 //! recovered terms are fitted to the same samples: the S-term's patches
-//! continue across the planes into the mirror image. `tests/symmetry.rs`
+//! continue across the planes into the mirror image. `tests/suite/fem/symmetry.rs`
 //! finds a quarter plate with a hole equal to the full one to 8e-12 with the
 //! S-term off and to 9e-15 with the default S-term at level 3: the full
 //! model's cut cells sample mirror-image points on the two sides of each

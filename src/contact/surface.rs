@@ -23,7 +23,7 @@
 //!
 //! Away from the rims the geometric error is O(h²): chords of a surface of
 //! curvature κ sag by at most `κ ℓ²/8` over an edge of length `ℓ ≤ √3 h`,
-//! and the area converges at rate 2 (measured in `tests/contact_search.rs`).
+//! and the area converges at rate 2 (measured in `tests/suite/contact/search.rs`).
 //!
 //! The surface also indexes the triangles around each vertex, for the
 //! area-weighted vertex normals of the curved master patches

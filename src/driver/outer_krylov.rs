@@ -40,7 +40,7 @@
 //! the tolerance, the residual of its `U` is computed afresh and, if it is
 //! not there, the next cycle starts from it (iterative refinement). The
 //! estimate is the true residual in exact arithmetic only: on a rotated
-//! thin plate (the STL plate with holes at level 5, `tests/patch_exact.rs`)
+//! thin plate (the STL plate with holes at level 5, `tests/suite/fem/patch_exact.rs`)
 //! the coefficients of the 43 directions cancel, the round-off of each
 //! `M z_j` adds up, and a cycle whose estimate was 2.7e-15 left a true
 //! residual of 2.5e-11 and an energy error of 2.5e-8.
@@ -48,7 +48,7 @@
 //! The Arnoldi basis is restarted after [`restart_length`] directions, at
 //! least [`MIN_RESTART`] and as many as fit in [`BASIS_BYTES`], so the
 //! memory is `2 (length + 1)` vectors, allocated as the directions come.
-//! 20 and not 10: on rotated coarse brackets (`tests/robustness_runs.rs`,
+//! 20 and not 10: on rotated coarse brackets (`tests/suite/runs/robustness_runs.rs`,
 //! 16 placements of seed 20261123) a cycle of 10 took 40–80 outer
 //! iterations, one of 20 took 20–41. Longer where memory allows: on the
 //! rotated thin plate a cycle of 20 crawled (500 outer iterations to a

@@ -13,7 +13,7 @@
 //! (the polynomial fields of the patch tests) but not in general: on a coarse
 //! bracket it is up to 46 % of the applied load, and the reaction of the
 //! clamped part then misses the load by that much (measured in
-//! `tests/robustness_runs.rs`).
+//! `tests/suite/runs/robustness_runs.rs`).
 //!
 //! The cure keeps `A` (and so the conditioning the S-term exists for) and
 //! consistency: `F_S` is evaluated with `S(u_h) + R(x) a` instead of
@@ -33,7 +33,7 @@
 //! The price is in the outer iteration: the S-term no longer resists a
 //! common rigid motion of the pathological cells' nodes against the smooth
 //! extension, six modes that the outer Krylov method must find. Measured on
-//! rotated coarse brackets (`tests/robustness_runs.rs`, seed 20261123):
+//! rotated coarse brackets (`tests/suite/runs/robustness_runs.rs`, seed 20261123):
 //! - one projection per cell (each cell's residual self-equilibrated) takes
 //!   that resistance from every cell's six modes: 37 of 120 runs then missed
 //!   the 50 outer iterations (none with the paper's `F_S`);

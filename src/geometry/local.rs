@@ -87,7 +87,7 @@ impl Geometry {
         match node {
             Node::Leaf(i) => {
                 let leaf = &self.leaves[*i];
-                let natural = leaf.eval(box_intervals(&b));
+                let natural = leaf.eval(box_intervals(b));
                 let v = if natural.strictly_signed() {
                     natural
                 } else {

@@ -97,7 +97,7 @@ impl Geometry {
     /// combined through the tree.
     pub fn bounds(&self, b: &Aabb) -> Interval {
         // The natural extension is cheap and often decisive already.
-        let natural: Interval = self.eval(box_intervals(&b));
+        let natural: Interval = self.eval(box_intervals(b));
         if natural.strictly_signed() {
             return natural;
         }

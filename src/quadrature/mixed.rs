@@ -22,7 +22,7 @@
 //!   (see [`on_boundary`]). Where another surface crosses a mesh edge these
 //!   are a few boxes around each crossing point.
 //!
-//! **Accuracy.** Measured in `tests/cut_volume.rs` and docs/stl.md. The
+//! **Accuracy.** Measured in `tests/suite/geometry/cut_volume.rs` and docs/stl.md. The
 //! patch test stays exact whatever the rules' accuracy: the boundary flux of
 //! every cut cell is derived from its volume rule
 //! ([`crate::fem::flux_consistency`]).

@@ -18,7 +18,7 @@
 //! *positive* entry is used as it is: Jacobi then scales that dof exactly,
 //! whereas flooring it leaves the dof unresolved by the Krylov tolerance and
 //! the fixed point on the recovered terms stalls (measured: the Q1 patch test
-//! of `tests/elasticity.rs` stalled at `ε ≈ 1e-6` when positive entries below
+//! of `tests/suite/fem/elasticity.rs` stalled at `ε ≈ 1e-6` when positive entries below
 //! the floor were raised to it). Entries below `−DIAGONAL_FLOOR · max |d|` are
 //! not floored: for CG they prove that `A` is not positive definite and are a
 //! breakdown; CGS and BiCGStab use them as they are. A non-finite entry is

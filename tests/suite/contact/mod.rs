@@ -1,0 +1,10 @@
+//! Contact: the search, the enforcement and its tangent, Newton on contact, grids that fall anywhere, friction, Hertz and Cattaneo–Mindlin.
+
+mod enforce;
+mod friction;
+mod grids;
+mod hertz;
+mod mindlin;
+mod multigrid;
+mod newton;
+mod search;

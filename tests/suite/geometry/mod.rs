@@ -1,0 +1,10 @@
+//! Geometry and cut cells: quadrature, cut volumes, moment fitting, STL parts (clean, fuzzed, dirty), pieces.
+
+mod cut_volume;
+mod dirty_meshes;
+mod moment_fit;
+mod pieces;
+mod quadrature;
+mod robustness;
+mod stl_fuzz;
+mod stl_parts;

@@ -1,0 +1,15 @@
+//! Whole runs through the command line: cases, bad input, progress and Ctrl-C, reports, the README, the paper's tables, fuzzed cases.
+
+mod bad_inputs;
+mod case_model;
+mod cases;
+mod cli;
+mod cli_progress;
+mod diagnostics;
+mod examples;
+mod fuzz_case;
+mod readme_reference;
+mod reproduce;
+mod robustness_runs;
+mod surface_output;
+mod table2;
