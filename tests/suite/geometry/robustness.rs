@@ -1,5 +1,5 @@
 //! Robustness of classification and cut-cell quadrature over seeded random
-//! placements (600; 10 000 in the long tier, `CGFEM_LONG=1`): spheres, shells, tori and a CSG part (a block with a
+//! placements (300; 10 000 in the long tier, `CGFEM_LONG=1`): spheres, shells, tori and a CSG part (a block with a
 //! through hole), with grid offsets and radii drawn at random, plus placements
 //! that are degenerate on purpose (boundaries on grid planes, spheres tangent to
 //! grid planes and through grid nodes). No NaN, no panic, no negative weight,
@@ -111,11 +111,11 @@ fn random_case(rng: &mut ChaCha8Rng, k: usize) -> Case {
     }
 }
 
-/// Placements drawn: 600, or 10 000 in the long tier (`CGFEM_LONG=1`).
+/// Placements drawn: 300, or 10 000 in the long tier (`CGFEM_LONG=1`).
 fn placements() -> usize {
     match std::env::var_os("CGFEM_LONG") {
         Some(_) => 10_000,
-        None => 600,
+        None => 300,
     }
 }
 

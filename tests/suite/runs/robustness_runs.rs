@@ -41,7 +41,7 @@
 //! `e / e_I` 0.55–0.91; reaction imbalance at most 2.6e-10 (bracket) and
 //! 1.6e-10 (plate).
 //!
-//! `CGFEM_ROBUST_RUNS=N` (default 30; 120 in the long tier, `CGFEM_LONG=1`)
+//! `CGFEM_ROBUST_RUNS=N` (default 16; 120 in the long tier, `CGFEM_LONG=1`)
 //! sets the number of runs,
 //! `CGFEM_ROBUST_MAX_LEVEL=L` (default 3, at most 6) the top level and
 //! `CGFEM_ROBUST_MIN_LEVEL` (default 2) the lowest: levels are drawn from that
@@ -437,13 +437,13 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-/// `CGFEM_ROBUST_RUNS` runs (default 30, levels 2–3: about half a minute on
+/// `CGFEM_ROBUST_RUNS` runs (default 16, levels 2–3: about 20 s on
 /// two cores; 120 with `CGFEM_LONG=1`); the full sweep is `CGFEM_ROBUST_RUNS=500
 /// CGFEM_ROBUST_MAX_LEVEL=6` (see the module doc).
 #[test]
 fn default_settings_solve_every_placement() {
     let long = std::env::var_os("CGFEM_LONG").is_some();
-    let n: usize = env("CGFEM_ROBUST_RUNS", if long { 120 } else { 30 });
+    let n: usize = env("CGFEM_ROBUST_RUNS", if long { 120 } else { 16 });
     let max_level: u32 = env("CGFEM_ROBUST_MAX_LEVEL", 3u32).clamp(2, 6);
     let min_level: u32 = env("CGFEM_ROBUST_MIN_LEVEL", 2u32).clamp(2, max_level);
     let seed: u64 = env("CGFEM_ROBUST_SEED", 20_261_123);
