@@ -23,7 +23,6 @@
 //! bound (`θ_max ≤ λ_max`, `1/θ ≥ λ_min`); it is flagged the same way. The
 //! Krylov bases are stored: memory is `n × steps` doubles per run.
 
-mod lanczos;
 pub(crate) mod sparse;
 #[cfg(test)]
 mod tests;
@@ -31,8 +30,8 @@ mod tests;
 use faer::sparse::SparseColMat;
 use serde::Serialize;
 
+use crate::solver::lanczos::reorthogonalised::{End, Lanczos};
 use crate::{Error, Result};
-use lanczos::{End, Lanczos};
 use sparse::Cholesky;
 
 /// `λ_min ≤ RESOLUTION · λ_max` is below what f64 resolves (`ε ≈ 2.2e-16`):

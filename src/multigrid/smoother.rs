@@ -39,7 +39,8 @@ use super::blocks::BlockJacobi;
 use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
 use crate::fem::operator::ElasticOperator;
-use crate::solver::{floor_diagonal, tridiagonal_eigenvalue};
+use crate::solver::floor_diagonal;
+use crate::solver::lanczos::largest_eigenvalue;
 
 /// Default degree `k` of the Chebyshev polynomial (applies of `A` per smoothing step,
 /// counting the residual of a non-zero start).
@@ -84,7 +85,7 @@ impl Chebyshev {
         })?;
         let inv_diag: Vec<f64> = d.iter().map(|v| 1.0 / v).collect();
         let pre = BlockJacobi::new(op, &inv_diag);
-        let lambda = largest_eigenvalue(op, &pre, LANCZOS_STEPS);
+        let lambda = largest_eigenvalue(op, &|r, z| pre.apply(r, z), LANCZOS_STEPS);
         if !(lambda.is_finite() && lambda > 0.0) {
             return Err(Error::Breakdown {
                 method: "multigrid".into(),
@@ -160,71 +161,4 @@ pub(crate) fn rsub_assign(r: &mut [f64], b: &[f64]) {
             rc[i] = b[base + i] - rc[i];
         }
     });
-}
-
-/// The largest Ritz value of `steps` Lanczos steps on `B⁻¹A` in the `B`
-/// inner product (`pre = B⁻¹`) from a fixed start vector, without
-/// reorthogonalisation (the extreme Ritz value converges first). With the
-/// Lanczos vectors `q_k` and `p_k = B q_k`:
-///
-/// ```text
-/// z = B⁻¹ v;  β = √(v·z);  q₀ = z/β;  p₀ = v/β;  β₀ = 0
-/// w = A q_k − β_k p_{k−1};  α_k = w·q_k;  w = w − α_k p_k
-/// z = B⁻¹ w;  β_{k+1} = √(w·z);  q_{k+1} = z/β_{k+1};  p_{k+1} = w/β_{k+1}
-/// ```
-/// and the top eigenvalue of the tridiagonal `(α, β)`
-/// ([`tridiagonal_eigenvalue`]). Not `condition::lanczos`: that one keeps the
-/// whole basis (full reorthogonalisation, Ritz vectors) for κ; a smoother
-/// bound needs only the top Ritz value, so the three-term recurrence holds
-/// a few vectors instead of `steps` at every level of the hierarchy.
-fn largest_eigenvalue(op: &dyn LinearOperator, pre: &BlockJacobi, steps: usize) -> f64 {
-    let n = op.nrows();
-    // A fixed start with every entry non-zero and no grid-aligned pattern.
-    let mut p: Vec<f64> = (0..n)
-        .map(|i| 1.0 + 0.5 * ((i as f64 + 1.0) * 0.618_033_988_749_895).fract())
-        .collect();
-    let mut q = vec![0.0; n];
-    pre.apply(&p, &mut q);
-    let norm = dot(&p, &q).sqrt();
-    scale(&mut p, 1.0 / norm);
-    scale(&mut q, 1.0 / norm);
-    let (mut p_prev, mut w, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let (mut diag, mut off2) = (Vec::new(), Vec::new());
-    let mut beta = 0.0;
-    for _ in 0..steps.min(n) {
-        op.apply(&q, &mut w);
-        for i in 0..n {
-            w[i] -= beta * p_prev[i];
-        }
-        let alpha = dot(&w, &q);
-        for i in 0..n {
-            w[i] -= alpha * p[i];
-        }
-        diag.push(alpha);
-        pre.apply(&w, &mut z);
-        beta = dot(&w, &z).max(0.0).sqrt();
-        if beta.is_nan() || beta <= 1e-12 * alpha.abs() {
-            break;
-        }
-        off2.push(beta * beta);
-        std::mem::swap(&mut p_prev, &mut p);
-        for i in 0..n {
-            p[i] = w[i] / beta;
-            q[i] = z[i] / beta;
-        }
-    }
-    off2.truncate(diag.len() - 1);
-    tridiagonal_eigenvalue(&diag, &off2, diag.len() - 1)
-}
-
-/// `a · b`.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// `v = s v`.
-fn scale(v: &mut [f64], s: f64) {
-    for x in v.iter_mut() {
-        *x *= s;
-    }
 }

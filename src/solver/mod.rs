@@ -28,7 +28,7 @@
 //! - Iteration budget used up: [`Error::MaxIterations`]. Both exit with code 3.
 
 mod krylov;
-mod lanczos;
+pub mod lanczos;
 mod precond;
 #[cfg(test)]
 pub(crate) mod test_operators;

@@ -20,7 +20,7 @@
 //! eigenvectors by a twisted factorisation of `T_m − θ`, both `O(m)`, so the
 //! convergence test after every step costs nothing next to the step itself.
 
-use crate::solver::tridiagonal_eigenvalue;
+use super::tridiagonal_eigenvalue;
 use crate::{Error, Result};
 
 /// `β_j ≤ BREAKDOWN · ‖T‖` means the Krylov space is invariant: the Ritz values
@@ -29,20 +29,20 @@ const BREAKDOWN: f64 = 1e-12;
 
 /// Which end of the spectrum a run converges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum End {
+pub enum End {
     Largest,
     Smallest,
 }
 
 /// An extreme Ritz value and whether it met the tolerance.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Ritz {
+pub struct Ritz {
     pub value: f64,
     pub converged: bool,
 }
 
 /// The Lanczos process: the orthonormal basis and the tridiagonal so far.
-pub(super) struct Lanczos {
+pub struct Lanczos {
     basis: Vec<Vec<f64>>,
     alphas: Vec<f64>,
     betas: Vec<f64>,

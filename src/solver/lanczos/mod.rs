@@ -1,5 +1,18 @@
-//! The cheap condition number estimate: the extreme eigenvalues of
-//! the Lanczos tridiagonal that a CG solve builds implicitly.
+//! The Lanczos process, in its three uses, and the eigenvalues of its
+//! tridiagonal:
+//!
+//! - CG's own: the cheap condition number estimate from the tridiagonal that
+//!   a CG solve builds implicitly ([`lanczos_extreme_eigenvalues`], below);
+//! - the three-term recurrence in a preconditioner's inner product for the
+//!   largest eigenvalue of `B⁻¹A` ([`largest_eigenvalue`], the Chebyshev
+//!   smoothers' bound);
+//! - with full reorthogonalisation and Ritz vectors, for condition numbers
+//!   ([`reorthogonalised`]).
+//!
+//! All three find the tridiagonal's eigenvalues by bisection on Sturm counts
+//! ([`tridiagonal_eigenvalue`]).
+//!
+//! ## CG's tridiagonal
 //!
 //! CG with coefficients `α_0 … α_{m−1}`, `β_0 … β_{m−2}` is the Lanczos process
 //! on `A` (on `M⁻¹A` when preconditioned) started from `r_0`; its tridiagonal is
@@ -13,6 +26,10 @@
 //! extremes converge first, so `λ_max(T)/λ_min(T)` is a lower bound of `κ(A)`
 //! that is sharp once CG has run long enough. They are found by bisection on
 //! Sturm counts, `O(m)` per step, so long solves cost nothing noticeable.
+
+pub mod reorthogonalised;
+
+use crate::backend::LinearOperator;
 
 /// Bisection steps at most; about 55 are needed, since the bracket starts at
 /// most `2‖T‖` wide and stops at `2ε‖T‖`.
@@ -106,6 +123,77 @@ pub fn tridiagonal_eigenvalue(diag: &[f64], off2: &[f64], k: usize) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// The largest Ritz value of `steps` Lanczos steps on `B⁻¹A` in the `B`
+/// inner product (`pre = B⁻¹`) from a fixed start vector, without
+/// reorthogonalisation (the extreme Ritz value converges first). With the
+/// Lanczos vectors `q_k` and `p_k = B q_k`:
+///
+/// ```text
+/// z = B⁻¹ v;  β = √(v·z);  q₀ = z/β;  p₀ = v/β;  β₀ = 0
+/// w = A q_k − β_k p_{k−1};  α_k = w·q_k;  w = w − α_k p_k
+/// z = B⁻¹ w;  β_{k+1} = √(w·z);  q_{k+1} = z/β_{k+1};  p_{k+1} = w/β_{k+1}
+/// ```
+/// and the top eigenvalue of the tridiagonal `(α, β)`
+/// ([`tridiagonal_eigenvalue`]). Unlike [`reorthogonalised`], which keeps the
+/// whole basis (full reorthogonalisation, Ritz vectors) for condition
+/// numbers, the three-term recurrence holds a few vectors: what a smoother's
+/// bound needs at every level of a multigrid hierarchy.
+pub fn largest_eigenvalue(
+    op: &dyn LinearOperator,
+    pre: &dyn Fn(&[f64], &mut [f64]),
+    steps: usize,
+) -> f64 {
+    let n = op.nrows();
+    // A fixed start with every entry non-zero and no grid-aligned pattern.
+    let mut p: Vec<f64> = (0..n)
+        .map(|i| 1.0 + 0.5 * ((i as f64 + 1.0) * 0.618_033_988_749_895).fract())
+        .collect();
+    let mut q = vec![0.0; n];
+    pre(&p, &mut q);
+    let norm = dot(&p, &q).sqrt();
+    scale(&mut p, 1.0 / norm);
+    scale(&mut q, 1.0 / norm);
+    let (mut p_prev, mut w, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut diag, mut off2) = (Vec::new(), Vec::new());
+    let mut beta = 0.0;
+    for _ in 0..steps.min(n) {
+        op.apply(&q, &mut w);
+        for i in 0..n {
+            w[i] -= beta * p_prev[i];
+        }
+        let alpha = dot(&w, &q);
+        for i in 0..n {
+            w[i] -= alpha * p[i];
+        }
+        diag.push(alpha);
+        pre(&w, &mut z);
+        beta = dot(&w, &z).max(0.0).sqrt();
+        if beta.is_nan() || beta <= 1e-12 * alpha.abs() {
+            break;
+        }
+        off2.push(beta * beta);
+        std::mem::swap(&mut p_prev, &mut p);
+        for i in 0..n {
+            p[i] = w[i] / beta;
+            q[i] = z[i] / beta;
+        }
+    }
+    off2.truncate(diag.len() - 1);
+    tridiagonal_eigenvalue(&diag, &off2, diag.len() - 1)
+}
+
+/// `a · b`.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `v = s v`.
+fn scale(v: &mut [f64], s: f64) {
+    for x in v.iter_mut() {
+        *x *= s;
+    }
 }
 
 #[cfg(test)]
