@@ -22,7 +22,7 @@
 //! 6–20 solves.
 //!
 //! # The method
-//! Flexible GMRES (Saad 1993) on `M U = F + R(0)`, right-preconditioned by an inner
+//! Flexible GMRES ([`crate::solver::fgmres`]) on `M U = F + R(0)`, right-preconditioned by an inner
 //! Krylov solve of `A z = v` to the loose relative tolerance `inner_rel_tol`
 //! (the case's method and preconditioner, from `z = 0`). Flexible, because the
 //! inexact inner solve is a different operator each time; GMRES, because it
@@ -59,6 +59,7 @@ use super::linear::LinearSolver;
 use crate::backend::LinearOperator;
 use crate::error::{Error, Result};
 use crate::progress::{Event, Progress};
+use crate::solver::fgmres::{fgmres, FgmresOptions, FlexibleSystem};
 
 /// Directions kept before the outer iteration restarts, whatever the size.
 pub const MIN_RESTART: usize = 20;
@@ -90,6 +91,7 @@ pub fn fgmres_fixed_point(
     report: &mut FixedPointReport,
     progress: &dyn Progress,
 ) -> Result<Vec<f64>> {
+    let start = report.iterations;
     Outer {
         solver,
         op,
@@ -98,12 +100,13 @@ pub fn fgmres_fixed_point(
         opts,
         report,
         progress,
-        restart: restart_length(fixed.len()),
+        start,
     }
-    .solve(fixed)
+    .solve(fixed, restart_length(fixed.len()))
 }
 
-/// The pieces one cycle needs.
+/// The system the outer FGMRES solves: `M = A − B` applied with one host
+/// product and one recovery, preconditioned by an inner solve with `A`.
 struct Outer<'a, 'b> {
     solver: &'a mut dyn LinearSolver,
     op: &'a dyn LinearOperator,
@@ -113,63 +116,51 @@ struct Outer<'a, 'b> {
     opts: &'a FixedPointOptions,
     report: &'a mut FixedPointReport,
     progress: &'b dyn Progress,
-    /// Directions per cycle.
-    restart: usize,
+    /// The report's iterations before this solve.
+    start: usize,
 }
 
 impl Outer<'_, '_> {
-    /// FGMRES on `M U = F + R(0)` from `U = 0`, in cycles of `self.restart`
-    /// directions, each from the true residual; converged when the true
-    /// residual is below the tolerance.
-    fn solve(&mut self, fixed: &[f64]) -> Result<Vec<f64>> {
-        let mut u = vec![0.0; fixed.len()];
-        self.constant = self.recover(&u)?;
+    /// FGMRES on `M U = F + R(0)` from `U = 0` in cycles of `restart`
+    /// directions (module doc).
+    fn solve(&mut self, fixed: &[f64], restart: usize) -> Result<Vec<f64>> {
+        self.constant = self.recover(&vec![0.0; fixed.len()])?;
         let b: Vec<f64> = fixed
             .iter()
             .zip(&self.constant)
             .map(|(f, c)| f + c)
             .collect();
-        let b_norm = norm(&b);
-        if b_norm == 0.0 {
-            self.report.converged = true;
-            return Ok(u);
-        }
-        let target = self.opts.tol * b_norm;
-        // r_0 = b (U_0 = 0, and M 0 = 0).
-        let mut r = b.clone();
-        let mut r_norm = b_norm;
-        loop {
-            let (du, estimate) = self.cycle(&r, r_norm, target, b_norm)?;
-            for (a, d) in u.iter_mut().zip(&du) {
-                *a += d;
-            }
-            // The true residual: where the cycle stopped short, to restart
-            // from; where its estimate says converged, to confirm it.
-            let mu = self.apply_m(&u)?;
-            r = b.iter().zip(&mu).map(|(f, m)| f - m).collect();
-            r_norm = norm(&r);
-            self.report.final_relative_residual = r_norm / b_norm;
-            if r_norm <= target {
+        let opts = FgmresOptions {
+            tol: self.opts.tol,
+            max_iterations: self.opts.max_iterations.saturating_sub(self.start),
+            restart,
+        };
+        match fgmres(self, &b, &opts, "fixed point (fgmres)") {
+            Ok(o) => {
+                if o.iterations > 0 {
+                    self.report.final_relative_residual = o.relative_residual;
+                }
                 self.report.converged = true;
-                return Ok(u);
+                Ok(o.x)
             }
-            if self.report.iterations >= self.opts.max_iterations {
-                return Err(Error::MaxIterations {
-                    method: "fixed point (fgmres)".into(),
-                    iterations: self.report.iterations,
-                    residual: r_norm / b_norm,
-                });
+            Err(e) => {
+                if let Error::MaxIterations { residual, .. } = &e {
+                    self.report.final_relative_residual = *residual;
+                }
+                Err(e)
             }
-            tracing::debug!(
-                estimate = estimate / b_norm,
-                true_residual = r_norm / b_norm,
-                "outer cycle restarts"
-            );
         }
     }
 
+    /// `R(x)`, timed and reported as a recovery.
+    fn recover(&mut self, x: &[f64]) -> Result<Vec<f64>> {
+        recorded_recovery(self.recovered, x, self.report, self.progress)
+    }
+}
+
+impl FlexibleSystem for Outer<'_, '_> {
     /// `M x = A x − R(x) + R(0)`: one host product and one recovery.
-    fn apply_m(&mut self, x: &[f64]) -> Result<Vec<f64>> {
+    fn apply(&mut self, x: &[f64]) -> Result<Vec<f64>> {
         let rec = self.recover(x)?;
         let mut y = vec![0.0; x.len()];
         self.op.apply(x, &mut y);
@@ -177,11 +168,6 @@ impl Outer<'_, '_> {
             *a -= r - c;
         }
         Ok(y)
-    }
-
-    /// `R(x)`, timed and reported as a recovery.
-    fn recover(&mut self, x: &[f64]) -> Result<Vec<f64>> {
-        recorded_recovery(self.recovered, x, self.report, self.progress)
     }
 
     /// `z ≈ A⁻¹ v` to `inner_rel_tol` from `z = 0`, one solve of the report.
@@ -193,145 +179,31 @@ impl Outer<'_, '_> {
         Ok(z)
     }
 
-    /// One FGMRES cycle of at most `self.restart` directions from the residual
-    /// `r` (norm `r_norm`): the correction and the residual norm estimate.
-    fn cycle(
-        &mut self,
-        r: &[f64],
-        r_norm: f64,
-        target: f64,
-        b_norm: f64,
-    ) -> Result<(Vec<f64>, f64)> {
-        let n = r.len();
-        let mut v: Vec<Vec<f64>> = vec![r.iter().map(|x| x / r_norm).collect()];
-        let mut z: Vec<Vec<f64>> = Vec::new();
-        let mut h = Hessenberg::new(r_norm);
-        let mut estimate = r_norm;
-        while z.len() < self.restart && estimate > target {
-            if self.report.iterations >= self.opts.max_iterations {
-                break;
-            }
-            if self.progress.should_stop() {
-                return Err(Error::Interrupted {
-                    iterations: self.report.iterations,
-                });
-            }
-            let j = z.len();
-            let _span = tracing::info_span!("fixed_point", iteration = j + 1).entered();
-            let zj = self.precondition(&v[j])?;
-            let mut w = self.apply_m(&zj)?;
-            z.push(zj);
-            // Modified Gram–Schmidt, twice (the basis must stay orthonormal
-            // to round-off for the residual estimate to be the true one).
-            let mut column = vec![0.0; j + 2];
-            for _ in 0..2 {
-                for (i, vi) in v.iter().enumerate() {
-                    let c = dot(&w, vi);
-                    column[i] += c;
-                    for (a, b) in w.iter_mut().zip(vi) {
-                        *a -= c * b;
-                    }
-                }
-            }
-            let w_norm = norm(&w);
-            column[j + 1] = w_norm;
-            estimate = h.push(column);
-            self.report.iterations += 1;
-            let eps = estimate / b_norm;
-            self.report.eps_history.push(eps);
-            let krylov_iterations = self
-                .report
-                .iterations_per_solve
-                .last()
-                .copied()
-                .unwrap_or(0);
-            tracing::info!(eps, krylov_iterations, "fixed-point iteration (fgmres)");
-            self.progress.event(&Event::FixedPoint {
-                iteration: self.report.iterations,
-                eps,
-                krylov_iterations,
+    fn before_direction(&mut self, _iterations: usize) -> Result<()> {
+        if self.progress.should_stop() {
+            return Err(Error::Interrupted {
+                iterations: self.report.iterations,
             });
-            if w_norm == 0.0 {
-                // Lucky breakdown: the space is invariant, the solve exact.
-                break;
-            }
-            v.push(w.iter().map(|x| x / w_norm).collect());
         }
-        let y = h.solve();
-        let mut du = vec![0.0; n];
-        for (yj, zj) in y.iter().zip(&z) {
-            for (a, b) in du.iter_mut().zip(zj) {
-                *a += yj * b;
-            }
-        }
-        Ok((du, estimate))
-    }
-}
-
-/// The Arnoldi Hessenberg matrix reduced to upper triangular by Givens
-/// rotations as its columns arrive, with the rotated right-hand side `β e₁`.
-struct Hessenberg {
-    /// Rotated columns, upper triangular (column `j` has `j + 1` entries).
-    columns: Vec<Vec<f64>>,
-    /// `(c, s)` of each rotation.
-    rotations: Vec<(f64, f64)>,
-    /// `g = Qᵀ β e₁`.
-    g: Vec<f64>,
-}
-
-impl Hessenberg {
-    fn new(beta: f64) -> Self {
-        Hessenberg {
-            columns: Vec::new(),
-            rotations: Vec::new(),
-            g: vec![beta],
-        }
+        Ok(())
     }
 
-    /// Adds column `j` (`j + 2` entries), returns `|g_{j+1}|`, the residual
-    /// norm of the least-squares solution over the `j + 1` directions.
-    fn push(&mut self, mut column: Vec<f64>) -> f64 {
-        let j = self.columns.len();
-        for (i, &(c, s)) in self.rotations.iter().enumerate() {
-            let (a, b) = (column[i], column[i + 1]);
-            column[i] = c * a + s * b;
-            column[i + 1] = -s * a + c * b;
-        }
-        let (a, b) = (column[j], column[j + 1]);
-        let r = a.hypot(b);
-        let (c, s) = if r == 0.0 { (1.0, 0.0) } else { (a / r, b / r) };
-        column[j] = r;
-        column.truncate(j + 1);
-        self.rotations.push((c, s));
-        let gj = self.g[j];
-        self.g[j] = c * gj;
-        self.g.push(-s * gj);
-        self.columns.push(column);
-        self.g[j + 1].abs()
+    fn after_direction(&mut self, iterations: usize, eps: f64) {
+        self.report.iterations = self.start + iterations;
+        self.report.eps_history.push(eps);
+        let krylov_iterations = self
+            .report
+            .iterations_per_solve
+            .last()
+            .copied()
+            .unwrap_or(0);
+        tracing::info!(eps, krylov_iterations, "fixed-point iteration (fgmres)");
+        self.progress.event(&Event::FixedPoint {
+            iteration: self.report.iterations,
+            eps,
+            krylov_iterations,
+        });
     }
-
-    /// `y` of the triangular system `R y = g[..k]` (back substitution).
-    fn solve(&self) -> Vec<f64> {
-        let k = self.columns.len();
-        let mut y = vec![0.0; k];
-        for i in (0..k).rev() {
-            let mut s = self.g[i];
-            for (jj, yj) in y.iter().enumerate().skip(i + 1) {
-                s -= self.columns[jj][i] * yj;
-            }
-            let d = self.columns[i][i];
-            y[i] = if d == 0.0 { 0.0 } else { s / d };
-        }
-        y
-    }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn norm(a: &[f64]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 #[cfg(test)]

@@ -12,6 +12,10 @@ use crate::solver::{KrylovMethod, KrylovOptions, Preconditioner};
 
 const N: usize = 6;
 
+fn norm(a: &[f64]) -> f64 {
+    a.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
 fn shifted(u: &[f64], theta: f64) -> Vec<f64> {
     let scale = theta * laplacian_extreme_eigenvalues(N).0;
     (0..u.len()).map(|i| scale * u[(i + 1) % u.len()]).collect()
@@ -130,9 +134,9 @@ fn restarts_keep_converging() {
         opts: &opts,
         report: &mut report,
         progress: &Silent,
-        restart: MIN_RESTART,
+        start: 0,
     }
-    .solve(&load());
+    .solve(&load(), MIN_RESTART);
     assert!(report.iterations > MIN_RESTART, "{}", report.iterations);
     let r = true_residual(&op, &load(), &u.unwrap(), theta);
     assert!(r <= 1e-13 * 1.01, "true residual {r:e}");

@@ -27,6 +27,7 @@
 //!   [`KrylovStats::floored_diagonal_entries`]; see [`DIAGONAL_FLOOR`].
 //! - Iteration budget used up: [`Error::MaxIterations`]. Both exit with code 3.
 
+pub mod fgmres;
 mod krylov;
 pub mod lanczos;
 mod precond;
