@@ -1,14 +1,15 @@
 //! Cattaneo–Mindlin partial slip against its closed form:
 //! `cases/mindlin.toml` (a sphere pressed onto a block, then sheared below
-//! μN; a half model) at the case's level 4. At every shear step (up to
+//! μN; a half model). At every shear step (up to
 //! `Q = 0.83 μN`) the stick radius over the contact radius is Mindlin's
 //! `c/a = (1 − Q/(μN))^(1/3)` within 10 %, with `Q` and `N` the run's own
 //! tangential and normal contact forces and both radii from the report's
 //! areas (`sqrt(2 · area / π)`, half model); docs/verification.md has the
-//! figures. It takes about a minute on two cores. `CGFEM_MINDLIN_LEVEL=3`
-//! runs level 3 (half a minute): there the largest error is +9.9%, at the
-//! second shear step, where the stick zone is one ring of points short of
-//! the whole contact (a/h = 2).
+//! figures. The fast tier runs level 3 (half a minute on two cores): there
+//! the largest error is +9.9%, at the second shear step, where the stick
+//! zone is one ring of points short of the whole contact (a/h = 2). The long
+//! tier (`CGFEM_LONG=1`) runs the case's level 4 (about a minute);
+//! `CGFEM_MINDLIN_LEVEL` sets any level.
 
 use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::Case;
@@ -23,9 +24,11 @@ fn radius(half_area: f64) -> f64 {
 
 #[test]
 fn the_stick_radius_follows_mindlin() {
-    let level = std::env::var("CGFEM_MINDLIN_LEVEL")
-        .ok()
-        .map(|l| l.parse::<u32>().unwrap());
+    let level = match std::env::var("CGFEM_MINDLIN_LEVEL") {
+        Ok(l) => Some(l.parse::<u32>().unwrap()),
+        Err(_) if std::env::var_os("CGFEM_LONG").is_some() => None,
+        Err(_) => Some(3),
+    };
     let text = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/cases/mindlin.toml"));
     let case = Case::from_str_with("cases/mindlin.toml", text, &[]).unwrap();
     let out = run(&case, level, None, &Silent).unwrap();
