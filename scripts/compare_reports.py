@@ -22,6 +22,9 @@ import sys
 SKIPPED = {"timings", "adapter", "memory", "peak_memory_bytes", "file", "threads"}
 
 
+STATS = {"numbers": 0, "max_relative": 0.0}
+
+
 def walk(a, b, path, rtol, scale, out):
     if isinstance(a, dict) and isinstance(b, dict):
         for key in sorted(set(a) | set(b)):
@@ -46,6 +49,9 @@ def walk(a, b, path, rtol, scale, out):
     elif isinstance(a, (int, float)) and isinstance(b, (int, float)):
         if math.isnan(a) and math.isnan(b):
             return
+        STATS["numbers"] += 1
+        if a != b and math.isfinite(a) and math.isfinite(b):
+            STATS["max_relative"] = max(STATS["max_relative"], abs(a - b) / max(abs(a), abs(b)))
         tol = rtol * max(abs(a), abs(b), rtol * scale if scale else 0.0)
         if not (abs(a - b) <= tol or a == b):
             rel = abs(a - b) / max(abs(a), abs(b))
@@ -61,8 +67,12 @@ def main():
     p.add_argument("--rtol", type=float, default=1e-10)
     args = p.parse_args()
     cases = sorted(
-        set(os.listdir(args.before)) | set(os.listdir(args.after)),
+        name
+        for d in (args.before, args.after)
+        for name in os.listdir(d)
+        if os.path.isdir(os.path.join(d, name))
     )
+    cases = sorted(set(cases))
     failed = 0
     for case in cases:
         reports = [os.path.join(d, case, "report.json") for d in (args.before, args.after)]
@@ -72,8 +82,13 @@ def main():
             continue
         a, b = (json.load(open(r)) for r in reports)
         out = []
+        STATS.update(numbers=0, max_relative=0.0)
         walk(a, b, case, args.rtol, 0.0, out)
-        print(f"{case}: {'same' if not out else f'{len(out)} differences'}")
+        verdict = "same" if not out else f"{len(out)} differences"
+        print(
+            f"{case}: {verdict} ({STATS['numbers']} numbers, largest relative "
+            f"difference {STATS['max_relative']:.1e})"
+        )
         for line in out:
             print("  " + line)
         failed += bool(out)
