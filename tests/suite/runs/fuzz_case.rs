@@ -10,8 +10,8 @@
 //! and a built-in two-block contact case) go, a third of those that parse,
 //! through `BodiesSetup` at level 0 or 1, under the same rules.
 //!
-//! 3 000 inputs by default (a third of those that parse are set up; about
-//! twenty seconds in release), 100 000 in the long tier (`CGFEM_LONG=1`); set
+//! 1 500 inputs by default (a third of those that parse are set up; about
+//! ten seconds in release), 100 000 in the long tier (`CGFEM_LONG=1`); set
 //! `CGFEM_FUZZ_CASES=1000000` for a longer run and `CGFEM_FUZZ_SEED` to change
 //! the seed. A failure prints the input that caused it.
 
@@ -166,7 +166,7 @@ fn random_and_mutated_cases_never_panic() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(match std::env::var_os("CGFEM_LONG") {
             Some(_) => 100_000,
-            None => 3_000,
+            None => 1_500,
         });
     let seed: u64 = std::env::var("CGFEM_FUZZ_SEED")
         .ok()
