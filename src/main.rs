@@ -12,6 +12,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use cgfem_gpu::case::Case;
+use cgfem_gpu::driver::output::OutputFiles;
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
@@ -53,7 +54,7 @@ struct CaseArgs {
 #[derive(Subcommand)]
 enum Command {
     /// Solve a case; writes DIR/report.json, DIR/solution.vtu, DIR/surface.vtp
-    /// and DIR/solution.pvd listing the two.
+    /// and DIR/solution.pvd listing the two (see --output).
     Run {
         #[command(flatten)]
         case: CaseArgs,
@@ -78,6 +79,15 @@ enum Command {
         /// boundary surface coloured by von Mises).
         #[arg(long)]
         plots: bool,
+        /// Which ParaView files to write: volume (solution.vtu; Newton path:
+        /// the bodies' .vtu), surface (surface.vtp; Newton path: the bodies'
+        /// surfaces and the contact points), all, or none (report.json only).
+        #[arg(long, default_value = "all")]
+        output: OutputFiles,
+        /// Compress the ParaView files' data with zlib (smaller, slower to
+        /// write; default: appended raw binary).
+        #[arg(long)]
+        compress: bool,
     },
     /// Classify a case's grid against its solid without solving: writes
     /// DIR/cells.vtu, DIR/boundary.vtp (the boundary points with their tags)
@@ -247,6 +257,8 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             adapter,
             precision,
             plots,
+            output,
+            compress,
         } => {
             let device = Device {
                 backend,
@@ -254,7 +266,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 precision,
             };
             progress.catch_ctrl_c()?;
-            let outputs = Outputs { dir: out, plots };
+            let outputs = Outputs::new(out, plots, output, compress);
             run_case(&case, level, &set, &outputs, condition, &device, progress)
         }
         Command::Geometry { case } => geometry(&case, progress),

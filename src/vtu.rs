@@ -6,21 +6,35 @@
 //! This file owns the public data model ([`VtuMesh`], [`VtuCell`],
 //! [`DataArray`]), the checks run before anything is written, and the
 //! writers. Node reordering from our lexicographic numbering lives in
-//! `vtu/order.rs`; the XML text itself is assembled in `vtu/xml.rs`.
+//! `vtu/order.rs`; the XML itself is laid out and streamed in `vtu/xml.rs`,
+//! the appended data section in `vtu/appended.rs`; [`read`] (`vtu/read.rs`)
+//! reads the files back.
 //!
-//! Files are written with [`crate::output::write_atomic`], so a reader never
-//! sees half a file, and nothing is written at all when a check fails.
+//! Files are streamed with [`crate::output::write_atomic_with`] to a
+//! temporary file renamed into place, so a reader never sees half a file,
+//! and nothing is written at all when a check fails.
 //!
-//! Encodings ([`VtuEncoding`]): `Binary` is VTK's inline base64 format
-//! (`format="binary"`, `header_type="UInt64"`, little endian): each
-//! DataArray is the base64 of an 8-byte little-endian byte count followed by
-//! the raw little-endian values, bit-exact. `Ascii` writes the values as text
-//! (shortest decimal that parses back to the same `f64`; non-finite values as
-//! `nan`, `inf`, `-inf`) and is meant for small debugging outputs; note that
-//! VTK 9.3's ASCII reader reads `-inf` back as `+inf`, so use `Binary` where
-//! infinities matter.
+//! Encodings ([`VtuEncoding`]), all bit-exact but ASCII, all little endian
+//! with `UInt64` headers:
+//! - `Appended` (the default): VTK's appended raw binary, every DataArray
+//!   `format="appended"` with its `offset` into one `<AppendedData
+//!   encoding="raw">` section after the XML, each array its byte count and
+//!   its values. The values are written from memory as they are: the fastest,
+//!   and the smallest uncompressed file. The file is not text.
+//! - `AppendedZlib`: the same section with every array compressed by zlib in
+//!   independent blocks (`compressor="vtkZLibDataCompressor"`), compressed in
+//!   parallel before anything is written.
+//! - `Binary`: inline base64 (`format="binary"`): each DataArray is the
+//!   base64 of an 8-byte byte count followed by the values; a third larger
+//!   than `Appended`, but the file is text.
+//! - `Ascii`: the values as text (shortest decimal that parses back to the
+//!   same `f64`; non-finite values as `nan`, `inf`, `-inf`), for small
+//!   debugging outputs; note that VTK 9.3's ASCII reader reads `-inf` back as
+//!   `+inf`, so use a binary encoding where infinities matter.
 
+mod appended;
 mod order;
+mod read;
 mod xml;
 
 #[cfg(test)]
@@ -30,9 +44,10 @@ use std::collections::HashSet;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::output::write_atomic;
+use crate::output::{write_atomic, write_atomic_with};
 
 pub use order::{hex27_vtk_order_from_lexicographic, hex8_vtk_order_from_lexicographic};
+pub use read::read;
 
 /// One cell with its node indices (into [`VtuMesh::points`]) in VTK's own
 /// node order; [`hex8_vtk_order_from_lexicographic`] and
@@ -107,6 +122,8 @@ impl VtuMesh {
 pub enum DataValues {
     /// Written as `Float64`.
     F64(Vec<f64>),
+    /// Written as `Int64` (as the cells' `connectivity` and `offsets`).
+    I64(Vec<i64>),
     /// Written as `Int32`.
     I32(Vec<i32>),
     /// Written as `UInt8` (classification flags and the like).
@@ -118,6 +135,7 @@ impl DataValues {
     pub fn len(&self) -> usize {
         match self {
             DataValues::F64(v) => v.len(),
+            DataValues::I64(v) => v.len(),
             DataValues::I32(v) => v.len(),
             DataValues::U8(v) => v.len(),
         }
@@ -187,11 +205,15 @@ fn full_tensor(v: &[f64; 6]) -> [f64; 9] {
     [xx, xy, xz, xy, yy, yz, xz, yz, zz]
 }
 
-/// How DataArray values are written.
+/// How DataArray values are written (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum VtuEncoding {
-    /// Inline base64 with a `UInt64` byte-count header: compact, bit-exact.
+    /// Appended raw binary: the fastest, bit-exact; not text.
     #[default]
+    Appended,
+    /// Appended, each array zlib-compressed in independent blocks.
+    AppendedZlib,
+    /// Inline base64 with a `UInt64` byte-count header: bit-exact, text.
     Binary,
     /// Whitespace-separated text, for small debugging outputs (VTK 9.3
     /// reads `-inf` back as `+inf`; see the module doc).
@@ -218,8 +240,9 @@ pub fn write_vtu(
     check_mesh(mesh).map_err(fail)?;
     check_arrays("point", point_data, mesh.points.len()).map_err(fail)?;
     check_arrays("cell", cell_data, mesh.cells.len()).map_err(fail)?;
-    let text = xml::unstructured_grid(mesh, point_data, cell_data, encoding);
-    write_atomic(path, text.as_bytes())
+    let cells = xml::CellArrays::new(mesh);
+    let doc = xml::unstructured_grid(mesh, &cells, point_data, cell_data);
+    write_atomic_with(path, |w| xml::write(&doc, encoding, w))
 }
 
 /// Writes the point cloud `points` with `point_data` as the PolyData file
@@ -239,8 +262,9 @@ pub fn write_vtp_points(
     let cloud = VtuMesh::point_cloud(points.to_vec());
     check_mesh(&cloud).map_err(fail)?;
     check_arrays("point", point_data, points.len()).map_err(fail)?;
-    let text = xml::poly_data(&cloud, xml::PolySection::Verts, point_data, &[], encoding);
-    write_atomic(path, text.as_bytes())
+    let cells = xml::CellArrays::new(&cloud);
+    let doc = xml::poly_data(&cloud, &cells, xml::PolySection::Verts, point_data, &[]);
+    write_atomic_with(path, |w| xml::write(&doc, encoding, w))
 }
 
 /// Writes the triangle surface `points`, `triangles` (indices into `points`)
@@ -266,14 +290,15 @@ pub fn write_vtp_triangles(
     check_mesh(&mesh).map_err(fail)?;
     check_arrays("point", point_data, mesh.points.len()).map_err(fail)?;
     check_arrays("cell", cell_data, mesh.cells.len()).map_err(fail)?;
-    let text = xml::poly_data(
+    let cells = xml::CellArrays::new(&mesh);
+    let doc = xml::poly_data(
         &mesh,
+        &cells,
         xml::PolySection::Polys,
         point_data,
         cell_data,
-        encoding,
     );
-    write_atomic(path, text.as_bytes())
+    write_atomic_with(path, |w| xml::write(&doc, encoding, w))
 }
 
 /// Writes the `.pvd` collection `path` listing `(time, file)` entries, each

@@ -18,6 +18,11 @@
 //! `displacement` and `von_mises` (of its host cell's mean Cauchy stress, as
 //! in the `.vtu`) and the cell data `tag`, as the parts after the contact
 //! pairs'.
+//!
+//! Which of these files are written, and in which encoding, is the series'
+//! [`ParaView`]: the volume the bodies' `.vtu`, the surface the contact
+//! points' and the bodies' surfaces' `.vtp`; `solution.pvd` once any file is
+//! written.
 
 use std::path::{Path, PathBuf};
 
@@ -27,7 +32,7 @@ use super::setup::BodySetup;
 use crate::contact::ContactPoints;
 use crate::discrete::boundary_mesh::BoundaryMesh;
 use crate::discrete::field::value_and_gradient;
-use crate::driver::output::{level_set, von_mises};
+use crate::driver::output::{level_set, von_mises, ParaView};
 use crate::driver::surface_output::write_tagged_triangles;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
@@ -89,8 +94,15 @@ fn cell_von_mises(p: &HyperProblem, u: &[f64], path: &Path) -> Result<Vec<f64>> 
         .collect())
 }
 
-/// Writes body `p` (set up as `body`) at displacement `u` to `path`.
-pub fn write_body(path: &Path, body: &BodySetup, p: &HyperProblem, u: &[f64]) -> Result<()> {
+/// Writes body `p` (set up as `body`) at displacement `u` to `path` in
+/// `encoding`.
+pub fn write_body(
+    path: &Path,
+    body: &BodySetup,
+    p: &HyperProblem,
+    u: &[f64],
+    encoding: VtuEncoding,
+) -> Result<()> {
     let points: Vec<[f64; 3]> = p
         .dofs
         .active_to_node
@@ -113,18 +125,19 @@ pub fn write_body(path: &Path, body: &BodySetup, p: &HyperProblem, u: &[f64]) ->
         DataArray::scalars_u8("cell_class", class),
     ];
     let mesh = VtuMesh { points, cells };
-    write_vtu(path, &mesh, &point_data, &cell_data, VtuEncoding::Binary)
+    write_vtu(path, &mesh, &point_data, &cell_data, encoding)
 }
 
 /// Writes body `p`'s boundary `mesh` at displacement `u` to `path`:
 /// `displacement` at the vertices, `von_mises` of the host cell's mean
-/// Cauchy stress.
+/// Cauchy stress; in `encoding`.
 fn write_body_surface(
     path: &Path,
     body: &BodySetup,
     p: &HyperProblem,
     mesh: &BoundaryMesh,
     u: &[f64],
+    encoding: VtuEncoding,
 ) -> Result<()> {
     let cell_vm = cell_von_mises(p, u, path)?;
     let mut vm_of_cell = vec![0.0; body.grid.num_cells()];
@@ -142,20 +155,49 @@ fn write_body_surface(
         DataArray::vectors("displacement", &displacement),
         DataArray::scalars_f64("von_mises", vm),
     ];
-    write_tagged_triangles(path, mesh, &point_data)
+    write_tagged_triangles(path, mesh, &point_data, encoding)
 }
 
 /// The series written so far: `(load factor, part, file)` per entry, and
-/// the bodies' boundary meshes (built on the first surfaces written).
+/// the bodies' boundary meshes (built on the first surfaces written); which
+/// files it writes, and how, is its [`ParaView`].
 #[derive(Clone, Debug, Default)]
 pub struct Series {
     entries: Vec<(f64, usize, PathBuf)>,
     surfaces: Vec<BoundaryMesh>,
+    paraview: ParaView,
 }
 
 impl Series {
+    /// An empty series that writes the files of `paraview`.
+    pub fn new(paraview: ParaView) -> Series {
+        Series {
+            paraview,
+            ..Series::default()
+        }
+    }
+
+    /// The files written so far, in order, and `solution.pvd` when any.
+    pub fn files(&self) -> Vec<String> {
+        let mut files: Vec<String> = (self.entries.iter())
+            .map(|(_, _, f)| f.display().to_string())
+            .collect();
+        if !files.is_empty() {
+            files.push("solution.pvd".into());
+        }
+        files
+    }
+
+    /// Rewrites `dir/solution.pvd` when the series has any file.
+    fn write_pvd(&self, dir: &Path) -> Result<()> {
+        match self.entries.is_empty() {
+            true => Ok(()),
+            false => write_pvd_parts(&dir.join("solution.pvd"), &self.entries),
+        }
+    }
+
     /// Writes every body's file of converged step `step` at load factor `t`
-    /// into `dir` and rewrites `dir/solution.pvd`.
+    /// into `dir` and rewrites `dir/solution.pvd` (with the volume files).
     pub fn write_step(
         &mut self,
         dir: &Path,
@@ -165,17 +207,22 @@ impl Series {
         step: usize,
         t: f64,
     ) -> Result<()> {
+        if !self.paraview.files.volume() {
+            return Ok(());
+        }
         for (b, (body, p)) in bodies.iter().zip(problems).enumerate() {
             let file = PathBuf::from(body_file(&body.name, step));
-            write_body(&dir.join(&file), body, p, parts[b])?;
+            let encoding = self.paraview.encoding;
+            write_body(&dir.join(&file), body, p, parts[b], encoding)?;
             self.entries.push((t, b, file));
         }
-        write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
+        self.write_pvd(dir)
     }
 
     /// Writes every contact pair's points of converged step `step` at load
     /// factor `t` into `dir` (`contact<i>_<step>.vtp`, parts after the
-    /// bodies', `first_part` on) and rewrites `dir/solution.pvd`.
+    /// bodies', `first_part` on) and rewrites `dir/solution.pvd` (with the
+    /// surface files).
     pub fn write_contact(
         &mut self,
         dir: &Path,
@@ -184,6 +231,9 @@ impl Series {
         step: usize,
         t: f64,
     ) -> Result<()> {
+        if !self.paraview.files.surface() {
+            return Ok(());
+        }
         for (i, c) in pairs.iter().enumerate() {
             let file = PathBuf::from(contact_file(i, step));
             let data = [
@@ -193,15 +243,15 @@ impl Series {
                 DataArray::scalars_f64("friction", c.friction.clone()),
                 DataArray::vectors("normal", &c.normal),
             ];
-            write_vtp_points(&dir.join(&file), &c.x, &data, VtuEncoding::Binary)?;
+            write_vtp_points(&dir.join(&file), &c.x, &data, self.paraview.encoding)?;
             self.entries.push((t, first_part + i, file));
         }
-        write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
+        self.write_pvd(dir)
     }
 
     /// Writes every body's boundary surface of converged step `step` at load
     /// factor `t` into `dir` (`<b>_surface_<step>.vtp`, parts `first_part`
-    /// on) and rewrites `dir/solution.pvd`.
+    /// on) and rewrites `dir/solution.pvd` (with the surface files).
     #[allow(clippy::too_many_arguments)]
     pub fn write_surfaces(
         &mut self,
@@ -213,6 +263,9 @@ impl Series {
         step: usize,
         t: f64,
     ) -> Result<()> {
+        if !self.paraview.files.surface() {
+            return Ok(());
+        }
         if self.surfaces.is_empty() {
             self.surfaces = bodies
                 .iter()
@@ -221,10 +274,11 @@ impl Series {
         }
         for (b, (body, p)) in bodies.iter().zip(problems).enumerate() {
             let file = PathBuf::from(surface_file(&body.name, step));
-            write_body_surface(&dir.join(&file), body, p, &self.surfaces[b], parts[b])?;
+            let (mesh, encoding) = (&self.surfaces[b], self.paraview.encoding);
+            write_body_surface(&dir.join(&file), body, p, mesh, parts[b], encoding)?;
             self.entries.push((t, first_part + b, file));
         }
-        write_pvd_parts(&dir.join("solution.pvd"), &self.entries)
+        self.write_pvd(dir)
     }
 
     /// Number of files listed.

@@ -1,6 +1,7 @@
 //! The multi-body run: set-up, the load steps (each converged step's
 //! ParaView files written as it converges, so that a failed or interrupted
-//! run keeps the last converged step), and the report.
+//! run keeps the last converged step, as many of them as its
+//! [`ParaView`] selects), and the report.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -11,6 +12,7 @@ use super::multigrid::BodiesMultigrid;
 use super::output::Series;
 use super::setup::BodiesSetup;
 use crate::case::Case;
+use crate::driver::output::ParaView;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
@@ -25,12 +27,14 @@ use crate::report::{BodyReport, Report};
 use crate::solver::Preconditioner;
 
 /// What a run produced: the set-up, the last converged state, the report
-/// (status filled in) and how the solve ended.
+/// (status filled in), how the solve ended, and the files written (names in
+/// the output folder, in order; `solution.pvd` last when any).
 pub struct RunOutcome {
     pub setup: BodiesSetup,
     pub solution: HyperSolution,
     pub report: Report,
     pub result: Result<()>,
+    pub files: Vec<String>,
 }
 
 /// Runs `case` (every body at `level` when given), writing the series into
@@ -54,13 +58,26 @@ pub fn run_on(
     device: Option<Arc<GpuContext>>,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
+    let paraview = ParaView::default();
+    run_writing(case, level, dir, paraview, device, progress)
+}
+
+/// [`run_on`] writing the files of `paraview` into `dir`.
+pub fn run_writing(
+    case: &Case,
+    level: Option<u32>,
+    dir: Option<&Path>,
+    paraview: ParaView,
+    device: Option<Arc<GpuContext>>,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
     let t = Instant::now();
     let mut setup = BodiesSetup::new(case, level, progress)?;
     if let Some(ctx) = device {
         setup.problem.use_device(ctx)?;
     }
     let setup_seconds = t.elapsed().as_secs_f64();
-    let mut outcome = run_setup(case, setup, dir, progress)?;
+    let mut outcome = run_setup_writing(case, setup, dir, paraview, progress)?;
     outcome
         .report
         .timings
@@ -75,6 +92,17 @@ pub fn run_setup(
     case: &Case,
     setup: BodiesSetup,
     dir: Option<&Path>,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
+    run_setup_writing(case, setup, dir, ParaView::default(), progress)
+}
+
+/// [`run_setup`] writing the files of `paraview` into `dir`.
+pub fn run_setup_writing(
+    case: &Case,
+    setup: BodiesSetup,
+    dir: Option<&Path>,
+    paraview: ParaView,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
     if let Some(dir) = dir {
@@ -93,7 +121,7 @@ pub fn run_setup(
     };
     let t = Instant::now();
     let mut solution = HyperSolution::zero(&setup.problem);
-    let mut series = Series::default();
+    let mut series = Series::new(paraview);
     let mut contact = Vec::new();
     let mut reactions = Vec::new();
     let problem = &setup.problem;
@@ -143,6 +171,7 @@ pub fn run_setup(
         solution,
         report,
         result,
+        files: series.files(),
     })
 }
 

@@ -1,8 +1,9 @@
 //! The linear path of `cgfem-gpu run` (one linear body): set-up, optional
 //! condition numbers, the fixed point on the chosen backend (with progress
-//! and Ctrl-C), error norms, reactions, and the outputs (report.json,
-//! solution.vtu, surface.vtp, solution.pvd listing both; with --plots
-//! residuals.svg and deformed.svg), each written atomically.
+//! and Ctrl-C), error norms, reactions, and the outputs (report.json; the
+//! ParaView files of `--output`: solution.vtu, surface.vtp, solution.pvd
+//! listing them; with --plots residuals.svg and deformed.svg), each written
+//! atomically.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -16,48 +17,48 @@ use cgfem_gpu::discrete::boundary_mesh::BoundaryMesh;
 use cgfem_gpu::discrete::field::solution_and_interpolant_errors;
 use cgfem_gpu::driver::fixed_point::FixedPointReport;
 use cgfem_gpu::driver::linear::{CpuSolver, LinearSolver};
-use cgfem_gpu::driver::output::write_solution;
+use cgfem_gpu::driver::output::write_paraview;
 use cgfem_gpu::driver::setup::Setup;
 use cgfem_gpu::driver::solve::solve_with_progress;
-use cgfem_gpu::driver::surface_output::{write_surface, SurfaceFields};
+use cgfem_gpu::driver::surface_output::SurfaceFields;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{BackendChoice, GpuBackend, GpuContext, Precision};
-use cgfem_gpu::output::write_atomic;
+use cgfem_gpu::output::{write_atomic, Written};
 use cgfem_gpu::plot::{deformed_svg, SurfacePicture};
 use cgfem_gpu::report::newton::ReactionRow;
 use cgfem_gpu::report::{BodyReport, Condition, FixedPoint, Krylov, Report};
 use cgfem_gpu::solver::Preconditioner;
 use cgfem_gpu::spatial::Aabb;
-use cgfem_gpu::vtu::write_pvd_parts;
 
 use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
 
-/// Writes DIR/report.json and, with `plots`, DIR/residuals.svg from the loop's
-/// history.
+/// Writes, with `plots`, DIR/residuals.svg from the loop's history, then
+/// DIR/report.json listing the files `written`.
 fn write_report(
     dir: &Path,
     report: &Report,
     fp: &FixedPointReport,
     plots: bool,
+    written: &mut Written,
 ) -> anyhow::Result<()> {
-    super::write_report(dir, report)?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     if plots {
         let title = format!("{}: fixed-point convergence", report.case);
         let svg = fp.residual_chart(&title).to_svg()?;
-        write_atomic(&dir.join("residuals.svg"), svg.as_bytes())?;
+        written.write("residuals.svg", |path| write_atomic(path, svg.as_bytes()))?;
     }
-    Ok(())
+    super::write_report(dir, report, &written.files)
 }
 
 /// Writes DIR/deformed.svg: the boundary surface at `X + s u_h(X)`, `s`
 /// magnifying the largest displacement to 5% of the surface's box diagonal,
 /// coloured by von Mises.
 fn write_deformed(
-    dir: &Path,
     name: &str,
     mesh: &BoundaryMesh,
     fields: &SurfaceFields,
+    written: &mut Written,
 ) -> anyhow::Result<()> {
     let b = Aabb::around(&mesh.points);
     let diagonal = (0..3)
@@ -88,7 +89,7 @@ fn write_deformed(
         values: &fields.von_mises,
         label: "von Mises",
     })?;
-    write_atomic(&dir.join("deformed.svg"), svg.as_bytes())?;
+    written.write("deformed.svg", |path| write_atomic(path, svg.as_bytes()))?;
     Ok(())
 }
 
@@ -147,12 +148,14 @@ pub fn run(
     let mut solver_spec = case.spec.solver.clone();
     let mut report = Report::new(&case);
     let mut fp = FixedPointReport::default();
+    let mut written = Written::new(dir);
     // Every step after the case is read; a solver failure on the way (the
     // set-up's multigrid, the solve, the output's recovery) still leaves a
     // report.
     let result = (|| -> anyhow::Result<()> {
         let report = &mut report;
         let fp = &mut fp;
+        let written = &mut written;
         let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
         let setup = Setup::new_with_progress(&case, level, progress);
         progress.finish();
@@ -308,28 +311,25 @@ pub fn run(
 
         let t = Instant::now();
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        write_solution(
+        let (geometry, u) = (&case.body().geometry, &solution.u);
+        let surface = write_paraview(
             &setup,
-            &case.body().geometry,
-            &solution.u,
-            &dir.join("solution.vtu"),
+            geometry,
+            u,
+            outputs.paraview,
+            outputs.plots,
+            written,
         )?;
-        let (surface, fields) = write_surface(
-            &setup,
-            &case.body().geometry,
-            &solution.u,
-            &dir.join("surface.vtp"),
-        )?;
-        // One time step, the grid cells and the boundary surface as its two parts.
-        let parts = [(0.0, 0, "solution.vtu"), (0.0, 1, "surface.vtp")];
-        write_pvd_parts(&dir.join("solution.pvd"), &parts)?;
         report
             .timings
             .insert("output".into(), t.elapsed().as_secs_f64());
-        write_report(dir, report, fp, outputs.plots)?;
-        if outputs.plots {
-            write_deformed(dir, &name, &surface, &fields)?;
+        report
+            .timings
+            .insert("output_write".into(), written.seconds);
+        if let Some((mesh, fields)) = surface.filter(|_| outputs.plots) {
+            write_deformed(&name, &mesh, &fields, written)?;
         }
+        write_report(dir, report, fp, outputs.plots, written)?;
 
         println!(
             "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {}), final residual {:.2e}",
@@ -368,13 +368,13 @@ pub fn run(
             );
         }
         println!(
-            "  wrote {}, solution.vtu, surface.vtp, solution.pvd{}",
+            "  wrote {}{}",
             &dir.join("report.json").display(),
-            if outputs.plots {
-                ", residuals.svg, deformed.svg"
-            } else {
-                ""
-            }
+            written
+                .files
+                .iter()
+                .map(|f| format!(", {f}"))
+                .collect::<String>()
         );
         Ok(())
     })();
@@ -382,7 +382,7 @@ pub fn run(
         if let Some(e) = e.downcast_ref::<cgfem_gpu::Error>() {
             if matches!(e.exit_code(), 3 | 130) {
                 report.fail(e);
-                write_report(dir, &report, &fp, outputs.plots)?;
+                write_report(dir, &report, &fp, outputs.plots, &mut written)?;
                 eprintln!(
                     "report (marked {}): {}",
                     report.status,

@@ -4,8 +4,9 @@
 //! fixed point on the recovered terms) or [`newton`] (load steps, contact).
 //! Both write the one report schema ([`cgfem_gpu::report::Report`]) to
 //! DIR/report.json — also when the solve fails (status "failed", exit code
-//! 3) or is interrupted (status "interrupted", exit code 130) — and the
-//! ParaView files, each atomically.
+//! 3) or is interrupted (status "interrupted", exit code 130), with the
+//! files written beside it under `outputs` — and the ParaView files that
+//! `--output` selects, each atomically.
 
 mod linear;
 mod newton;
@@ -14,11 +15,14 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::Context;
+use serde::Serialize;
 
 use cgfem_gpu::case::{Case, SolutionPath};
+use cgfem_gpu::driver::output::{OutputFiles, ParaView};
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::output::write_atomic;
 use cgfem_gpu::report::Report;
+use cgfem_gpu::vtu::VtuEncoding;
 
 use crate::cli_progress::Terminal;
 
@@ -28,6 +32,24 @@ pub struct Outputs {
     pub dir: Option<PathBuf>,
     /// `--plots`: also DIR/residuals.svg and DIR/deformed.svg.
     pub plots: bool,
+    /// `--output` and `--compress`: which ParaView files, in which encoding.
+    pub paraview: ParaView,
+}
+
+impl Outputs {
+    /// The outputs of `--out`, `--plots`, `--output` and `--compress`: the
+    /// ParaView files appended raw, or zlib-compressed with `compress`.
+    pub fn new(dir: Option<PathBuf>, plots: bool, files: OutputFiles, compress: bool) -> Outputs {
+        let encoding = match compress {
+            true => VtuEncoding::AppendedZlib,
+            false => VtuEncoding::Appended,
+        };
+        Outputs {
+            dir,
+            plots,
+            paraview: ParaView { files, encoding },
+        }
+    }
 }
 
 /// What `run` asked of the device.
@@ -149,10 +171,21 @@ fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
     }
 }
 
-/// Writes DIR/report.json (creating DIR).
-fn write_report(dir: &Path, report: &Report) -> anyhow::Result<()> {
+/// The report as written: its keys, then `outputs`.
+#[derive(Serialize)]
+struct ReportFile<'a> {
+    #[serde(flatten)]
+    report: &'a Report,
+    /// The files written beside the report, by name, in order.
+    outputs: &'a [String],
+}
+
+/// Writes DIR/report.json (creating DIR), listing `outputs`, the files
+/// written beside it.
+fn write_report(dir: &Path, report: &Report, outputs: &[String]) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let json = serde_json::to_vec_pretty(report).context("serialising the report")?;
+    let json = serde_json::to_vec_pretty(&ReportFile { report, outputs })
+        .context("serialising the report")?;
     write_atomic(&dir.join("report.json"), &json)?;
     Ok(())
 }

@@ -1,12 +1,13 @@
 //! The Newton path of `cgfem-gpu run` (hyperelastic bodies, several bodies,
 //! contact, load steps): set-up, the load steps with progress and Ctrl-C,
-//! the ParaView series written as steps converge, and DIR/report.json —
-//! written also when a step fails or the run is interrupted.
+//! the ParaView series (the files `--output` selects) written as steps
+//! converge, and DIR/report.json — written also when a step fails or the
+//! run is interrupted.
 
 use std::path::Path;
 use std::sync::Arc;
 
-use cgfem_gpu::bodies::run::run_on;
+use cgfem_gpu::bodies::run::run_writing;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::gpu::{BackendChoice, GpuContext, PrecisionChoice};
 use cgfem_gpu::report::Report;
@@ -46,7 +47,7 @@ pub fn run(
     if let Some(ctx) = &gpu {
         println!("tangent of the inside cells on {}", ctx.adapter.name);
     }
-    let outcome = run_on(case, level, Some(dir), gpu, progress);
+    let outcome = run_writing(case, level, Some(dir), outputs.paraview, gpu, progress);
     progress.finish();
     let outcome = match outcome {
         Ok(outcome) => outcome,
@@ -55,7 +56,7 @@ pub fn run(
         Err(e) if matches!(e.exit_code(), 3 | 130) => {
             let mut report = Report::new(case);
             report.fail(&e);
-            super::write_report(dir, &report)?;
+            super::write_report(dir, &report, &[])?;
             eprintln!(
                 "report (marked {}): {}",
                 report.status,
@@ -82,7 +83,7 @@ pub fn run(
             }
         );
     }
-    super::write_report(dir, report)?;
+    super::write_report(dir, report, &outcome.files)?;
     let load = report
         .load
         .as_ref()
@@ -97,12 +98,17 @@ pub fn run(
     );
     match outcome.result {
         Ok(()) => {
+            let count = |is: &dyn Fn(&str) -> bool| outcome.files.iter().filter(|f| is(f)).count();
             println!(
-                "  wrote {}, solution.pvd, {} body files, {} surface files and {} contact point files",
+                "  wrote {}{}, {} body files, {} surface files and {} contact point files",
                 dir.join("report.json").display(),
-                report.bodies.len() * load.converged_steps,
-                report.bodies.len() * load.converged_steps,
-                report.contact.len()
+                match count(&|f| f == "solution.pvd") {
+                    0 => "",
+                    _ => ", solution.pvd",
+                },
+                count(&|f| f.ends_with(".vtu")),
+                count(&|f| f.ends_with(".vtp") && f.contains("_surface_")),
+                count(&|f| f.ends_with(".vtp") && !f.contains("_surface_"))
             );
             Ok(())
         }

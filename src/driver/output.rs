@@ -7,19 +7,77 @@
 //! at the nodes (`level_set`, negative inside: ParaView's *Clip* by this
 //! scalar at 0, inverted, cuts the cut cells down to the body), and the cell
 //! class and volume fraction per cell.
+//!
+//! It also owns which ParaView files a run writes ([`ParaView`]: `--output`
+//! and `--compress`) and writes those of the linear run ([`write_paraview`]:
+//! `solution.vtu`, `surface.vtp`, `solution.pvd` listing them).
 
 use std::path::Path;
+use std::str::FromStr;
 
 use rayon::prelude::*;
 
 use super::recovery::{recover_stress, vertex_nodes_of};
 use super::setup::Setup;
+use super::surface_output::{surface_fields, write_surface, SurfaceFields};
 use crate::cells::CellKind;
+use crate::discrete::boundary_mesh::BoundaryMesh;
 use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
-use crate::vtu::{write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
+use crate::output::Written;
+use crate::recovery::Recovered;
+use crate::vtu::{write_pvd_parts, write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
+
+/// Which of a run's ParaView files are written (`--output`): the cells
+/// (`solution.vtu`; on the Newton path each body's `<body>_<step>.vtu`), the
+/// surfaces (`surface.vtp`; on the Newton path the bodies' surfaces and the
+/// contact points, `.vtp`), both, or none (the report only).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OutputFiles {
+    Volume,
+    Surface,
+    #[default]
+    All,
+    None,
+}
+
+impl OutputFiles {
+    /// Whether the cells' files are written.
+    pub fn volume(self) -> bool {
+        matches!(self, OutputFiles::Volume | OutputFiles::All)
+    }
+
+    /// Whether the surfaces' files are written.
+    pub fn surface(self) -> bool {
+        matches!(self, OutputFiles::Surface | OutputFiles::All)
+    }
+}
+
+impl FromStr for OutputFiles {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "volume" => Ok(OutputFiles::Volume),
+            "surface" => Ok(OutputFiles::Surface),
+            "all" => Ok(OutputFiles::All),
+            "none" => Ok(OutputFiles::None),
+            other => Err(format!(
+                "unknown output '{other}'; available: volume, surface, all, none"
+            )),
+        }
+    }
+}
+
+/// A run's ParaView files: which, and their encoding (appended raw by
+/// default; `--compress`: zlib).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ParaView {
+    pub files: OutputFiles,
+    pub encoding: VtuEncoding,
+}
 
 /// Von Mises stress of a Voigt stress (xx, yy, zz, yz, xz, xy).
 pub fn von_mises(s: &[f64; 6]) -> f64 {
@@ -77,8 +135,37 @@ pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> Bod
     }
 }
 
-/// Writes the solution `u` of `setup` (whose solid is `geometry`) to `path`.
+/// The contents of a `.vtu` file: the mesh and its point and cell data.
+struct VtuFile {
+    mesh: VtuMesh,
+    point_data: Vec<DataArray>,
+    cell_data: Vec<DataArray>,
+}
+
+impl VtuFile {
+    fn write(&self, path: &Path, encoding: VtuEncoding) -> Result<()> {
+        write_vtu(
+            path,
+            &self.mesh,
+            &self.point_data,
+            &self.cell_data,
+            encoding,
+        )
+    }
+}
+
+/// Writes the solution `u` of `setup` (whose solid is `geometry`) to `path`
+/// in inline base64, a text file; a run writes it through
+/// [`write_paraview`] in the encoding of its [`ParaView`].
 pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path) -> Result<()> {
+    solution_file(setup, geometry, u)?
+        .0
+        .write(path, VtuEncoding::Binary)
+}
+
+/// `solution.vtu` of the solution `u` of `setup`, whose solid is `geometry`,
+/// and the stress recovered at the vertices of its cells.
+fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFile, Recovered<6>)> {
     let grid = &setup.grid;
     let dofs = &setup.op.dofs;
     let body: Vec<usize> = (0..grid.num_cells())
@@ -132,5 +219,50 @@ pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path
         points,
         cells: mesh.cells,
     };
-    write_vtu(path, &mesh, &point_data, &cell_data, VtuEncoding::Binary)
+    let file = VtuFile {
+        mesh,
+        point_data,
+        cell_data,
+    };
+    Ok((file, sigma))
+}
+
+/// Writes the ParaView files of `paraview` for the solution `u` of `setup`
+/// (whose solid is `geometry`) through `written`: `solution.vtu`,
+/// `surface.vtp`, and `solution.pvd` listing those written as the parts of
+/// one time step. Returns the boundary surface and its fields when they were
+/// computed: for `surface.vtp`, or when `want_surface`.
+pub fn write_paraview(
+    setup: &Setup,
+    geometry: &Geometry,
+    u: &[f64],
+    paraview: ParaView,
+    want_surface: bool,
+    written: &mut Written,
+) -> Result<Option<(BoundaryMesh, SurfaceFields)>> {
+    let (encoding, first) = (paraview.encoding, written.files.len());
+    let mut recovered = None;
+    if paraview.files.volume() {
+        let (file, sigma) = solution_file(setup, geometry, u)?;
+        written.write("solution.vtu", |path| file.write(path, encoding))?;
+        recovered = Some(sigma);
+    }
+    // The surface's host cells are cells of the body: its stress is the
+    // volume's, when that was recovered.
+    let surface = match paraview.files.surface() || want_surface {
+        true => Some(surface_fields(setup, geometry, u, recovered.as_ref())?),
+        false => None,
+    };
+    if let (true, Some((mesh, fields))) = (paraview.files.surface(), &surface) {
+        written.write("surface.vtp", |path| {
+            write_surface(path, mesh, fields, encoding)
+        })?;
+    }
+    let parts: Vec<(f64, usize, String)> = (written.files[first..].iter().enumerate())
+        .map(|(part, file)| (0.0, part, file.clone()))
+        .collect();
+    if !parts.is_empty() {
+        written.write("solution.pvd", |path| write_pvd_parts(path, &parts))?;
+    }
+    Ok(surface)
 }

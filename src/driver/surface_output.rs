@@ -31,6 +31,7 @@ use crate::discrete::boundary_mesh::BoundaryMesh;
 use crate::discrete::field::value_and_gradient;
 use crate::error::Result;
 use crate::geometry::Geometry;
+use crate::recovery::Recovered;
 use crate::vtu::{write_vtp_triangles, DataArray, VtuEncoding};
 
 /// The fields of `surface.vtp` at the vertices of a [`BoundaryMesh`].
@@ -47,13 +48,28 @@ pub struct SurfaceFields {
 }
 
 impl SurfaceFields {
-    /// The fields of the solution `u` of `setup` at the vertices of `mesh`.
-    pub fn new(setup: &Setup, u: &[f64], mesh: &BoundaryMesh) -> Result<SurfaceFields> {
+    /// The fields of the solution `u` of `setup` at the vertices of `mesh`,
+    /// with the stress recovered at the vertices of the host cells, or taken
+    /// from `recovered` when given (it must hold those vertices: the volume
+    /// output's recovery over every cell of the body does).
+    pub fn new(
+        setup: &Setup,
+        u: &[f64],
+        mesh: &BoundaryMesh,
+        recovered: Option<&Recovered<6>>,
+    ) -> Result<SurfaceFields> {
         let (grid, dofs) = (&setup.grid, &setup.op.dofs);
-        let mut hosts = mesh.host.clone();
-        hosts.sort_unstable();
-        hosts.dedup();
-        let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts), None)?;
+        let own;
+        let sigma = match recovered {
+            Some(sigma) => sigma,
+            None => {
+                let mut hosts = mesh.host.clone();
+                hosts.sort_unstable();
+                hosts.dedup();
+                own = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts), None)?;
+                &own
+            }
+        };
         let displacement = mesh
             .points
             .par_iter()
@@ -95,17 +111,28 @@ impl SurfaceFields {
     }
 }
 
-/// Writes the boundary of `geometry` with the solution `u` of `setup` to the
-/// `.vtp` file `path` (see the module doc); returns the mesh and fields
-/// written.
-pub fn write_surface(
+/// The boundary of `geometry` as triangles, and the fields of the solution
+/// `u` of `setup` at its vertices (the stress from `recovered` when given,
+/// see [`SurfaceFields::new`]).
+pub fn surface_fields(
     setup: &Setup,
     geometry: &Geometry,
     u: &[f64],
-    path: &Path,
+    recovered: Option<&Recovered<6>>,
 ) -> Result<(BoundaryMesh, SurfaceFields)> {
     let mesh = BoundaryMesh::new(&setup.grid, &setup.cells.kinds, geometry);
-    let fields = SurfaceFields::new(setup, u, &mesh)?;
+    let fields = SurfaceFields::new(setup, u, &mesh, recovered)?;
+    Ok((mesh, fields))
+}
+
+/// Writes the boundary `mesh` with its `fields` to the `.vtp` file `path` in
+/// `encoding` (see the module doc).
+pub fn write_surface(
+    path: &Path,
+    mesh: &BoundaryMesh,
+    fields: &SurfaceFields,
+    encoding: VtuEncoding,
+) -> Result<()> {
     let mut point_data = vec![
         DataArray::vectors("displacement", &fields.displacement),
         DataArray::sym_tensors("stress", &fields.stress),
@@ -115,16 +142,16 @@ pub fn write_surface(
         point_data.push(DataArray::vectors("exact_displacement", exact));
         point_data.push(DataArray::scalars_f64("error", error));
     }
-    write_tagged_triangles(path, &mesh, &point_data)?;
-    Ok((mesh, fields))
+    write_tagged_triangles(path, mesh, &point_data, encoding)
 }
 
 /// Writes `mesh` with `point_data` and its triangles' `tag` as the `.vtp`
-/// file `path`.
+/// file `path` in `encoding`.
 pub fn write_tagged_triangles(
     path: &Path,
     mesh: &BoundaryMesh,
     point_data: &[DataArray],
+    encoding: VtuEncoding,
 ) -> Result<()> {
     let tags = mesh.tags.iter().map(|&t| i32::from(t)).collect();
     let cell_data = [DataArray::scalars_i32("tag", tags)];
@@ -139,6 +166,6 @@ pub fn write_tagged_triangles(
         &triangles,
         point_data,
         &cell_data,
-        VtuEncoding::Binary,
+        encoding,
     )
 }

@@ -1,13 +1,15 @@
-//! Tests of the `.vtu` and `.pvd` writers: files written in both encodings
-//! are read back with the minimal reader in `tests/reader.rs` (tag balance,
-//! base64 with its `UInt64` header checked) and compared bit-exactly; bad
-//! input must give `Error::Io` and leave no file.
+//! Tests of the `.vtu`, `.vtp` and `.pvd` writers: files written in every
+//! encoding are read back with the minimal reader in `tests/reader.rs` (tag
+//! balance, base64 with its `UInt64` header checked, the appended section
+//! raw or zlib-compressed) and compared bit-exactly, and the public
+//! [`read`] must read the same; bad input must give `Error::Io` and leave
+//! no file.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::*;
-use reader::{assert_well_formed, attributes, data_arrays, split_tag, Read};
+use reader::{assert_well_formed, attributes, split_tag, Read};
 
 mod reader;
 
@@ -19,13 +21,52 @@ fn scratch(test: &str) -> PathBuf {
     dir
 }
 
+/// Every encoding.
+const ENCODINGS: [VtuEncoding; 4] = [
+    VtuEncoding::Appended,
+    VtuEncoding::AppendedZlib,
+    VtuEncoding::Binary,
+    VtuEncoding::Ascii,
+];
+
 /// What a `DataArray` must read back as.
 fn expected(a: &DataArray) -> Read {
     match &a.values {
         DataValues::F64(v) => Read::F64(v.iter().map(|x| x.to_bits()).collect()),
+        DataValues::I64(v) => Read::I64(v.clone()),
         DataValues::I32(v) => Read::I32(v.clone()),
         DataValues::U8(v) => Read::U8(v.clone()),
     }
+}
+
+/// Attributes and values of every DataArray of a file, by the test reader.
+type Arrays = Vec<(HashMap<String, String>, Read)>;
+
+/// The file at `path`, read by the test reader: its XML (checked well
+/// formed and laid out for `encoding`) and its DataArrays; the public
+/// [`read`] must give the same arrays.
+fn read_back(path: &Path, encoding: VtuEncoding) -> (String, Arrays) {
+    let file = reader::parse(&std::fs::read(path).unwrap());
+    assert_well_formed(&file.xml);
+    let format = match encoding {
+        VtuEncoding::Appended | VtuEncoding::AppendedZlib => "appended",
+        VtuEncoding::Binary => "binary",
+        VtuEncoding::Ascii => "ascii",
+    };
+    let compressed = file.xml.contains(r#"compressor="vtkZLibDataCompressor""#);
+    assert_eq!(compressed, encoding == VtuEncoding::AppendedZlib);
+    let arrays = reader::data_arrays(&file);
+    for (attrs, _) in &arrays {
+        assert_eq!(attrs["format"], format, "{}", attrs["Name"]);
+    }
+    let public = read(path).unwrap();
+    assert_eq!(public.len(), arrays.len());
+    for (a, (attrs, values)) in public.iter().zip(&arrays) {
+        assert_eq!(a.name, attrs["Name"]);
+        assert_eq!(a.components.to_string(), attrs["NumberOfComponents"]);
+        assert_eq!(expected(a), *values, "{}", a.name);
+    }
+    (file.xml, arrays)
 }
 
 /// A hex8 cell on `[0,1]³` and a hex27 cell on `[1,2]×[0,1]²` sharing the
@@ -86,12 +127,10 @@ fn round_trip(encoding: VtuEncoding, test: &str) {
     let mesh = two_cell_mesh();
     let (pd, cd) = (point_arrays(mesh.points.len()), cell_arrays());
     write_vtu(&path, &mesh, &pd, &cd, encoding).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    assert_well_formed(&text);
+    let (text, arrays) = read_back(&path, encoding);
     assert!(text.contains(r#"byte_order="LittleEndian" header_type="UInt64""#));
     assert!(text.contains(r#"<Piece NumberOfPoints="45" NumberOfCells="2">"#));
 
-    let arrays = data_arrays(&text);
     let names: Vec<&str> = arrays.iter().map(|(a, _)| a["Name"].as_str()).collect();
     let ours: Vec<&DataArray> = pd.iter().chain(&cd).collect();
     assert_eq!(names.len(), ours.len() + 4);
@@ -120,8 +159,43 @@ fn round_trip(encoding: VtuEncoding, test: &str) {
 }
 
 #[test]
+fn appended_file_round_trips_bit_exactly() {
+    round_trip(VtuEncoding::Appended, "appended");
+}
+
+#[test]
+fn compressed_file_round_trips_bit_exactly() {
+    round_trip(VtuEncoding::AppendedZlib, "zlib");
+}
+
+#[test]
 fn binary_file_round_trips_bit_exactly() {
     round_trip(VtuEncoding::Binary, "binary");
+}
+
+#[test]
+fn large_arrays_round_trip_in_every_encoding() {
+    // Arrays spanning several zlib blocks and base64 blocks, with a partial
+    // last block.
+    let dir = scratch("large");
+    let path = dir.join("cloud.vtu");
+    let n = 50_000;
+    let points: Vec<[f64; 3]> = (0..n)
+        .map(|i| [i as f64, (i as f64).sin(), (i as f64).sqrt()])
+        .collect();
+    let mesh = VtuMesh::point_cloud(points);
+    let pd = [DataArray::scalars_f64(
+        "noise",
+        (0..n).map(|i| ((i * 7919) % 1013) as f64 / 3.0).collect(),
+    )];
+    for encoding in ENCODINGS {
+        write_vtu(&path, &mesh, &pd, &[], encoding).unwrap();
+        let (_, arrays) = read_back(&path, encoding);
+        assert_eq!(arrays[0].1, expected(&pd[0]), "{encoding:?}");
+        let coords = mesh.points.iter().flatten().map(|x| x.to_bits()).collect();
+        assert_eq!(arrays[1].1, Read::F64(coords), "{encoding:?}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -172,10 +246,8 @@ fn point_cloud_has_one_vertex_cell_per_point() {
     let path = dir.join("cloud.vtu");
     let mesh = VtuMesh::point_cloud(vec![[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [-1.0, 0.5, 1e-3]]);
     let weights = DataArray::scalars_f64("weight", vec![0.25, 0.5, 0.25]);
-    write_vtu(&path, &mesh, &[], &[weights], VtuEncoding::Binary).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    assert_well_formed(&text);
-    let arrays = data_arrays(&text);
+    write_vtu(&path, &mesh, &[], &[weights], VtuEncoding::Appended).unwrap();
+    let (_, arrays) = read_back(&path, VtuEncoding::Appended);
     let find = |name: &str| &arrays.iter().find(|(a, _)| a["Name"] == name).unwrap().1;
     assert_eq!(*find("connectivity"), Read::I64(vec![0, 1, 2]));
     assert_eq!(*find("offsets"), Read::I64(vec![1, 2, 3]));
@@ -189,13 +261,11 @@ fn vtp_point_cloud_round_trips_with_its_vertices() {
     let path = dir.join("points.vtp");
     let points = vec![[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [-1.0, 0.5, 1e-3]];
     let gap = DataArray::scalars_f64("gap", vec![-1e-3, 0.0, 0.25]);
-    for encoding in [VtuEncoding::Binary, VtuEncoding::Ascii] {
+    for encoding in ENCODINGS {
         write_vtp_points(&path, &points, std::slice::from_ref(&gap), encoding).unwrap();
-        let text = std::fs::read_to_string(&path).unwrap();
-        assert_well_formed(&text);
+        let (text, arrays) = read_back(&path, encoding);
         assert!(text.contains("type=\"PolyData\""));
         assert!(text.contains("NumberOfVerts=\"3\""));
-        let arrays = data_arrays(&text);
         let find = |name: &str| &arrays.iter().find(|(a, _)| a["Name"] == name).unwrap().1;
         assert_eq!(*find("connectivity"), Read::I64(vec![0, 1, 2]));
         assert_eq!(*find("offsets"), Read::I64(vec![1, 2, 3]));
@@ -232,15 +302,13 @@ fn vtp_triangles_round_trip_with_point_and_cell_data() {
         ],
     );
     let tag = DataArray::scalars_i32("tag", vec![0, 7]);
-    for encoding in [VtuEncoding::Binary, VtuEncoding::Ascii] {
+    for encoding in ENCODINGS {
         let (pd, cd) = (std::slice::from_ref(&u), std::slice::from_ref(&tag));
         write_vtp_triangles(&path, &points, &triangles, pd, cd, encoding).unwrap();
-        let text = std::fs::read_to_string(&path).unwrap();
-        assert_well_formed(&text);
+        let (text, arrays) = read_back(&path, encoding);
         assert!(text.contains("NumberOfVerts=\"0\""));
         assert!(text.contains("NumberOfPolys=\"2\""));
         assert!(text.contains("<Polys>") && text.contains("<CellData>"));
-        let arrays = data_arrays(&text);
         let find = |name: &str| &arrays.iter().find(|(a, _)| a["Name"] == name).unwrap().1;
         assert_eq!(*find("connectivity"), Read::I64(vec![0, 1, 2, 1, 3, 2]));
         assert_eq!(*find("offsets"), Read::I64(vec![3, 6]));
@@ -287,7 +355,7 @@ fn bad_input_is_rejected_and_leaves_no_file() {
     let path = dir.join("bad.vtu");
     let mesh = two_cell_mesh();
     let write = |m: &VtuMesh, pd: &[DataArray], cd: &[DataArray]| {
-        write_vtu(&path, m, pd, cd, VtuEncoding::Binary)
+        write_vtu(&path, m, pd, cd, VtuEncoding::Appended)
     };
     let short = DataArray::vectors("u", &vec![[0.0; 3]; 44]);
     assert_rejected(
@@ -373,5 +441,25 @@ fn pvd_rejects_non_finite_time_and_leaves_no_file() {
     ];
     let result = write_pvd(&dir.join("series.pvd"), &entries);
     assert_rejected(&dir, result, "entry 1: time inf is not finite");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn read_refuses_damaged_files() {
+    let dir = scratch("damaged");
+    let path = dir.join("cloud.vtp");
+    let points: Vec<[f64; 3]> = (0..1000).map(|i| [i as f64, 0.5, -1.0]).collect();
+    for encoding in [VtuEncoding::Appended, VtuEncoding::AppendedZlib] {
+        write_vtp_points(&path, &points, &[], encoding).unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes.truncate(bytes.len() / 2);
+        std::fs::write(&path, &bytes).unwrap();
+        match read(&path) {
+            Err(Error::Io { reason, .. }) => {
+                assert!(reason.contains("run past the data"), "{reason}")
+            }
+            other => panic!("{encoding:?}: expected Error::Io, got {other:?}"),
+        }
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -1,34 +1,195 @@
-//! The XML text of `.vtu`, `.vtp` (point clouds, triangle surfaces) and `.pvd` files: element layout, DataArray
-//! encoding (inline base64 with a `UInt64` byte-count header, or ASCII),
-//! attribute escaping and a small base64 encoder. Inputs are checked by the
-//! caller (`vtu.rs`) before they get here.
+//! The XML of `.vtu`, `.vtp` (point clouds, triangle surfaces) and `.pvd`
+//! files: the element layout of a document ([`Document`]: XML text with the
+//! DataArrays in between), streamed to a writer in each [`VtuEncoding`] —
+//! the DataArray bodies inline (base64 with a `UInt64` byte-count header, or
+//! ASCII) or in the appended section (`vtu/appended.rs`) — attribute
+//! escaping and a small base64 encoder. Inputs are checked by the caller
+//! (`vtu.rs`) before they get here.
 
-use std::fmt::Write;
+use std::borrow::Cow;
+use std::fmt::Write as _;
+use std::io::{self, Write};
 
 use rayon::prelude::*;
 
+use super::appended::{self, Block};
 use super::{DataArray, DataValues, VtuEncoding, VtuMesh};
 
-/// The whole `.vtu` document.
-pub(super) fn unstructured_grid(
-    mesh: &VtuMesh,
-    point_data: &[DataArray],
-    cell_data: &[DataArray],
-    encoding: VtuEncoding,
-) -> String {
-    let mut s = document_start("UnstructuredGrid");
-    let _ = writeln!(
-        s,
-        "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">",
+/// The values of one DataArray, borrowed.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Values<'a> {
+    F64(&'a [f64]),
+    I64(&'a [i64]),
+    I32(&'a [i32]),
+    U8(&'a [u8]),
+}
+
+impl<'a> Values<'a> {
+    fn of(values: &'a DataValues) -> Values<'a> {
+        match values {
+            DataValues::F64(v) => Values::F64(v),
+            DataValues::I64(v) => Values::I64(v),
+            DataValues::I32(v) => Values::I32(v),
+            DataValues::U8(v) => Values::U8(v),
+        }
+    }
+
+    /// The VTK type name.
+    fn vtk_type(self) -> &'static str {
+        match self {
+            Values::F64(_) => "Float64",
+            Values::I64(_) => "Int64",
+            Values::I32(_) => "Int32",
+            Values::U8(_) => "UInt8",
+        }
+    }
+
+    /// The values' little-endian bytes: the values' own memory on a
+    /// little-endian machine, a converted copy on another.
+    pub(super) fn le_bytes(self) -> Cow<'a, [u8]> {
+        if cfg!(target_endian = "little") {
+            Cow::Borrowed(match self {
+                Values::F64(v) => bytemuck::cast_slice(v),
+                Values::I64(v) => bytemuck::cast_slice(v),
+                Values::I32(v) => bytemuck::cast_slice(v),
+                Values::U8(v) => v,
+            })
+        } else {
+            Cow::Owned(match self {
+                Values::F64(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+                Values::I64(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+                Values::I32(v) => v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+                Values::U8(v) => v.to_vec(),
+            })
+        }
+    }
+
+    /// The values as whitespace-separated text.
+    fn ascii(self) -> String {
+        fn join<T>(values: &[T], text: impl Fn(&T) -> String) -> String {
+            values.iter().map(text).collect::<Vec<_>>().join(" ")
+        }
+        match self {
+            Values::F64(v) => join(v, |x| format_f64(*x)),
+            Values::I64(v) => join(v, i64::to_string),
+            Values::I32(v) => join(v, i32::to_string),
+            Values::U8(v) => join(v, u8::to_string),
+        }
+    }
+}
+
+/// One DataArray of a document.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Array<'a> {
+    name: &'a str,
+    components: usize,
+    values: Values<'a>,
+}
+
+/// A piece of a document: XML text, or a DataArray.
+#[derive(Debug)]
+enum Item<'a> {
+    Text(String),
+    Array(Array<'a>),
+}
+
+/// A `.vtu` or `.vtp` document: the items inside its `kind` element.
+#[derive(Debug)]
+pub(super) struct Document<'a> {
+    kind: &'static str,
+    items: Vec<Item<'a>>,
+}
+
+impl<'a> Document<'a> {
+    fn new(kind: &'static str) -> Self {
+        Document {
+            kind,
+            items: Vec::new(),
+        }
+    }
+
+    fn text(&mut self, text: impl Into<String>) {
+        self.items.push(Item::Text(text.into()));
+    }
+
+    fn array(&mut self, name: &'a str, components: usize, values: Values<'a>) {
+        self.items.push(Item::Array(Array {
+            name,
+            components,
+            values,
+        }));
+    }
+
+    fn data_section(&mut self, tag: &str, arrays: &'a [DataArray]) {
+        self.text(format!("      <{tag}>\n"));
+        for a in arrays {
+            self.array(&a.name, a.components, Values::of(&a.values));
+        }
+        self.text(format!("      </{tag}>\n"));
+    }
+
+    fn points(&mut self, points: &'a [[f64; 3]]) {
+        self.text("      <Points>\n");
+        self.array("Points", 3, Values::F64(points.as_flattened()));
+        self.text("      </Points>\n");
+    }
+
+    /// The document's DataArrays in order.
+    fn arrays(&self) -> impl Iterator<Item = &Array<'a>> {
+        self.items.iter().filter_map(|item| match item {
+            Item::Array(a) => Some(a),
+            Item::Text(_) => None,
+        })
+    }
+}
+
+/// The cells' nodes one after the other, the end of each cell's nodes, and
+/// the cell types: the arrays that describe a mesh's cells.
+pub(super) struct CellArrays {
+    connectivity: Vec<i64>,
+    offsets: Vec<i64>,
+    types: Vec<u8>,
+}
+
+impl CellArrays {
+    pub(super) fn new(mesh: &VtuMesh) -> CellArrays {
+        let mut connectivity = Vec::new();
+        let mut offsets = Vec::with_capacity(mesh.cells.len());
+        for cell in &mesh.cells {
+            connectivity.extend(cell.nodes().iter().map(|&n| n as i64));
+            offsets.push(connectivity.len() as i64);
+        }
+        let types = mesh.cells.iter().map(|c| c.vtk_type()).collect();
+        CellArrays {
+            connectivity,
+            offsets,
+            types,
+        }
+    }
+}
+
+/// The `.vtu` document.
+pub(super) fn unstructured_grid<'a>(
+    mesh: &'a VtuMesh,
+    cells: &'a CellArrays,
+    point_data: &'a [DataArray],
+    cell_data: &'a [DataArray],
+) -> Document<'a> {
+    let mut d = Document::new("UnstructuredGrid");
+    d.text(format!(
+        "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n",
         mesh.points.len(),
         mesh.cells.len()
-    );
-    push_data_section(&mut s, "PointData", point_data, encoding);
-    push_data_section(&mut s, "CellData", cell_data, encoding);
-    push_points(&mut s, &mesh.points, encoding);
-    push_cells(&mut s, mesh, encoding);
-    s.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
-    s
+    ));
+    d.data_section("PointData", point_data);
+    d.data_section("CellData", cell_data);
+    d.points(&mesh.points);
+    d.text("      <Cells>\n");
+    d.array("connectivity", 1, Values::I64(&cells.connectivity));
+    d.array("offsets", 1, Values::I64(&cells.offsets));
+    d.array("types", 1, Values::U8(&cells.types));
+    d.text("      </Cells>\n    </Piece>\n");
+    d
 }
 
 /// The PolyData section holding a `.vtp` file's cells.
@@ -40,37 +201,98 @@ pub(super) enum PolySection {
     Polys,
 }
 
-/// The whole `.vtp` document of `mesh`, its cells all in `section`.
-pub(super) fn poly_data(
-    mesh: &VtuMesh,
+/// The `.vtp` document of `mesh`, its cells all in `section`.
+pub(super) fn poly_data<'a>(
+    mesh: &'a VtuMesh,
+    cells: &'a CellArrays,
     section: PolySection,
-    point_data: &[DataArray],
-    cell_data: &[DataArray],
-    encoding: VtuEncoding,
-) -> String {
+    point_data: &'a [DataArray],
+    cell_data: &'a [DataArray],
+) -> Document<'a> {
     let (tag, verts, polys) = match section {
         PolySection::Verts => ("Verts", mesh.cells.len(), 0),
         PolySection::Polys => ("Polys", 0, mesh.cells.len()),
     };
-    let mut s = document_start("PolyData");
-    let _ = writeln!(
-        s,
+    let mut d = Document::new("PolyData");
+    d.text(format!(
         "    <Piece NumberOfPoints=\"{}\" NumberOfVerts=\"{verts}\" NumberOfLines=\"0\" \
-         NumberOfStrips=\"0\" NumberOfPolys=\"{polys}\">",
+         NumberOfStrips=\"0\" NumberOfPolys=\"{polys}\">\n",
         mesh.points.len()
-    );
-    push_data_section(&mut s, "PointData", point_data, encoding);
+    ));
+    d.data_section("PointData", point_data);
     if !cell_data.is_empty() {
-        push_data_section(&mut s, "CellData", cell_data, encoding);
+        d.data_section("CellData", cell_data);
     }
-    push_points(&mut s, &mesh.points, encoding);
-    let (connectivity, offsets) = connectivity_and_offsets(mesh);
-    let _ = writeln!(s, "      <{tag}>");
-    push_i64_array(&mut s, "connectivity", &connectivity, encoding);
-    push_i64_array(&mut s, "offsets", &offsets, encoding);
-    let _ = writeln!(s, "      </{tag}>");
-    s.push_str("    </Piece>\n  </PolyData>\n</VTKFile>\n");
-    s
+    d.points(&mesh.points);
+    d.text(format!("      <{tag}>\n"));
+    d.array("connectivity", 1, Values::I64(&cells.connectivity));
+    d.array("offsets", 1, Values::I64(&cells.offsets));
+    d.text(format!("      </{tag}>\n    </Piece>\n"));
+    d
+}
+
+/// Streams `doc` to `w` in `encoding`. The appended encodings write every
+/// DataArray as an empty element with its offset into the appended section,
+/// and the section after the document's element; the compressed one
+/// compresses every array first (in parallel blocks), since the offsets
+/// come before the data.
+pub(super) fn write(doc: &Document, encoding: VtuEncoding, w: &mut impl Write) -> io::Result<()> {
+    let blocks: Vec<Block> = match encoding {
+        VtuEncoding::Appended => doc.arrays().map(|a| Block::raw(a.values)).collect(),
+        VtuEncoding::AppendedZlib => {
+            let arrays: Vec<&Array> = doc.arrays().collect();
+            arrays
+                .par_iter()
+                .map(|a| Block::zlib(a.values))
+                .collect::<io::Result<_>>()?
+        }
+        VtuEncoding::Binary | VtuEncoding::Ascii => Vec::new(),
+    };
+    let compressor = match encoding {
+        VtuEncoding::AppendedZlib => " compressor=\"vtkZLibDataCompressor\"",
+        _ => "",
+    };
+    write!(
+        w,
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"{}\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\"{compressor}>\n  <{}>\n",
+        doc.kind, doc.kind
+    )?;
+    let mut next = blocks.iter();
+    let mut offset = 0;
+    for item in &doc.items {
+        match item {
+            Item::Text(text) => w.write_all(text.as_bytes())?,
+            Item::Array(a) => {
+                let start = format!(
+                    "        <DataArray type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\" format=",
+                    a.values.vtk_type(),
+                    escape(a.name),
+                    a.components
+                );
+                w.write_all(start.as_bytes())?;
+                match encoding {
+                    VtuEncoding::Appended | VtuEncoding::AppendedZlib => {
+                        writeln!(w, "\"appended\" offset=\"{offset}\"/>")?;
+                        offset += next.next().map_or(0, Block::len);
+                    }
+                    VtuEncoding::Binary => {
+                        let body = binary_body(a.values);
+                        writeln!(w, "\"binary\">\n          {body}\n        </DataArray>")?;
+                    }
+                    VtuEncoding::Ascii => {
+                        let body = a.values.ascii();
+                        writeln!(w, "\"ascii\">\n          {body}\n        </DataArray>")?;
+                    }
+                }
+            }
+        }
+    }
+    writeln!(w, "  </{}>", doc.kind)?;
+    if matches!(encoding, VtuEncoding::Appended | VtuEncoding::AppendedZlib) {
+        appended::write_section(&blocks, w)?;
+    }
+    w.write_all(b"</VTKFile>\n")
 }
 
 /// The whole `.pvd` document for checked `(time, file)` entries.
@@ -90,123 +312,14 @@ pub(super) fn collection(entries: &[(f64, usize, &str)]) -> String {
     s
 }
 
-fn push_data_section(s: &mut String, tag: &str, arrays: &[DataArray], encoding: VtuEncoding) {
-    let _ = writeln!(s, "      <{tag}>");
-    for a in arrays {
-        push_array(s, &a.name, a.components, &a.values, encoding);
-    }
-    let _ = writeln!(s, "      </{tag}>");
-}
-
-/// The XML declaration and the opening `VTKFile` and `kind` tags.
-fn document_start(kind: &str) -> String {
-    let mut s = String::from("<?xml version=\"1.0\"?>\n");
-    let _ = writeln!(
-        s,
-        "<VTKFile type=\"{kind}\" version=\"1.0\" \
-         byte_order=\"LittleEndian\" header_type=\"UInt64\">"
-    );
-    let _ = writeln!(s, "  <{kind}>");
-    s
-}
-
-fn push_points(s: &mut String, points: &[[f64; 3]], encoding: VtuEncoding) {
-    let coords = points.iter().flatten().copied().collect();
-    s.push_str("      <Points>\n");
-    push_array(s, "Points", 3, &DataValues::F64(coords), encoding);
-    s.push_str("      </Points>\n");
-}
-
-/// The cells' nodes one after the other, and the end of each cell's nodes.
-fn connectivity_and_offsets(mesh: &VtuMesh) -> (Vec<i64>, Vec<i64>) {
-    let mut connectivity = Vec::new();
-    let mut offsets = Vec::with_capacity(mesh.cells.len());
-    for cell in &mesh.cells {
-        connectivity.extend(cell.nodes().iter().map(|&n| n as i64));
-        offsets.push(connectivity.len() as i64);
-    }
-    (connectivity, offsets)
-}
-
-fn push_cells(s: &mut String, mesh: &VtuMesh, encoding: VtuEncoding) {
-    let (connectivity, offsets) = connectivity_and_offsets(mesh);
-    let types: Vec<u8> = mesh.cells.iter().map(|c| c.vtk_type()).collect();
-    s.push_str("      <Cells>\n");
-    push_i64_array(s, "connectivity", &connectivity, encoding);
-    push_i64_array(s, "offsets", &offsets, encoding);
-    push_array(s, "types", 1, &DataValues::U8(types), encoding);
-    s.push_str("      </Cells>\n");
-}
-
-fn push_i64_array(s: &mut String, name: &str, values: &[i64], encoding: VtuEncoding) {
-    let body = match encoding {
-        VtuEncoding::Binary => binary_body(values.len() * 8, values, |v| v.to_le_bytes()),
-        VtuEncoding::Ascii => ascii_body(values, |v| v.to_string()),
-    };
-    push_element(s, name, "Int64", 1, encoding, &body);
-}
-
-fn push_array(
-    s: &mut String,
-    name: &str,
-    components: usize,
-    values: &DataValues,
-    encoding: VtuEncoding,
-) {
-    let (vtk_type, body) = match (values, encoding) {
-        (DataValues::F64(v), VtuEncoding::Binary) => {
-            ("Float64", binary_body(v.len() * 8, v, |x| x.to_le_bytes()))
-        }
-        (DataValues::F64(v), VtuEncoding::Ascii) => ("Float64", ascii_body(v, |x| format_f64(*x))),
-        (DataValues::I32(v), VtuEncoding::Binary) => {
-            ("Int32", binary_body(v.len() * 4, v, |x| x.to_le_bytes()))
-        }
-        (DataValues::I32(v), VtuEncoding::Ascii) => ("Int32", ascii_body(v, |x| x.to_string())),
-        (DataValues::U8(v), VtuEncoding::Binary) => ("UInt8", binary_body(v.len(), v, |x| [*x])),
-        (DataValues::U8(v), VtuEncoding::Ascii) => ("UInt8", ascii_body(v, |x| x.to_string())),
-    };
-    push_element(s, name, vtk_type, components, encoding, &body);
-}
-
-fn push_element(
-    s: &mut String,
-    name: &str,
-    vtk_type: &str,
-    components: usize,
-    encoding: VtuEncoding,
-    body: &str,
-) {
-    let format = match encoding {
-        VtuEncoding::Binary => "binary",
-        VtuEncoding::Ascii => "ascii",
-    };
-    let _ = writeln!(
-        s,
-        "        <DataArray type=\"{vtk_type}\" Name=\"{}\" NumberOfComponents=\"{components}\" \
-         format=\"{format}\">",
-        escape(name)
-    );
-    let _ = writeln!(s, "          {body}");
-    s.push_str("        </DataArray>\n");
-}
-
 /// base64 of the `UInt64` little-endian byte count followed by the raw
-/// little-endian bytes of every value (`bytes` gives one value's bytes).
-fn binary_body<T, const N: usize>(
-    byte_count: usize,
-    values: &[T],
-    bytes: impl Fn(&T) -> [u8; N],
-) -> String {
-    let mut raw = Vec::with_capacity(8 + byte_count);
-    raw.extend_from_slice(&(byte_count as u64).to_le_bytes());
-    for v in values {
-        raw.extend_from_slice(&bytes(v));
-    }
+/// little-endian bytes of every value.
+fn binary_body(values: Values) -> String {
+    let bytes = values.le_bytes();
+    let mut raw = Vec::with_capacity(8 + bytes.len());
+    raw.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
+    raw.extend_from_slice(&bytes);
     base64_encode(&raw)
-}
-
-fn ascii_body<T>(values: &[T], text: impl Fn(&T) -> String) -> String {
-    values.iter().map(text).collect::<Vec<_>>().join(" ")
 }
 
 /// Shortest text that parses back to the same value, in a form C's `strtod`
@@ -246,7 +359,7 @@ const BASE64_BLOCK: usize = 3 << 16;
 
 /// Standard base64 (RFC 4648, with `=` padding), encoded in parallel blocks
 /// straight into the output.
-pub(super) fn base64_encode(bytes: &[u8]) -> String {
+fn base64_encode(bytes: &[u8]) -> String {
     let mut out = vec![0u8; base64_len(bytes.len())];
     out.par_chunks_mut(base64_len(BASE64_BLOCK))
         .zip(bytes.par_chunks(BASE64_BLOCK))
@@ -325,5 +438,13 @@ mod tests {
     #[test]
     fn escape_replaces_markup_characters() {
         assert_eq!(escape(r#"a<b>&"c'"#), "a&lt;b&gt;&amp;&quot;c&apos;");
+    }
+
+    #[test]
+    fn little_endian_bytes_are_the_values_in_order() {
+        let v = [1.5f64, -0.0];
+        let expected: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+        assert_eq!(&*Values::F64(&v).le_bytes(), expected.as_slice());
+        assert_eq!(&*Values::I32(&[-2]).le_bytes(), (-2i32).to_le_bytes());
     }
 }

@@ -1,9 +1,43 @@
-//! A minimal reader for the writer's own output, for the tests: a
-//! tag-balance check for well-formedness, attribute parsing, DataArray
-//! extraction and decoding (base64 with the `UInt64` byte-count header
-//! checked, or ASCII) into bit-comparable values.
+//! A minimal reader for the writer's own output, for the tests, written
+//! apart from the module's public reader: a tag-balance check for
+//! well-formedness, attribute parsing, DataArray extraction and decoding
+//! (inline base64 with the `UInt64` byte-count header checked, ASCII, or the
+//! appended section, raw or zlib-compressed blocks inflated with flate2)
+//! into bit-comparable values.
 
 use std::collections::HashMap;
+use std::io::Read as _;
+
+/// A file as written: its XML (with an appended section's bytes cut out,
+/// its `_` marker kept) and the appended section's bytes.
+pub(super) struct File {
+    pub(super) xml: String,
+    appended: Vec<u8>,
+}
+
+/// Splits a written file into its XML and its appended bytes; panics
+/// unless the XML is UTF-8 and the section is `_`, the data, a newline, two
+/// spaces, and `</AppendedData>`.
+pub(super) fn parse(bytes: &[u8]) -> File {
+    let open = b"<AppendedData encoding=\"raw\">\n   _";
+    let close = b"\n  </AppendedData>\n</VTKFile>\n";
+    let Some(at) = bytes.windows(open.len()).position(|w| w == open) else {
+        let xml = String::from_utf8(bytes.to_vec()).expect("a file without appended data is text");
+        return File {
+            xml,
+            appended: Vec::new(),
+        };
+    };
+    let start = at + open.len();
+    assert!(bytes.ends_with(close), "the appended section is not closed");
+    let end = bytes.len() - close.len();
+    let mut xml = String::from_utf8(bytes[..start].to_vec()).expect("the XML is text");
+    xml.push_str(std::str::from_utf8(&bytes[end..]).unwrap());
+    File {
+        xml,
+        appended: bytes[start..end].to_vec(),
+    }
+}
 
 /// Panics unless every tag is closed in order, there is one root element,
 /// no tag or attribute value holds a raw `<`, and text holds no raw `<`.
@@ -84,26 +118,81 @@ pub(super) enum Read {
     U8(Vec<u8>),
 }
 
-/// Every DataArray of the document: its attributes and decoded values.
-pub(super) fn data_arrays(text: &str) -> Vec<(HashMap<String, String>, Read)> {
+/// Every DataArray of `file`: its attributes and decoded values. Appended
+/// arrays must tile the appended section, in order, with no gap.
+pub(super) fn data_arrays(file: &File) -> Vec<(HashMap<String, String>, Read)> {
+    let root = attributes(split_tag(&file.xml[file.xml.find("<VTKFile").unwrap() + 1..]).0);
+    let zlib = match root.get("compressor").map(String::as_str) {
+        Some("vtkZLibDataCompressor") => true,
+        None => false,
+        Some(other) => panic!("compressor {other}"),
+    };
     let mut out = Vec::new();
-    for piece in text.split("<DataArray").skip(1) {
+    let mut next_offset = 0;
+    for piece in file.xml.split("<DataArray").skip(1) {
         let (tag, after) = split_tag(piece);
-        let body = &after[..after.find("</DataArray>").unwrap()];
-        let attrs = attributes(&format!("DataArray{tag}"));
-        let values = decode(&attrs, body.trim());
+        let attrs = attributes(&format!("DataArray{}", tag.trim_end_matches('/')));
+        let ty = attrs["type"].as_str();
+        let values = match attrs["format"].as_str() {
+            "appended" => {
+                assert!(tag.ends_with('/'), "an appended DataArray has no body");
+                let offset: usize = attrs["offset"].parse().unwrap();
+                assert_eq!(offset, next_offset, "{}: offset", attrs["Name"]);
+                let (raw, len) = if zlib {
+                    inflate(&file.appended[offset..])
+                } else {
+                    let n = u64::from_le_bytes(file.appended[offset..][..8].try_into().unwrap());
+                    let len = 8 + n as usize;
+                    (file.appended[offset..offset + len].to_vec(), len)
+                };
+                next_offset = offset + len;
+                decode_binary(ty, &raw)
+            }
+            format => {
+                let body = after[..after.find("</DataArray>").unwrap()].trim();
+                match format {
+                    "binary" => decode_binary(ty, &base64_decode(body)),
+                    "ascii" => decode_ascii(ty, body),
+                    other => panic!("format {other}"),
+                }
+            }
+        };
         out.push((attrs, values));
     }
+    assert_eq!(
+        next_offset,
+        file.appended.len(),
+        "the appended section's length"
+    );
     out
 }
 
-fn decode(attrs: &HashMap<String, String>, body: &str) -> Read {
-    let ty = attrs["type"].as_str();
-    match attrs["format"].as_str() {
-        "binary" => decode_binary(ty, &base64_decode(body)),
-        "ascii" => decode_ascii(ty, body),
-        other => panic!("format {other}"),
+/// Inflates the zlib-compressed array at the start of `data` (header:
+/// blocks, block size, partial last block size, compressed sizes); returns
+/// the byte count and the values' bytes, as raw data has them, and the
+/// array's length in the section.
+fn inflate(data: &[u8]) -> (Vec<u8>, usize) {
+    let word = |i: usize| u64::from_le_bytes(data[8 * i..][..8].try_into().unwrap()) as usize;
+    let (blocks, size, last) = (word(0), word(1), word(2));
+    let mut at = 8 * (3 + blocks);
+    let mut values = Vec::new();
+    for b in 0..blocks {
+        let before = values.len();
+        let compressed = &data[at..at + word(3 + b)];
+        flate2::read::ZlibDecoder::new(compressed)
+            .read_to_end(&mut values)
+            .unwrap();
+        let expected = if b + 1 == blocks && last > 0 {
+            last
+        } else {
+            size
+        };
+        assert_eq!(values.len() - before, expected, "block {b}");
+        at += compressed.len();
     }
+    let mut raw = (values.len() as u64).to_le_bytes().to_vec();
+    raw.extend(values);
+    (raw, at)
 }
 
 fn decode_binary(ty: &str, raw: &[u8]) -> Read {

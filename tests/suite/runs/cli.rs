@@ -75,7 +75,9 @@ fn a_good_case_writes_its_report() {
         (rx - 10000.0 * v / 13.0).abs() < 0.02 * 10000.0 * v / 13.0,
         "reaction {rx}"
     );
-    let vtu = std::fs::read_to_string(out.join("solution.vtu")).unwrap();
+    // Appended raw binary: the XML is text, the data after it is not.
+    let vtu = std::fs::read(out.join("solution.vtu")).unwrap();
+    let vtu = String::from_utf8_lossy(&vtu);
     assert!(vtu.contains("Name=\"displacement\"") && vtu.contains("Name=\"von_mises\""));
     assert!(vtu.trim_end().ends_with("</VTKFile>"));
     let v = report["bodies"][0]["domain"]["volume"].as_f64().unwrap();

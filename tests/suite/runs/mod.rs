@@ -8,6 +8,7 @@ mod cli_progress;
 mod diagnostics;
 mod examples;
 mod fuzz_case;
+mod output_modes;
 mod readme_reference;
 mod reproduce;
 mod robustness_runs;

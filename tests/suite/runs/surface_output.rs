@@ -19,6 +19,8 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use cgfem_gpu::vtu::DataValues;
+
 use crate::common::patch_check;
 use patch_check::SOLVER;
 
@@ -47,63 +49,18 @@ fn run(case: &Path, out: &Path, args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap()
 }
 
-/// Decodes standard base64 (with `=` padding).
-fn base64_decode(text: &str) -> Vec<u8> {
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => c - b'A',
-        b'a'..=b'z' => c - b'a' + 26,
-        b'0'..=b'9' => c - b'0' + 52,
-        b'+' => 62,
-        b'/' => 63,
-        _ => panic!("not base64: {c}"),
-    };
-    let bytes: Vec<u8> = text.bytes().filter(|&c| c != b'=').map(value).collect();
-    let mut out = Vec::with_capacity(bytes.len() * 3 / 4);
-    for chunk in bytes.chunks(4) {
-        let mut n = 0u32;
-        for (k, &b) in chunk.iter().enumerate() {
-            n |= u32::from(b) << (18 - 6 * k);
-        }
-        for k in 0..chunk.len() - 1 {
-            out.push((n >> (16 - 8 * k)) as u8);
-        }
-    }
-    out
-}
-
-/// Every binary DataArray of a VTK XML file by name, as `f64` values (the
-/// `UInt64` byte count checked).
+/// Every DataArray of a VTK XML file by name, as `f64` values (read back
+/// with `cgfem_gpu::vtu::read`, in whatever encoding the run wrote).
 fn arrays(path: &Path) -> HashMap<String, Vec<f64>> {
-    let text = std::fs::read_to_string(path).unwrap();
     let mut out = HashMap::new();
-    for piece in text.split("<DataArray ").skip(1) {
-        let (head, rest) = piece.split_once('>').unwrap();
-        let attr = |key: &str| {
-            let start = head.find(&format!("{key}=\"")).unwrap() + key.len() + 2;
-            head[start..].split('"').next().unwrap().to_string()
+    for a in cgfem_gpu::vtu::read(path).unwrap() {
+        let values = match a.values {
+            DataValues::F64(v) => v,
+            DataValues::I64(v) => v.iter().map(|&x| x as f64).collect(),
+            DataValues::I32(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            DataValues::U8(v) => v.iter().map(|&x| f64::from(x)).collect(),
         };
-        assert_eq!(attr("format"), "binary");
-        let raw = base64_decode(rest.split('<').next().unwrap().trim());
-        let count = u64::from_le_bytes(raw[..8].try_into().unwrap()) as usize;
-        let data = &raw[8..];
-        assert_eq!(count, data.len());
-        let values: Vec<f64> = match attr("type").as_str() {
-            "Float64" => data
-                .chunks(8)
-                .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
-                .collect(),
-            "Int64" => data
-                .chunks(8)
-                .map(|b| i64::from_le_bytes(b.try_into().unwrap()) as f64)
-                .collect(),
-            "Int32" => data
-                .chunks(4)
-                .map(|b| f64::from(i32::from_le_bytes(b.try_into().unwrap())))
-                .collect(),
-            "UInt8" => data.iter().map(|&b| f64::from(b)).collect(),
-            other => panic!("unexpected type {other}"),
-        };
-        out.insert(attr("Name"), values);
+        out.insert(a.name, values);
     }
     out
 }
