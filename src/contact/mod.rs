@@ -3,7 +3,7 @@
 //!
 //! - [`surface`]: a body's boundary as a triangle mesh in the reference
 //!   configuration, extracted from its level set on its Cartesian grid by
-//!   marching tetrahedra, and mapped to the current configuration
+//!   marching tetrahedra ([`crate::discrete::marching`]), and mapped to the current configuration
 //!   `x = X + u(X)`.
 //! - the bounding-volume hierarchy over the current triangles, with
 //!   nearest-hit line queries, is [`crate::spatial::Bvh`].

@@ -1,5 +1,8 @@
-//! Linear elasticity on the immersed grid: dofs, the operator (matrix-free and
-//! assembled), right-hand sides, the discrete field and its error norms.
+//! Linear elasticity on the immersed grid: the operator (matrix-free and
+//! assembled), a level's operator with its pathological cells, the loads and
+//! right-hand sides, and the cut cells' flux corrections. The dofs and fields
+//! are in [`crate::discrete`]; the run that uses all this, in
+//! [`crate::driver`].
 pub mod assembled;
 pub mod checks;
 pub mod component_penalty;
