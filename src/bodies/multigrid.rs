@@ -4,7 +4,8 @@
 //! # The levels
 //! Per body, the **linear-elastic** operator `K + K_p (+ K_S)` of the body
 //! at the reference configuration (its material's `E`, `ν`; the case's
-//! `k1`, `k2`, `A`) on its own grid and cut cells, and the same operator
+//! `k1`, `k2`, `A`) on its own grid, cut cells and element, then (Q2 only)
+//! the Q1 operator on the same grid and cut-cell rules, and the Q1 operator
 //! rediscretised on the 2×2×2 coarsenings of the grid with their own cut-cell
 //! rules, the S-term the Galerkin product of the finest level's
 //! ([`crate::multigrid::galerkin_s`]): a linear case's [`Hierarchy`], built
@@ -72,25 +73,32 @@ impl BodiesMultigrid {
         let mut levels = Vec::with_capacity(setup.bodies.len());
         for (i, body) in setup.bodies.iter().enumerate() {
             let st = &case.spec.stabilisation;
-            let fine = body_operator(case, i, body, &body.grid, &body.cells, st.k2);
-            let omega_star = pathological_cells(&body.cells, st.threshold(ElementOrder::Q1));
+            let order = setup.problem.bodies[i].order();
+            let fine = body_operator(case, i, body, (&body.grid, &body.cells), order, st.k2);
+            let omega_star = pathological_cells(&body.cells, st.threshold(order));
             let young = case.bodies[i].spec.material.young;
             let s_term = FineSTerm {
                 grid: &body.grid,
                 cells: &omega_star,
                 factor: st.k2 * young / (body.grid.h * body.grid.h),
             };
+            let q1 = ElementOrder::Q1;
             let hierarchy = Hierarchy::build(&fine, opts, |last| {
-                let Some(grid) = last.grid.coarsened() else {
-                    return Ok(None);
-                };
-                let cells = Cells::classify(&grid, &body.solid, cut_rule_points(ElementOrder::Q1))
-                    .map_err(|e| Error::CaseFile {
-                        file: case.file.clone(),
-                        key: format!("body[{i}].geometry"),
-                        reason: format!("multigrid level {}: {e}", grid.level),
-                    })?;
-                let mut op = body_operator(case, i, body, &grid, &cells, 0.0);
+                let mut op =
+                    if last.dofs.order == ElementOrder::Q2 {
+                        body_operator(case, i, body, (&body.grid, &body.cells), q1, 0.0)
+                    } else {
+                        let Some(grid) = last.grid.coarsened() else {
+                            return Ok(None);
+                        };
+                        let cells = Cells::classify(&grid, &body.solid, cut_rule_points(q1))
+                            .map_err(|e| Error::CaseFile {
+                                file: case.file.clone(),
+                                key: format!("body[{i}].geometry"),
+                                reason: format!("multigrid level {}: {e}", grid.level),
+                            })?;
+                        body_operator(case, i, body, (&grid, &cells), q1, 0.0)
+                    };
                 s_term.add_to(&mut op);
                 Ok(Some(op))
             })?;
@@ -118,15 +126,15 @@ impl BodiesMultigrid {
     }
 }
 
-/// Body `i`'s linear-elastic operator on `grid` classified as `cells`
-/// (module doc), with the S-term's weight `k2` (0 on a coarse level, which
-/// takes the finest level's S-term instead).
+/// Body `i`'s linear-elastic operator of elements `order` on a grid
+/// classified as its cells (module doc), with the S-term's weight `k2` (0 on
+/// a coarse level, which takes the finest level's S-term instead).
 fn body_operator(
     case: &Case,
     i: usize,
     body: &BodySetup,
-    grid: &Grid,
-    cells: &Cells,
+    (grid, cells): (&Grid, &Cells),
+    order: ElementOrder,
     k2: f64,
 ) -> ElasticOperator {
     let spec = &case.bodies[i].spec;
@@ -163,7 +171,7 @@ fn body_operator(
         k2,
         ..case.spec.stabilisation.clone()
     };
-    LevelOperator::with_params(grid, cells, ElementOrder::Q1, &params, &st).op
+    LevelOperator::with_params(grid, cells, order, &params, &st).op
 }
 
 /// The block-diagonal preconditioner of the module doc.

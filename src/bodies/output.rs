@@ -95,7 +95,8 @@ fn cell_von_mises(p: &HyperProblem, u: &[f64], path: &Path) -> Result<Vec<f64>> 
 }
 
 /// Writes body `p` (set up as `body`) at displacement `u` to `path` in
-/// `encoding`.
+/// `encoding`: its cells as `VTK_HEXAHEDRON` (Q1) or
+/// `VTK_TRIQUADRATIC_HEXAHEDRON` (Q2) on its active nodes.
 pub fn write_body(
     path: &Path,
     body: &BodySetup,
@@ -107,12 +108,17 @@ pub fn write_body(
         .dofs
         .active_to_node
         .iter()
-        .map(|&n| body.grid.node_position(ElementOrder::Q1, n as usize))
+        .map(|&n| body.grid.node_position(p.order(), n as usize))
         .collect();
-    let cells: Vec<VtuCell> = p
-        .cell_nodes
-        .iter()
-        .map(|nodes| VtuCell::hex8_from_lexicographic(nodes.map(|a| a as usize)))
+    let cells: Vec<VtuCell> = (0..p.cells.len())
+        .map(|k| {
+            let nodes = p.cell_nodes(k);
+            let node = |i: usize| nodes[i] as usize;
+            match p.order() {
+                ElementOrder::Q1 => VtuCell::hex8_from_lexicographic(std::array::from_fn(node)),
+                ElementOrder::Q2 => VtuCell::hex27_from_lexicographic(std::array::from_fn(node)),
+            }
+        })
         .collect();
     let displacement: Vec<[f64; 3]> = u.chunks_exact(3).map(|d| [d[0], d[1], d[2]]).collect();
     let class: Vec<u8> = p.cells.iter().map(|&c| body.cells.kinds[c] as u8).collect();

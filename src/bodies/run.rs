@@ -13,7 +13,6 @@ use super::output::Series;
 use super::setup::BodiesSetup;
 use crate::case::Case;
 use crate::driver::output::ParaView;
-use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::hyper::convergence::convergence_order;
@@ -205,7 +204,7 @@ fn report(
         report.push_body(BodyReport::new(
             &b.name,
             c.model,
-            ElementOrder::Q1,
+            c.spec.element,
             &b.solid,
             &b.grid,
             &b.cells,

@@ -1,6 +1,7 @@
 //! From a [`Case`] to a [`BodiesProblem`]: per body its grid (`--level`
 //! sets every body's), its solid (clipped for plane strain), the cell
-//! classification with the Q1 cut rules, the hyperelastic material, the
+//! classification with its element's cut rules, the element (Q1 or Q2), the
+//! hyperelastic material, the
 //! penalty `β = k1 E`, the S-term of the pathological cells (`k2`, `A`; off
 //! for `k2 = 0`), the Dirichlet conditions per component (restricted to
 //! their region at the surface quadrature points), the tractions, and the
@@ -18,14 +19,13 @@ use crate::case::boundary::RampSpec;
 use crate::case::{Case, Model};
 use crate::cells::pieces::{held_pieces, HeldPoint, Naming};
 use crate::cells::{CellKind, Cells};
-use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::hyper::material::{Material, MaterialModel};
 use crate::hyper::newton::NewtonOptions;
 use crate::hyper::problem::{
-    DirichletCondition, HyperProblem, Loads, Ramp, Region, TractionField, TractionLoad,
+    Conditions, DirichletCondition, HyperProblem, Loads, Ramp, Region, TractionField, TractionLoad,
 };
 use crate::progress::Progress;
 use crate::solver::KrylovOptions;
@@ -276,9 +276,14 @@ fn body_problem(
     let st = &case.spec.stabilisation;
     let beta = st.k1 * spec.material.young;
     let m = material(case, i);
-    let mut p = HyperProblem::new_restricted(grid, cells, m, beta, &dirichlet, &regions, &loads)?;
-    // Bodies are Q1 (checked when the case is read).
-    let a = st.threshold(ElementOrder::Q1);
+    let conditions = Conditions {
+        dirichlet: &dirichlet,
+        regions: &regions,
+        loads: &loads,
+    };
+    let order = spec.element;
+    let mut p = HyperProblem::new_restricted(grid, cells, order, m, beta, &conditions)?;
+    let a = st.threshold(order);
     p.set_s_term(cells, solid, st.k2, spec.material.young, a);
     Ok(p)
 }

@@ -22,7 +22,6 @@
 
 use crate::cells::Cells;
 use crate::discrete::dofs::DofMap;
-use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::grid::Grid;
@@ -97,15 +96,15 @@ pub fn mirror(planes: &[SymmetryPlane]) -> Mirror {
     m
 }
 
-/// The dofs to hold for `plane`: the normal component at every active Q1
-/// node on it.
+/// The dofs to hold for `plane`: the normal component at every active node
+/// (of the dof map's element) on it.
 pub fn held_dofs(grid: &Grid, dofs: &DofMap, plane: SymmetryPlane) -> Vec<usize> {
     let tol = ON_PLANE * grid.h;
     dofs.active_to_node
         .iter()
         .enumerate()
         .filter(|&(_, &n)| {
-            let x = grid.node_position(ElementOrder::Q1, n as usize);
+            let x = grid.node_position(dofs.order, n as usize);
             (x[plane.axis] - plane.coordinate).abs() <= tol
         })
         .map(|(a, _)| 3 * a + plane.axis)

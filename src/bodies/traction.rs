@@ -2,14 +2,15 @@
 //! reference configuration) and from it the recovered normal traction
 //! `T̂_N = n1 · σ̂ n1` of contact.
 //!
-//! **Samples.** At the 2×2×2 Gauss points of an inside cell and at most 16
+//! **Samples.** At the Gauss points of an inside cell (Q1: 2×2×2, Q2:
+//! 3×3×3) and at most 16
 //! points of a cut cell ([`Cells::fit_points`], strided: fewer than the
 //! linear recovery of [`crate::driver::recovery::sample_positions`] takes) the Cauchy stress of the
 //! current state, `σ = P Fᵀ / J`, stored as Voigt `(xx, yy, zz, yz, xz, xy)`
 //! at the point's **reference** position `X`.
 //!
-//! **Fit.** The generic SPR of [`crate::recovery::recover`] (degree 1, the
-//! Q1 vertex patches, enlarged ring by ring where a patch is thin) on the
+//! **Fit.** The generic SPR of [`crate::recovery::recover`] (degree p of the
+//! element, on the vertex patches, enlarged ring by ring where a patch is thin) on the
 //! patches of the vertex nodes of the requested cells; `σ̂(X)` is its CPE
 //! blend in the cell holding `X`. A patch that reaches past a symmetry plane
 //! of the body takes the mirror image of its samples there (the shears with
@@ -25,11 +26,11 @@ use nalgebra::Matrix3;
 use crate::cells::pieces::Pieces;
 use crate::cells::{CellKind, Cells};
 use crate::driver::recovery::voigt_times;
-use crate::element::{tensor_gauss_rule, ElementOrder};
+use crate::element::{shape_gradients, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::grid::Grid;
 use crate::hyper::material::PointState;
-use crate::hyper::problem::{quad_point, HyperProblem, QuadPoint};
+use crate::hyper::problem::{CellBuffer, HyperProblem, QuadPoint, MAX_NODES};
 use crate::hyper::residual::deformation_gradient;
 use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
 
@@ -45,20 +46,20 @@ use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptio
 const CUT_CELL_SAMPLES: usize = 16;
 
 /// What the stress recovery of one body needs from its cell classification:
-/// the cell kinds, per cut cell its sample points (reference position and
-/// the Q1 shape gradients there, [`Cells::fit_points`]), and the body's
-/// symmetry planes, across which the patches continue.
+/// the cell kinds, per cut cell its sample points (reference coordinates in
+/// the cell and position, [`Cells::fit_points`]), and the body's symmetry
+/// planes, across which the patches continue.
 #[derive(Clone, Debug)]
 pub struct StressSampler {
     kinds: Vec<CellKind>,
     /// The body's piece of each cell (a patch keeps to its node's piece).
     pieces: Vec<u32>,
-    cut_samples: Vec<Vec<(QuadPoint, [f64; 3])>>,
+    cut_samples: Vec<Vec<([f64; 3], [f64; 3])>>,
     mirror: Mirror,
 }
 
 impl StressSampler {
-    /// The sampler of a body on `grid` classified as `cells` (Q1 cut rules),
+    /// The sampler of a body on `grid` classified as `cells`,
     /// with the symmetry planes `mirror` (faces of the grid box).
     pub fn new(grid: &Grid, cells: &Cells, mirror: Mirror) -> StressSampler {
         let inv_h = 1.0 / grid.h;
@@ -71,11 +72,7 @@ impl StressSampler {
                 cells
                     .fit_points(i, CUT_CELL_SAMPLES)
                     .into_iter()
-                    .map(|x| {
-                        let xi = [0, 1, 2].map(|a| (x[a] - lo[a]) * inv_h);
-                        // A sample, not a quadrature point: no weight.
-                        (quad_point(xi, 0.0, inv_h), x)
-                    })
+                    .map(|x| ([0, 1, 2].map(|a| (x[a] - lo[a]) * inv_h), x))
                     .collect()
             })
             .collect();
@@ -95,13 +92,16 @@ impl StressSampler {
             body,
             u,
             sampler: self,
-            gauss: tensor_gauss_rule(2).iter().map(|(xi, _)| *xi).collect(),
+            gauss: tensor_gauss_rule(body.order().gauss_points_per_axis())
+                .iter()
+                .map(|(xi, _)| *xi)
+                .collect(),
         };
         recover(
             &body.grid,
             &self.kinds,
             &nodes,
-            ElementOrder::Q1.degree(),
+            body.order().degree(),
             &samples,
             &SprOptions {
                 mirror: self.mirror,
@@ -141,9 +141,10 @@ impl PatchSamples<6> for CauchySamples<'_> {
         let Ok(k) = body.cells.binary_search(&cell) else {
             return;
         };
-        let ue = body.gather(k, self.u);
+        let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+        let ue = body.gather(k, self.u, &mut buffer);
         let mut push = |point: &QuadPoint, x: [f64; 3]| {
-            let f = deformation_gradient(&ue, point);
+            let f = deformation_gradient(ue, point);
             if let Some(s) = PointState::new(f) {
                 out.push((x, cauchy_voigt(&f, &body.material.stress(&s))));
             }
@@ -151,13 +152,19 @@ impl PatchSamples<6> for CauchySamples<'_> {
         match body.cut_index[k] {
             None => {
                 let (lo, h) = (body.grid.cell_box(cell).lo, body.grid.h);
-                for (point, xi) in body.points(k).iter().zip(&self.gauss) {
-                    push(point, [0, 1, 2].map(|a| lo[a] + h * xi[a]));
+                for (point, xi) in body.points(k).zip(&self.gauss) {
+                    push(&point, [0, 1, 2].map(|a| lo[a] + h * xi[a]));
                 }
             }
             Some(i) => {
-                for (point, x) in &self.sampler.cut_samples[i] {
-                    push(point, *x);
+                let inv_h = 1.0 / body.grid.h;
+                let mut grads = [[0.0; 3]; MAX_NODES];
+                let grads = &mut grads[..ue.len()];
+                for &(xi, x) in &self.sampler.cut_samples[i] {
+                    shape_gradients(body.order(), xi, grads);
+                    grads.iter_mut().for_each(|g| *g = g.map(|v| v * inv_h));
+                    // A sample, not a quadrature point: no weight.
+                    push(&QuadPoint { grads, w: 0.0 }, x);
                 }
             }
         }
@@ -211,22 +218,31 @@ mod tests {
     /// Patch test: under a homogeneous deformation `x = F0 X` of a ball the
     /// FE stress is the same constant at every point, SPR reproduces it, and
     /// `T̂_N` at every boundary point is the closed-form neo-Hookean
-    /// `n1 · σ n1`, `σ = μ/J (B − I) + λ ln J / J I`, `n1 ∝ cof(F0) N`.
+    /// `n1 · σ n1`, `σ = μ/J (B − I) + λ ln J / J I`, `n1 ∝ cof(F0) N`; for
+    /// Q1 and Q2 elements.
     #[test]
     fn a_homogeneous_deformation_is_recovered_exactly() {
+        for order in [ElementOrder::Q1, ElementOrder::Q2] {
+            let level = if order == ElementOrder::Q1 { 3 } else { 2 };
+            homogeneous_deformation_recovered(order, level);
+        }
+    }
+
+    fn homogeneous_deformation_recovered(order: ElementOrder, level: u32) {
         let geometry = Geometry::sphere([0.0; 3], 1.0).unwrap();
         let bbox = Aabb::new([-1.0; 3], [1.0; 3]);
-        let grid = Grid::new(&bbox, 3, [0.13, 0.31, 0.07]).unwrap();
-        let cells = Cells::classify(&grid, &geometry, cut_rule_points(ElementOrder::Q1)).unwrap();
+        let grid = Grid::new(&bbox, level, [0.13, 0.31, 0.07]).unwrap();
+        let cells = Cells::classify(&grid, &geometry, cut_rule_points(order)).unwrap();
         let material = Material::neo_hookean(1000.0, 0.3);
-        let body = HyperProblem::new(&grid, &cells, material, 0.0, &[], &Loads::default()).unwrap();
+        let body =
+            HyperProblem::new(&grid, &cells, order, material, 0.0, &[], &Loads::default()).unwrap();
         let f0 = Matrix3::new(1.1, 0.05, -0.03, 0.02, 0.92, 0.04, -0.01, 0.06, 1.05);
         let u: Vec<f64> = body
             .dofs
             .active_to_node
             .iter()
             .flat_map(|&n| {
-                let x = grid.node_position(ElementOrder::Q1, n as usize);
+                let x = grid.node_position(order, n as usize);
                 let d = (f0 - Matrix3::identity()) * nalgebra::Vector3::from(x);
                 [d[0], d[1], d[2]]
             })
@@ -244,11 +260,14 @@ mod tests {
                 let n1 = (cof * nalgebra::Vector3::from(p.n)).normalize();
                 let t_hat = normal_traction(&sigma.eval(c, p.x).unwrap(), n1.into());
                 let t = n1.dot(&(exact * n1));
-                assert!((t_hat - t).abs() < 1e-10 * exact.norm(), "{t_hat} vs {t}");
+                assert!(
+                    (t_hat - t).abs() < 1e-10 * exact.norm(),
+                    "{order:?}: {t_hat} vs {t}"
+                );
                 checked += 1;
             }
         }
-        assert!(checked > 1000, "{checked} boundary points");
+        assert!(checked > 1000, "{order:?}: {checked} boundary points");
     }
 
     /// The mirror image of a deformation, `M F M`, has the Cauchy stress

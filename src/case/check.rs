@@ -5,7 +5,6 @@
 use super::boundary::check_boundary;
 use super::physics::FieldValue;
 use super::{Body, Case, SolutionPath, LINEAR_SOLVER_KEYS};
-use crate::element::ElementOrder;
 use crate::error::Result;
 
 impl Case {
@@ -123,12 +122,6 @@ impl Case {
         for (i, b) in self.bodies.iter().enumerate() {
             let key = |k: &str| self.body_key(i, k);
             let b = &b.spec;
-            if b.element != ElementOrder::Q1 {
-                return Err(self.bad(
-                    &key("element"),
-                    format!("large deformation runs Q1 only; this case runs Newton ({why})"),
-                ));
-            }
             for (k, given) in [
                 ("exact", b.exact.is_some()),
                 ("body_load", b.body_load.is_some()),

@@ -22,6 +22,7 @@ use super::mirror::{HyperTangentParams, InsideTangentData, STATE_STRIDE, WORKGRO
 use super::problem::HyperProblem;
 use super::tangent::TangentOperator;
 use crate::backend::LinearOperator;
+use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::gpu::kernels::{grid_2d, Kernel};
 use crate::gpu::{GpuContext, Precision};
@@ -66,6 +67,16 @@ fn check_binding(ctx: &GpuContext, what: &str, bytes: usize) -> Result<()> {
 impl GpuHyperBody {
     /// The device side of `problem`'s tangent on `ctx` (which must run f64).
     pub fn new(ctx: Arc<GpuContext>, problem: &HyperProblem) -> Result<GpuHyperBody> {
+        if problem.order() != ElementOrder::Q1 {
+            return Err(Error::UnsupportedOnBackend {
+                backend: "gpu".into(),
+                what: format!(
+                    "the large-deformation tangent of {:?} elements (its kernel is Q1)",
+                    problem.order()
+                ),
+                hint: "run this case with --backend cpu".into(),
+            });
+        }
         if ctx.precision != Precision::F64 {
             return Err(Error::Gpu {
                 what: format!(

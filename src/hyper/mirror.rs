@@ -12,8 +12,12 @@
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
-use super::problem::{HyperProblem, NODES};
+use super::problem::HyperProblem;
 use super::tangent::TangentOperator;
+
+/// Nodes of the kernel's cells: the kernel is Q1 ([`super::gpu::GpuHyperBody`]
+/// refuses other elements).
+const NODES: usize = 8;
 
 /// Workgroup size of the kernel (`@workgroup_size(64)`).
 pub const WORKGROUP: u32 = 64;
@@ -71,7 +75,7 @@ impl InsideTangentData {
         let p = tangent.problem;
         let mut inside_index = vec![NOT_INSIDE; p.grid.num_cells()];
         let mut consts = Vec::with_capacity(8 * RULE_STRIDE + 1);
-        for q in &p.inside_rule {
+        for q in p.inside_rule.range(0..p.inside_rule.len()) {
             consts.extend(q.grads.iter().flatten());
             consts.push(q.w);
         }

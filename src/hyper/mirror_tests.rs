@@ -28,7 +28,16 @@ fn sphere_tangent_inputs(material: Material) -> (HyperProblem, Vec<f64>) {
         value: Arc::new(|_| [0.0; 3]),
         ramps: [Ramp::LINEAR; 3],
     }];
-    let p = HyperProblem::new(&grid, &cells, material, 3e4, &dirichlet, &Loads::default()).unwrap();
+    let p = HyperProblem::new(
+        &grid,
+        &cells,
+        ElementOrder::Q1,
+        material,
+        3e4,
+        &dirichlet,
+        &Loads::default(),
+    )
+    .unwrap();
     let mut u = vec![0.0; p.ndofs()];
     for (a, &node) in p.dofs.active_to_node.iter().enumerate() {
         let x = p.grid.node_position(ElementOrder::Q1, node as usize);

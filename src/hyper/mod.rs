@@ -31,7 +31,8 @@
 //! # use cgfem_gpu::hyper::{problem::*, material::Material, newton::*};
 //! # fn f(grid: &cgfem_gpu::grid::Grid, cells: &cgfem_gpu::cells::Cells,
 //! #      dirichlet: &[DirichletCondition]) -> cgfem_gpu::Result<()> {
-//! let problem = HyperProblem::new(grid, cells, Material::neo_hookean(1000.0, 0.3),
+//! let order = cgfem_gpu::element::ElementOrder::Q1;
+//! let problem = HyperProblem::new(grid, cells, order, Material::neo_hookean(1000.0, 0.3),
 //!                                 30.0 * 1000.0, dirichlet, &Loads::default())?;
 //! let opts = NewtonOptions { steps: 5, ..NewtonOptions::default() };
 //! let mut solution = HyperSolution::zero(&problem);

@@ -3,12 +3,19 @@
 //! penalty points with their per-component masks, and the external load
 //! vector at load factor 1.
 //!
-//! Inside cells share one rule (2×2×2 Gauss, weights `h³ w`); cut cells carry
-//! their own points from the cut-cell quadrature of [`Cells`]. Q1 only. The
+//! The element is the dof map's ([`ElementOrder`]: Q1 or Q2); a cell's nodal
+//! values are `nodes_per_cell` rows `[f64; 3]` in the element's lexicographic
+//! node order, and everything per node (shape gradients of a point, shape
+//! values of a penalty point, a cell's node indices) is stored flat with that
+//! stride. Inside cells share one rule (the element's full Gauss rule,
+//! weights `h³ w`); cut cells carry their own points from the cut-cell
+//! quadrature of [`Cells`] (classified with the element's cut rules). The
 //! S-term of the pathological cells ([`super::stabilisation`]) is optional
 //! ([`HyperProblem::set_s_term`]).
 
 use std::sync::Arc;
+
+use rayon::prelude::*;
 
 use crate::cells::{CellKind, Cells};
 use crate::discrete::dofs::DofMap;
@@ -21,10 +28,12 @@ use crate::grid::Grid;
 use super::material::Material;
 use super::stabilisation::STerm;
 
-/// Nodes of a Q1 cell.
-pub const NODES: usize = 8;
-/// Dofs of a Q1 cell.
-pub const CELL_DOFS: usize = 3 * NODES;
+/// The most nodes a cell has (Q2): the size of a cell's stack buffers.
+pub const MAX_NODES: usize = 27;
+
+/// A cell's nodal values on the stack, `[node][component]`; the first
+/// `nodes_per_cell` rows are the cell's.
+pub type CellBuffer = [[f64; 3]; MAX_NODES];
 
 /// A vector field of the reference position.
 pub type VectorField = Arc<dyn Fn([f64; 3]) -> [f64; 3] + Send + Sync>;
@@ -93,19 +102,74 @@ pub struct ExternalLoad {
     pub f: Vec<f64>,
 }
 
-/// A volume quadrature point: physical shape gradients `∇_X N_a` and weight.
+/// A volume quadrature point: physical shape gradients `∇_X N_a` (one per
+/// node of the cell) and weight.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct QuadPoint {
-    pub grads: [[f64; 3]; NODES],
+pub struct QuadPoint<'a> {
+    pub grads: &'a [[f64; 3]],
     pub w: f64,
 }
 
-/// A Dirichlet penalty point: its boundary tag, shape values, `w β/h`,
-/// mask, `g` at load 1 and its ramps.
+/// Quadrature points stored flat: `grads` holds `stride` gradients per point.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PointSet {
+    stride: usize,
+    grads: Vec<[f64; 3]>,
+    w: Vec<f64>,
+}
+
+impl PointSet {
+    fn new(stride: usize) -> PointSet {
+        PointSet {
+            stride,
+            ..PointSet::default()
+        }
+    }
+
+    /// Adds the point at reference coordinates `xi` with weight `w`.
+    fn push(&mut self, order: ElementOrder, xi: [f64; 3], w: f64, inv_h: f64) {
+        let start = self.grads.len();
+        self.grads.resize(start + self.stride, [0.0; 3]);
+        let grads = &mut self.grads[start..];
+        shape_gradients(order, xi, grads);
+        for g in grads.iter_mut() {
+            *g = g.map(|v| v * inv_h);
+        }
+        self.w.push(w);
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.w.len()
+    }
+
+    /// Whether there is no point.
+    pub fn is_empty(&self) -> bool {
+        self.w.is_empty()
+    }
+
+    /// Point `q`.
+    pub fn get(&self, q: usize) -> QuadPoint<'_> {
+        QuadPoint {
+            grads: &self.grads[q * self.stride..(q + 1) * self.stride],
+            w: self.w[q],
+        }
+    }
+
+    /// Points `range`.
+    pub fn range(
+        &self,
+        range: std::ops::Range<usize>,
+    ) -> impl ExactSizeIterator<Item = QuadPoint<'_>> + Clone {
+        range.map(|q| self.get(q))
+    }
+}
+
+/// A Dirichlet penalty point: its boundary tag, `w β/h`, mask, `g` at load 1
+/// and its ramps (its shape values are [`HyperProblem::penalty_points`]'s).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PenaltyPoint {
     pub tag: u16,
-    pub n: [f64; NODES],
     pub weight: f64,
     pub mask: [f64; 3],
     pub g: [f64; 3],
@@ -119,6 +183,16 @@ impl PenaltyPoint {
     }
 }
 
+/// What is prescribed on a body: its Dirichlet conditions, the regions they
+/// are restricted to (`regions[i]` for condition `i`; none past the end) and
+/// its loads.
+#[derive(Clone, Copy)]
+pub struct Conditions<'a> {
+    pub dirichlet: &'a [DirichletCondition],
+    pub regions: &'a [Option<Region>],
+    pub loads: &'a Loads,
+}
+
 /// The body, its grid and its boundary conditions.
 pub struct HyperProblem {
     pub grid: Grid,
@@ -128,15 +202,17 @@ pub struct HyperProblem {
     pub beta: f64,
     /// Non-outside cells, ascending.
     pub cells: Vec<usize>,
-    /// Per entry of `cells`: the cell's active node indices.
-    pub cell_nodes: Vec<[u32; NODES]>,
+    /// Per entry of `cells`, its active node indices, `nodes_per_cell` each.
+    cell_nodes: Vec<u32>,
     /// Per entry of `cells`: `None` for an inside cell, else its cut index.
     pub cut_index: Vec<Option<usize>>,
     /// The shared inside-cell rule.
-    pub inside_rule: [QuadPoint; NODES],
-    cut_points: Vec<QuadPoint>,
+    pub inside_rule: PointSet,
+    cut_points: PointSet,
     cut_start: Vec<usize>,
     penalty: Vec<PenaltyPoint>,
+    /// Shape values of the penalty points, `nodes_per_cell` each.
+    penalty_n: Vec<f64>,
     penalty_start: Vec<usize>,
     /// `f_ext`, one part per set of ramps ([`HyperProblem::external_at`]).
     pub external: Vec<ExternalLoad>,
@@ -145,16 +221,23 @@ pub struct HyperProblem {
 }
 
 impl HyperProblem {
-    /// Sets up the body: `cells` must be classified with the Q1 cut rules.
+    /// Sets up the body with elements of `order`: `cells` must be classified
+    /// with that element's cut rules.
     pub fn new(
         grid: &Grid,
         cells: &Cells,
+        order: ElementOrder,
         material: Material,
         beta: f64,
         dirichlet: &[DirichletCondition],
         loads: &Loads,
     ) -> Result<HyperProblem> {
-        Self::new_restricted(grid, cells, material, beta, dirichlet, &[], loads)
+        let conditions = Conditions {
+            dirichlet,
+            regions: &[],
+            loads,
+        };
+        Self::new_restricted(grid, cells, order, material, beta, &conditions)
     }
 
     /// [`Self::new`] with Dirichlet conditions restricted to regions:
@@ -164,26 +247,29 @@ impl HyperProblem {
     pub fn new_restricted(
         grid: &Grid,
         cells: &Cells,
+        order: ElementOrder,
         material: Material,
         beta: f64,
-        dirichlet: &[DirichletCondition],
-        regions: &[Option<Region>],
-        loads: &Loads,
+        conditions: &Conditions<'_>,
     ) -> Result<HyperProblem> {
         check_parameters(&material, beta)?;
+        let Conditions {
+            dirichlet,
+            regions,
+            loads,
+        } = *conditions;
         let applies = |i: usize, x: [f64; 3]| match regions.get(i) {
             Some(Some(region)) => region(x),
             _ => true,
         };
-        let dofs = DofMap::new(grid, cells, ElementOrder::Q1);
+        let dofs = DofMap::new(grid, cells, order);
+        let npc = order.nodes_per_cell();
         let inv_h = 1.0 / grid.h;
         let vol = grid.h.powi(3);
-        let inside_rule: [QuadPoint; NODES] = tensor_gauss_rule(2)
-            .iter()
-            .map(|(xi, w)| quad_point(*xi, w * vol, inv_h))
-            .collect::<Vec<_>>()
-            .try_into()
-            .expect("2×2×2 Gauss has 8 points");
+        let mut inside_rule = PointSet::new(npc);
+        for (xi, w) in tensor_gauss_rule(order.gauss_points_per_axis()) {
+            inside_rule.push(order, xi, w * vol, inv_h);
+        }
         let mut p = HyperProblem {
             grid: grid.clone(),
             dofs,
@@ -193,41 +279,42 @@ impl HyperProblem {
             cell_nodes: Vec::new(),
             cut_index: Vec::new(),
             inside_rule,
-            cut_points: Vec::new(),
+            cut_points: PointSet::new(npc),
             cut_start: vec![0],
             penalty: Vec::new(),
+            penalty_n: Vec::new(),
             penalty_start: vec![0],
             external: Vec::new(),
             s_term: None,
         };
+        let mut nodes = [0usize; MAX_NODES];
         for (c, kind) in cells.kinds.iter().enumerate() {
             let cut = match kind {
                 CellKind::Outside => continue,
                 CellKind::Inside => None,
                 CellKind::Cut => cells.cut_position(c),
             };
-            let mut nodes = [0usize; NODES];
-            p.dofs.cell_active_nodes(grid, c, &mut nodes);
+            p.dofs.cell_active_nodes(grid, c, &mut nodes[..npc]);
             p.cells.push(c);
-            p.cell_nodes.push(nodes.map(|n| n as u32));
+            p.cell_nodes.extend(nodes[..npc].iter().map(|&n| n as u32));
             p.cut_index.push(cut);
         }
         for (i, &c) in cells.cut.iter().enumerate() {
             let x0 = grid.cell_box(c).lo;
             let xi = |x: [f64; 3]| [0, 1, 2].map(|a| (x[a] - x0[a]) * inv_h);
             for q in cells.volume_points(i) {
-                p.cut_points.push(quad_point(xi(q.x), q.w, inv_h));
+                p.cut_points.push(order, xi(q.x), q.w, inv_h);
             }
             p.cut_start.push(p.cut_points.len());
             for q in cells.surface_points(i) {
                 let here =
                     |(i, d): &(usize, &DirichletCondition)| d.tag == q.tag && applies(*i, q.x);
                 for (_, d) in dirichlet.iter().enumerate().filter(here) {
-                    let mut n = [0.0; NODES];
-                    shape_values(ElementOrder::Q1, xi(q.x), &mut n);
+                    let start = p.penalty_n.len();
+                    p.penalty_n.resize(start + npc, 0.0);
+                    shape_values(order, xi(q.x), &mut p.penalty_n[start..]);
                     p.penalty.push(PenaltyPoint {
                         tag: d.tag,
-                        n,
                         weight: q.w * beta * inv_h,
                         mask: d.components.map(|m| if m { 1.0 } else { 0.0 }),
                         g: (d.value)(q.x),
@@ -260,12 +347,13 @@ impl HyperProblem {
     pub fn dirichlet_reactions(&self, u: &[f64], t: f64) -> Vec<(u16, [f64; 3])> {
         let mut sums = std::collections::BTreeMap::<u16, [f64; 3]>::new();
         for k in 0..self.cells.len() {
-            let ue = self.gather(k, u);
-            for pp in self.penalty_points(k) {
+            let mut ue = [[0.0; 3]; MAX_NODES];
+            let ue = self.gather(k, u, &mut ue);
+            for (pp, n) in self.penalty_points(k) {
                 let target = pp.target(t);
                 let sum = sums.entry(pp.tag).or_default();
                 for i in 0..3 {
-                    let uh: f64 = (0..NODES).map(|b| pp.n[b] * ue[b][i]).sum();
+                    let uh: f64 = n.iter().zip(ue.iter()).map(|(n, u)| n * u[i]).sum();
                     sum[i] -= pp.weight * pp.mask[i] * (uh - target[i]);
                 }
             }
@@ -294,45 +382,101 @@ impl HyperProblem {
         self.dofs.ndofs()
     }
 
+    /// Nodes per cell of the element.
+    pub fn nodes_per_cell(&self) -> usize {
+        self.dofs.order.nodes_per_cell()
+    }
+
+    /// The element.
+    pub fn order(&self) -> ElementOrder {
+        self.dofs.order
+    }
+
+    /// The active node indices of the `k`-th entry of [`Self::cells`].
+    pub fn cell_nodes(&self, k: usize) -> &[u32] {
+        let npc = self.nodes_per_cell();
+        &self.cell_nodes[k * npc..(k + 1) * npc]
+    }
+
     /// The volume points of the `k`-th entry of [`Self::cells`].
-    pub fn points(&self, k: usize) -> &[QuadPoint] {
+    pub fn points(&self, k: usize) -> impl ExactSizeIterator<Item = QuadPoint<'_>> + Clone {
         match self.cut_index[k] {
-            None => &self.inside_rule,
-            Some(i) => &self.cut_points[self.cut_start[i]..self.cut_start[i + 1]],
+            None => self.inside_rule.range(0..self.inside_rule.len()),
+            Some(i) => self
+                .cut_points
+                .range(self.cut_start[i]..self.cut_start[i + 1]),
         }
     }
 
-    /// The penalty points of the `k`-th entry of [`Self::cells`].
-    pub fn penalty_points(&self, k: usize) -> &[PenaltyPoint] {
-        match self.cut_index[k] {
-            None => &[],
-            Some(i) => &self.penalty[self.penalty_start[i]..self.penalty_start[i + 1]],
-        }
+    /// The penalty points of the `k`-th entry of [`Self::cells`], each with
+    /// its shape values.
+    pub fn penalty_points(&self, k: usize) -> impl Iterator<Item = (&PenaltyPoint, &[f64])> {
+        let range = match self.cut_index[k] {
+            None => 0..0,
+            Some(i) => self.penalty_start[i]..self.penalty_start[i + 1],
+        };
+        let npc = self.nodes_per_cell();
+        range.map(move |p| (&self.penalty[p], &self.penalty_n[p * npc..(p + 1) * npc]))
     }
 
-    /// All penalty points (for reaction sums).
-    pub fn all_penalty_points(&self) -> &[PenaltyPoint] {
-        &self.penalty
-    }
-
-    /// The cell's nodal values of a global vector, `[node][component]`.
-    pub fn gather(&self, k: usize, x: &[f64]) -> [[f64; 3]; NODES] {
-        self.cell_nodes[k].map(|a| {
+    /// The cell's nodal values of a global vector, `[node][component]`, in
+    /// the first `nodes_per_cell` rows of `buffer`.
+    pub fn gather<'b>(&self, k: usize, x: &[f64], buffer: &'b mut CellBuffer) -> &'b [[f64; 3]] {
+        let nodes = self.cell_nodes(k);
+        for (v, &a) in buffer.iter_mut().zip(nodes) {
             let a = 3 * a as usize;
-            [x[a], x[a + 1], x[a + 2]]
-        })
+            *v = [x[a], x[a + 1], x[a + 2]];
+        }
+        &buffer[..nodes.len()]
     }
 
-    /// Adds cell vectors (`[node][component]`, one per entry of
-    /// [`Self::cells`]) into a global vector.
-    pub fn scatter(&self, cell_vectors: &[[[f64; 3]; NODES]], y: &mut [f64]) {
-        for (nodes, v) in self.cell_nodes.iter().zip(cell_vectors) {
-            for (a, &node) in nodes.iter().enumerate() {
-                for i in 0..3 {
-                    y[3 * node as usize + i] += v[a][i];
-                }
+    /// Adds cell vectors (`nodes_per_cell` rows per entry of
+    /// [`Self::cells`], back to back) into a global vector.
+    pub fn scatter(&self, cell_vectors: &[[f64; 3]], y: &mut [f64]) {
+        for (&node, v) in self.cell_nodes.iter().zip(cell_vectors) {
+            for i in 0..3 {
+                y[3 * node as usize + i] += v[i];
             }
         }
+    }
+
+    /// Adds the cell vector of the `k`-th entry into a global vector.
+    pub fn scatter_cell(&self, k: usize, v: &[[f64; 3]], y: &mut [f64]) {
+        for (&node, v) in self.cell_nodes(k).iter().zip(v) {
+            for i in 0..3 {
+                y[3 * node as usize + i] += v[i];
+            }
+        }
+    }
+
+    /// One cell vector per entry of [`Self::cells`], computed in parallel
+    /// (`cell(k, out)` adds into the `nodes_per_cell` zeroed rows of `out`),
+    /// back to back.
+    pub fn cell_vectors<F>(&self, cell: F) -> Vec<[f64; 3]>
+    where
+        F: Fn(usize, &mut [[f64; 3]]) + Sync,
+    {
+        let npc = self.nodes_per_cell();
+        let mut out = vec![[0.0; 3]; npc * self.cells.len()];
+        out.par_chunks_mut(npc)
+            .enumerate()
+            .for_each(|(k, v)| cell(k, v));
+        out
+    }
+
+    /// [`Self::cell_vectors`] of a cell function that may fail: `None` if it
+    /// does on some cell.
+    pub fn try_cell_vectors<F>(&self, cell: F) -> Option<Vec<[f64; 3]>>
+    where
+        F: Fn(usize, &mut [[f64; 3]]) -> Option<()> + Sync,
+    {
+        let npc = self.nodes_per_cell();
+        let mut out = vec![[0.0; 3]; npc * self.cells.len()];
+        let ok = out
+            .par_chunks_mut(npc)
+            .enumerate()
+            .all(|(k, v)| cell(k, v).is_some());
+        ok.then_some(out)
     }
 }
 
@@ -358,16 +502,6 @@ fn check_parameters(material: &Material, beta: f64) -> Result<()> {
     Ok(())
 }
 
-/// The point at reference coordinates `xi` with weight `w`.
-pub(crate) fn quad_point(xi: [f64; 3], w: f64, inv_h: f64) -> QuadPoint {
-    let mut grads = [[0.0; 3]; NODES];
-    shape_gradients(ElementOrder::Q1, xi, &mut grads);
-    QuadPoint {
-        grads: grads.map(|g| g.map(|v| v * inv_h)),
-        w,
-    }
-}
-
 /// `f_ext = ∫ Nᵀ b dV + ∫_ΓN Nᵀ t dA` on the reference configuration, with the
 /// same rules as the linear right-hand side (one Gauss order more inside),
 /// one part per distinct set of ramps (the body load's is linear).
@@ -387,7 +521,7 @@ fn external_loads(grid: &Grid, cells: &Cells, dofs: &DofMap, loads: &Loads) -> V
     let body_index = loads.body.as_ref().map(|_| part([Ramp::LINEAR; 3]));
     if let (Some(body), Some(i)) = (&loads.body, body_index) {
         let f = &mut parts[i].f;
-        let rule = tensor_gauss_rule(3);
+        let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
         let vol = grid.h.powi(3);
         for (c, kind) in cells.kinds.iter().enumerate() {
             if *kind == CellKind::Inside {

@@ -19,18 +19,16 @@ use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 use super::material::PointState;
-use super::problem::{HyperProblem, PenaltyPoint, QuadPoint, NODES};
+use super::problem::{CellBuffer, HyperProblem, PenaltyPoint, QuadPoint, MAX_NODES};
 
-/// Nodal values of one cell, `[node][component]`.
-pub type CellVector = [[f64; 3]; NODES];
-
-/// `Σ_a v_a ⊗ ∇N_a`, the gradient of the cell's field `v` at a point.
-pub fn field_gradient(ve: &CellVector, q: &QuadPoint) -> Matrix3<f64> {
+/// `Σ_a v_a ⊗ ∇N_a`, the gradient of the cell's field `v` (one row per
+/// node) at a point.
+pub fn field_gradient(ve: &[[f64; 3]], q: &QuadPoint) -> Matrix3<f64> {
     let mut g = Matrix3::zeros();
-    for a in 0..NODES {
+    for (v, grad) in ve.iter().zip(q.grads) {
         for i in 0..3 {
             for j in 0..3 {
-                g[(i, j)] += ve[a][i] * q.grads[a][j];
+                g[(i, j)] += v[i] * grad[j];
             }
         }
     }
@@ -38,78 +36,79 @@ pub fn field_gradient(ve: &CellVector, q: &QuadPoint) -> Matrix3<f64> {
 }
 
 /// `F = I + ∇u` at a point.
-pub fn deformation_gradient(ue: &CellVector, q: &QuadPoint) -> Matrix3<f64> {
+pub fn deformation_gradient(ue: &[[f64; 3]], q: &QuadPoint) -> Matrix3<f64> {
     Matrix3::identity() + field_gradient(ue, q)
 }
 
 /// `out_a += w P ∇N_a` (the point's `w Bᵀ P`).
-pub fn add_bt_stress(p: &Matrix3<f64>, q: &QuadPoint, out: &mut CellVector) {
-    for a in 0..NODES {
+pub fn add_bt_stress(p: &Matrix3<f64>, q: &QuadPoint, out: &mut [[f64; 3]]) {
+    for (o, grad) in out.iter_mut().zip(q.grads) {
         for i in 0..3 {
             let mut s = 0.0;
             for j in 0..3 {
-                s += p[(i, j)] * q.grads[a][j];
+                s += p[(i, j)] * grad[j];
             }
-            out[a][i] += q.w * s;
+            o[i] += q.w * s;
         }
     }
 }
 
-/// `out_a += w N_a M (Σ_b N_b v_b − shift)` for each penalty point; `shift`
-/// is the prescribed value at load factor `t` for the residual and 0 (at
-/// `t = 0`) for the tangent.
-pub fn add_penalty(points: &[PenaltyPoint], ve: &CellVector, t: f64, out: &mut CellVector) {
-    for pp in points {
+/// `out_a += w N_a M (Σ_b N_b v_b − shift)` for each penalty point (with its
+/// shape values); `shift` is the prescribed value at load factor `t` for the
+/// residual and 0 (at `t = 0`) for the tangent.
+pub fn add_penalty<'a>(
+    points: impl Iterator<Item = (&'a PenaltyPoint, &'a [f64])>,
+    ve: &[[f64; 3]],
+    t: f64,
+    out: &mut [[f64; 3]],
+) {
+    for (pp, n) in points {
         let target = pp.target(t);
         let mut jump = [0.0; 3];
         for i in 0..3 {
-            let mut s = 0.0;
-            for b in 0..NODES {
-                s += pp.n[b] * ve[b][i];
-            }
+            let s: f64 = n.iter().zip(ve).map(|(n, v)| n * v[i]).sum();
             jump[i] = pp.mask[i] * (s - target[i]);
         }
-        for a in 0..NODES {
+        for (o, n) in out.iter_mut().zip(n) {
             for i in 0..3 {
-                out[a][i] += pp.weight * pp.n[a] * jump[i];
+                o[i] += pp.weight * n * jump[i];
             }
         }
     }
 }
 
-/// The cell's internal force plus penalty force (plus its S-term force,
-/// with the S-term's current `targets`), `None` if some `det F ≤ 0`.
+/// The `k`-th cell's internal force plus penalty force (plus its S-term
+/// force, with the S-term's current `targets`) into `out` (zeroed), `None`
+/// if some `det F ≤ 0`.
 fn cell_residual(
     p: &HyperProblem,
     k: usize,
     u: &[f64],
     t: f64,
-    targets: Option<&[CellVector]>,
-) -> Option<CellVector> {
-    let ue = p.gather(k, u);
-    let mut out = [[0.0; 3]; NODES];
+    targets: Option<&[[f64; 3]]>,
+    out: &mut [[f64; 3]],
+) -> Option<()> {
+    let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+    let ue = p.gather(k, u, &mut buffer);
     for q in p.points(k) {
-        let s = PointState::new(deformation_gradient(&ue, q))?;
-        add_bt_stress(&p.material.stress(&s), q, &mut out);
+        let s = PointState::new(deformation_gradient(ue, &q))?;
+        add_bt_stress(&p.material.stress(&s), &q, out);
     }
-    add_penalty(p.penalty_points(k), &ue, t, &mut out);
+    add_penalty(p.penalty_points(k), ue, t, out);
     if let (Some(s), Some(targets)) = (&p.s_term, targets) {
-        s.add_cell_residual(k, &ue, targets, &mut out);
+        s.add_cell_residual(k, ue, targets, out);
     }
-    Some(out)
+    Some(())
 }
 
 /// `R(u)` at load factor `t`, or `None` where some point has `det F ≤ 0`.
 pub fn residual(p: &HyperProblem, u: &[f64], t: f64) -> Option<Vec<f64>> {
     let targets = p.s_term.as_ref().map(|s| s.targets());
     let targets = targets.as_deref().map(Vec::as_slice);
-    let cell_vectors: Option<Vec<CellVector>> = (0..p.cells.len())
-        .into_par_iter()
-        .map(|k| cell_residual(p, k, u, t, targets))
-        .collect();
+    let cell_vectors = p.try_cell_vectors(|k, out| cell_residual(p, k, u, t, targets, out))?;
     let mut r = p.external_at(t);
     r.iter_mut().for_each(|f| *f = -*f);
-    p.scatter(&cell_vectors?, &mut r);
+    p.scatter(&cell_vectors, &mut r);
     Some(r)
 }
 
@@ -119,22 +118,23 @@ pub fn energy(p: &HyperProblem, u: &[f64], t: f64) -> Option<f64> {
     let cells: Option<Vec<f64>> = (0..p.cells.len())
         .into_par_iter()
         .map(|k| {
-            let ue = p.gather(k, u);
+            let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+            let ue = p.gather(k, u, &mut buffer);
             let mut e = 0.0;
             for q in p.points(k) {
-                let s = PointState::new(deformation_gradient(&ue, q))?;
+                let s = PointState::new(deformation_gradient(ue, &q))?;
                 e += q.w * p.material.energy(&s);
             }
-            for pp in p.penalty_points(k) {
+            for (pp, n) in p.penalty_points(k) {
                 let target = pp.target(t);
                 for i in 0..3 {
-                    let s: f64 = (0..NODES).map(|b| pp.n[b] * ue[b][i]).sum();
+                    let s: f64 = n.iter().zip(ue).map(|(n, v)| n * v[i]).sum();
                     let jump = pp.mask[i] * (s - target[i]);
                     e += 0.5 * pp.weight * jump * jump;
                 }
             }
             if let (Some(s), Some(targets)) = (&p.s_term, &targets) {
-                e += s.cell_energy(k, &ue, targets);
+                e += s.cell_energy(k, ue, targets);
             }
             Some(e)
         })
@@ -153,11 +153,11 @@ pub fn point_fields(p: &HyperProblem, u: &[f64]) -> Option<Vec<Vec<PointFields>>
     (0..p.cells.len())
         .into_par_iter()
         .map(|k| {
-            let ue = p.gather(k, u);
+            let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+            let ue = p.gather(k, u, &mut buffer);
             p.points(k)
-                .iter()
                 .map(|q| {
-                    let s = PointState::new(deformation_gradient(&ue, q))?;
+                    let s = PointState::new(deformation_gradient(ue, &q))?;
                     Some((s.f, p.material.stress(&s)))
                 })
                 .collect()

@@ -18,7 +18,7 @@
 //! shared (`&self`) throughout the solve.
 //!
 //! # The recovery
-//! SPR of degree 2 (Q1: p + 1) on the patches of the vertex nodes of Ω*,
+//! SPR of degree p + 1 (Q1: 2, Q2: 3) on the patches of the vertex nodes of Ω*,
 //! blended by CPE ([`crate::recovery::recover`]); the patch polynomials
 //! extend `S` over the whole cell. The fit is a plain least-squares fit to
 //! `u_h`, *without* the equilibrium rows of the linear S-term
@@ -28,20 +28,21 @@
 //! `S` towards a field that is not the body's equilibrium; a plain fit of the
 //! complete quadratic still reproduces every field of that space exactly.
 //!
-//! Sample points: the 3×3×3 Gauss points of inside cells; in cut cells, their
-//! fit points ([`crate::cells::Cells::fit_points`]) and those of the cell's
-//! 3×3×3 Gauss points that lie in the body. Three levels per axis, not the
-//! element's two, because a plane-strain slab is one cell thick: with two
-//! sample levels in z (which is all the cut cells' rule has, q = 2) the `ζ²`
-//! term of the quadratic is undetermined, and a patch of cut cells only (a
-//! corner of a slab) would be rejected at every ring.
+//! Sample points: the (p + 2)³ Gauss points of inside cells (Q1: 3×3×3, Q2:
+//! 4×4×4); in cut cells, their fit points
+//! ([`crate::cells::Cells::fit_points`]) and those of the cell's (p + 2)³
+//! Gauss points that lie in the body. p + 2 levels per axis, one more than
+//! the element's Gauss rule, because a plane-strain slab is one cell thick:
+//! with p + 1 sample levels in z (which is all a Q1 cut cell's rule has,
+//! q = 2) the `ζ^(p+1)` term of the fit is undetermined, and a patch of cut
+//! cells only (a corner of a slab) would be rejected at every ring. The
+//! `f_c` integral takes the same rule: `N_a S` has degree 2p + 1 per axis.
 
 use std::sync::{PoisonError, RwLock, RwLockReadGuard};
 
 use rayon::prelude::*;
 
-use super::problem::{HyperProblem, CELL_DOFS, NODES};
-use super::residual::CellVector;
+use super::problem::{CellBuffer, HyperProblem, MAX_NODES};
 use crate::cells::pieces::Pieces;
 use crate::cells::{CellKind, Cells};
 use crate::driver::stabilisation::cell_s_matrix;
@@ -50,11 +51,6 @@ use crate::error::Result;
 use crate::fem::level::pathological_cells;
 use crate::geometry::Geometry;
 use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
-
-/// Gauss points per axis of the sample rule and of the `f_c` integral.
-const RULE_POINTS: usize = 3;
-/// Polynomial degree of the recovered displacement (Q1: p + 1).
-const DEGREE: usize = 2;
 
 /// The S-term of one body: Ω*, the scaled cell mass and the current `f_c`.
 pub struct STerm {
@@ -66,7 +62,10 @@ pub struct STerm {
     entries: Vec<usize>,
     /// Per entry of [`HyperProblem::cells`]: its position in Ω*.
     slot: Vec<Option<usize>>,
-    /// `(k2 E / h²) h³ M_ref`, row-major `24 × 24` (dof `3 a + i`).
+    /// The element.
+    order: ElementOrder,
+    /// `(k2 E / h²) h³ M_ref`, row-major `3n × 3n` for `n` nodes (dof
+    /// `3 a + i`).
     mass: Vec<f64>,
     /// Cell kinds of the grid (the patches skip outside cells).
     kinds: Vec<CellKind>,
@@ -75,8 +74,9 @@ pub struct STerm {
     /// Sample positions of the cut cells, per cut index, back to back.
     cut_samples: Vec<[f64; 3]>,
     cut_sample_start: Vec<usize>,
-    /// Per Ω* cell: `f_c` of the last refresh (zero before the first).
-    targets: RwLock<Vec<CellVector>>,
+    /// Per Ω* cell: `f_c` of the last refresh (zero before the first),
+    /// `n` rows each.
+    targets: RwLock<Vec<[f64; 3]>>,
     /// The faces of the grid box that are symmetry planes: the patches
     /// continue across them (`crate::bodies::symmetry`).
     pub mirror: Mirror,
@@ -108,7 +108,8 @@ impl STerm {
         for (s, &k) in entries.iter().enumerate() {
             slot[k] = Some(s);
         }
-        let rule = tensor_gauss_rule(RULE_POINTS);
+        let order = problem.order();
+        let rule = tensor_gauss_rule(rule_points(order));
         let mut cut_samples = Vec::new();
         let mut cut_sample_start = vec![0];
         for (i, &c) in cells.cut.iter().enumerate() {
@@ -123,11 +124,12 @@ impl STerm {
         }
         STerm {
             factor,
-            targets: RwLock::new(vec![[[0.0; 3]; NODES]; omega_star.len()]),
+            targets: RwLock::new(vec![[0.0; 3]; order.nodes_per_cell() * omega_star.len()]),
             omega_star,
             entries,
             slot,
-            mass: cell_s_matrix(ElementOrder::Q1, factor, h),
+            order,
+            mass: cell_s_matrix(order, factor, h),
             kinds: cells.kinds.clone(),
             pieces: Pieces::new(&problem.grid, cells).of_cell,
             cut_samples,
@@ -136,8 +138,8 @@ impl STerm {
         }
     }
 
-    /// The current `f_c`, per Ω* cell.
-    pub fn targets(&self) -> RwLockReadGuard<'_, Vec<CellVector>> {
+    /// The current `f_c`, per Ω* cell, `n` rows each.
+    pub fn targets(&self) -> RwLockReadGuard<'_, Vec<[f64; 3]>> {
         self.targets.read().unwrap_or_else(PoisonError::into_inner)
     }
 
@@ -147,61 +149,68 @@ impl STerm {
     }
 
     /// `out += M_c v`.
-    fn add_mass(&self, ve: &CellVector, out: &mut CellVector) {
-        for row in 0..CELL_DOFS {
-            let m = &self.mass[row * CELL_DOFS..(row + 1) * CELL_DOFS];
-            let s: f64 = (0..CELL_DOFS)
-                .map(|col| m[col] * ve[col / 3][col % 3])
-                .sum();
+    fn add_mass(&self, ve: &[[f64; 3]], out: &mut [[f64; 3]]) {
+        let dofs = 3 * ve.len();
+        for row in 0..dofs {
+            let m = &self.mass[row * dofs..(row + 1) * dofs];
+            let s: f64 = (0..dofs).map(|col| m[col] * ve[col / 3][col % 3]).sum();
             out[row / 3][row % 3] += s;
         }
+    }
+
+    /// Ω* cell `s`'s rows of the flat `targets`.
+    fn cell_targets<'t>(&self, targets: &'t [[f64; 3]], s: usize) -> &'t [[f64; 3]] {
+        let n = self.order.nodes_per_cell();
+        &targets[s * n..(s + 1) * n]
     }
 
     /// `out += M_c u_c − f_c` for the `k`-th entry (nothing off Ω*).
     pub fn add_cell_residual(
         &self,
         k: usize,
-        ue: &CellVector,
-        targets: &[CellVector],
-        out: &mut CellVector,
+        ue: &[[f64; 3]],
+        targets: &[[f64; 3]],
+        out: &mut [[f64; 3]],
     ) {
         if let Some(s) = self.slot[k] {
             self.add_mass(ue, out);
-            for a in 0..NODES {
+            for (o, f) in out.iter_mut().zip(self.cell_targets(targets, s)) {
                 for i in 0..3 {
-                    out[a][i] -= targets[s][a][i];
+                    o[i] -= f[i];
                 }
             }
         }
     }
 
     /// `out += M_c v_c` for the `k`-th entry (nothing off Ω*).
-    pub fn add_cell_tangent(&self, k: usize, ve: &CellVector, out: &mut CellVector) {
+    pub fn add_cell_tangent(&self, k: usize, ve: &[[f64; 3]], out: &mut [[f64; 3]]) {
         if self.slot[k].is_some() {
             self.add_mass(ve, out);
         }
     }
 
     /// `d += diag(M_c)` for the `k`-th entry (nothing off Ω*).
-    pub fn add_cell_diagonal(&self, k: usize, d: &mut CellVector) {
+    pub fn add_cell_diagonal(&self, k: usize, d: &mut [[f64; 3]]) {
         if self.slot[k].is_some() {
-            for row in 0..CELL_DOFS {
-                d[row / 3][row % 3] += self.mass[row * CELL_DOFS + row];
+            let dofs = 3 * d.len();
+            for row in 0..dofs {
+                d[row / 3][row % 3] += self.mass[row * dofs + row];
             }
         }
     }
 
     /// `½ u_cᵀ M_c u_c − f_c · u_c` for the `k`-th entry (0 off Ω*).
-    pub fn cell_energy(&self, k: usize, ue: &CellVector, targets: &[CellVector]) -> f64 {
+    pub fn cell_energy(&self, k: usize, ue: &[[f64; 3]], targets: &[[f64; 3]]) -> f64 {
         let Some(s) = self.slot[k] else {
             return 0.0;
         };
-        let mut mu = [[0.0; 3]; NODES];
-        self.add_mass(ue, &mut mu);
+        let mut mu: CellBuffer = [[0.0; 3]; MAX_NODES];
+        let mu = &mut mu[..ue.len()];
+        self.add_mass(ue, mu);
         let mut e = 0.0;
-        for a in 0..NODES {
+        for ((u, m), f) in ue.iter().zip(mu.iter()).zip(self.cell_targets(targets, s)) {
             for i in 0..3 {
-                e += ue[a][i] * (0.5 * mu[a][i] - targets[s][a][i]);
+                e += u[i] * (0.5 * m[i] - f[i]);
             }
         }
         e
@@ -220,7 +229,7 @@ impl STerm {
             None => {
                 let lo = p.grid.cell_box(cell).lo;
                 out.extend(
-                    tensor_gauss_rule(RULE_POINTS)
+                    tensor_gauss_rule(rule_points(self.order))
                         .iter()
                         .map(|(xi, _)| [0, 1, 2].map(|a| lo[a] + p.grid.h * xi[a])),
                 );
@@ -234,8 +243,8 @@ impl STerm {
     where
         F: Fn(usize, [f64; 3]) -> [f64; 3] + Sync,
     {
-        let mut nodes = Vec::with_capacity(NODES * self.omega_star.len());
-        let mut v = [0usize; NODES];
+        let mut nodes = Vec::with_capacity(8 * self.omega_star.len());
+        let mut v = [0usize; 8];
         for &c in &self.omega_star {
             p.grid.cell_nodes(ElementOrder::Q1, c, &mut v);
             nodes.extend_from_slice(&v);
@@ -250,7 +259,8 @@ impl STerm {
             pieces: Some(&self.pieces),
             ..SprOptions::default()
         };
-        recover(&p.grid, &self.kinds, &nodes, DEGREE, &samples, &opts)
+        let degree = self.order.degree() + 1;
+        recover(&p.grid, &self.kinds, &nodes, degree, &samples, &opts)
     }
 
     /// `S` of the displacement `u` of `p`.
@@ -258,30 +268,32 @@ impl STerm {
         self.recover_of(p, |cell, x| displacement_at(p, u, cell, x))
     }
 
-    /// `f_c = (k2 E / h²) ∫_c Nᵀ S dV` per Ω* cell.
-    pub fn targets_of(&self, p: &HyperProblem, s: &Recovered<3>) -> Result<Vec<CellVector>> {
-        let rule = tensor_gauss_rule(RULE_POINTS);
+    /// `f_c = (k2 E / h²) ∫_c Nᵀ S dV` per Ω* cell, `n` rows each.
+    pub fn targets_of(&self, p: &HyperProblem, s: &Recovered<3>) -> Result<Vec<[f64; 3]>> {
+        let rule = tensor_gauss_rule(rule_points(self.order));
         let (h, vol) = (p.grid.h, p.grid.h.powi(3));
-        self.omega_star
-            .par_iter()
-            .map(|&c| {
+        let npc = self.order.nodes_per_cell();
+        let mut f = vec![[0.0; 3]; npc * self.omega_star.len()];
+        f.par_chunks_mut(npc)
+            .zip(&self.omega_star)
+            .try_for_each(|(f, &c)| {
                 let lo = p.grid.cell_box(c).lo;
-                let mut f = [[0.0; 3]; NODES];
-                let mut n = [0.0; NODES];
+                let mut n = [0.0; MAX_NODES];
+                let n = &mut n[..npc];
                 let blend = s.cell_blend(c)?;
                 for (xi, w) in &rule {
                     let x = [0, 1, 2].map(|a| lo[a] + h * xi[a]);
                     let sx = blend.eval(x);
-                    shape_values(ElementOrder::Q1, *xi, &mut n);
-                    for a in 0..NODES {
+                    shape_values(self.order, *xi, n);
+                    for (fa, na) in f.iter_mut().zip(n.iter()) {
                         for i in 0..3 {
-                            f[a][i] += self.factor * w * vol * n[a] * sx[i];
+                            fa[i] += self.factor * w * vol * na * sx[i];
                         }
                     }
                 }
-                Ok(f)
-            })
-            .collect()
+                Ok(())
+            })?;
+        Ok(f)
     }
 
     /// Re-evaluates `S` at `u` and stores the new `f_c`.
@@ -325,16 +337,24 @@ where
 /// `u_h(x)` of the problem's displacement `u` in grid cell `cell` (active).
 pub fn displacement_at(p: &HyperProblem, u: &[f64], cell: usize, x: [f64; 3]) -> [f64; 3] {
     let k = p.cells.binary_search(&cell).expect("the cell is active");
-    let ue = p.gather(k, u);
+    let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+    let ue = p.gather(k, u, &mut buffer);
     let lo = p.grid.cell_box(cell).lo;
     let xi = [0, 1, 2].map(|a| (x[a] - lo[a]) / p.grid.h);
-    let mut n = [0.0; NODES];
-    shape_values(ElementOrder::Q1, xi, &mut n);
+    let mut n = [0.0; MAX_NODES];
+    let n = &mut n[..ue.len()];
+    shape_values(p.order(), xi, n);
     let mut v = [0.0; 3];
-    for a in 0..NODES {
+    for (na, ua) in n.iter().zip(ue) {
         for i in 0..3 {
-            v[i] += n[a] * ue[a][i];
+            v[i] += na * ua[i];
         }
     }
     v
+}
+
+/// Gauss points per axis of the sample rule and of the `f_c` integral: p + 2
+/// (module doc).
+fn rule_points(order: ElementOrder) -> usize {
+    order.degree() + 2
 }

@@ -17,10 +17,8 @@ use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 use super::material::PointState;
-use super::problem::{HyperProblem, CELL_DOFS, NODES};
-use super::residual::{
-    add_bt_stress, add_penalty, deformation_gradient, field_gradient, CellVector,
-};
+use super::problem::{CellBuffer, HyperProblem, MAX_NODES};
+use super::residual::{add_bt_stress, add_penalty, deformation_gradient, field_gradient};
 use crate::backend::LinearOperator;
 
 /// `K_T(u)` of a problem at one displacement.
@@ -37,11 +35,11 @@ impl<'p> TangentOperator<'p> {
         let per_cell: Option<Vec<Vec<PointState>>> = (0..problem.cells.len())
             .into_par_iter()
             .map(|k| {
-                let ue = problem.gather(k, u);
+                let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+                let ue = problem.gather(k, u, &mut buffer);
                 problem
                     .points(k)
-                    .iter()
-                    .map(|q| PointState::new(deformation_gradient(&ue, q)))
+                    .map(|q| PointState::new(deformation_gradient(ue, &q)))
                     .collect()
             })
             .collect();
@@ -63,64 +61,71 @@ impl<'p> TangentOperator<'p> {
         &self.states[self.state_start[k]..self.state_start[k + 1]]
     }
 
-    /// `(K_c v_c)`: the cell's tangent applied to its nodal values.
-    pub fn cell_apply(&self, k: usize, ve: &CellVector) -> CellVector {
+    /// `out += K_c v_c`: the cell's tangent applied to its nodal values.
+    pub fn cell_apply(&self, k: usize, ve: &[[f64; 3]], out: &mut [[f64; 3]]) {
         let p = self.problem;
-        let mut out = [[0.0; 3]; NODES];
-        for (q, s) in p.points(k).iter().zip(self.cell_states(k)) {
-            let dp = p.material.tangent_action(s, &field_gradient(ve, q));
-            add_bt_stress(&dp, q, &mut out);
+        for (q, s) in p.points(k).zip(self.cell_states(k)) {
+            let dp = p.material.tangent_action(s, &field_gradient(ve, &q));
+            add_bt_stress(&dp, &q, out);
         }
-        add_penalty(p.penalty_points(k), ve, 0.0, &mut out);
+        add_penalty(p.penalty_points(k), ve, 0.0, out);
         if let Some(s) = &p.s_term {
-            s.add_cell_tangent(k, ve, &mut out);
+            s.add_cell_tangent(k, ve, out);
         }
-        out
     }
 
-    /// The cell's dense tangent, row-major `24 × 24` (dof `3 a + i`): column
-    /// `3 b + k` is the cell apply of the unit vector of that dof.
+    /// `K_c` of the `k`-th cell applied to the global vector `x`, into `out`.
+    fn cell_apply_global(&self, k: usize, x: &[f64], out: &mut [[f64; 3]]) {
+        let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
+        self.cell_apply(k, self.problem.gather(k, x, &mut buffer), out);
+    }
+
+    /// The cell's dense tangent, row-major `3n × 3n` for `n` nodes (dof
+    /// `3 a + i`): column `3 b + k` is the cell apply of the unit vector of
+    /// that dof.
     pub fn cell_matrix(&self, k: usize) -> Vec<f64> {
-        let mut m = vec![0.0; CELL_DOFS * CELL_DOFS];
-        for col in 0..CELL_DOFS {
-            let mut e = [[0.0; 3]; NODES];
+        let dofs = 3 * self.problem.nodes_per_cell();
+        let mut m = vec![0.0; dofs * dofs];
+        let mut e: CellBuffer = [[0.0; 3]; MAX_NODES];
+        let mut y: CellBuffer = [[0.0; 3]; MAX_NODES];
+        for col in 0..dofs {
             e[col / 3][col % 3] = 1.0;
-            let y = self.cell_apply(k, &e);
-            for row in 0..CELL_DOFS {
-                m[row * CELL_DOFS + col] = y[row / 3][row % 3];
+            y.iter_mut().for_each(|v| *v = [0.0; 3]);
+            self.cell_apply(k, &e[..dofs / 3], &mut y[..dofs / 3]);
+            e[col / 3][col % 3] = 0.0;
+            for row in 0..dofs {
+                m[row * dofs + col] = y[row / 3][row % 3];
             }
         }
         m
     }
 
-    /// The cell's diagonal entries, `[node][component]`.
-    fn cell_diagonal(&self, k: usize) -> CellVector {
+    /// The cell's diagonal entries, `[node][component]`, into `d` (zeroed).
+    fn cell_diagonal(&self, k: usize, d: &mut [[f64; 3]]) {
         let p = self.problem;
-        let mut d = [[0.0; 3]; NODES];
-        for (q, s) in p.points(k).iter().zip(self.cell_states(k)) {
-            for a in 0..NODES {
+        for (q, s) in p.points(k).zip(self.cell_states(k)) {
+            for (da, grad) in d.iter_mut().zip(q.grads) {
                 for i in 0..3 {
                     // dF = e_i ⊗ ∇N_a; the entry is w (A : dF)_iJ ∂N_a/∂X_J.
                     let mut df = Matrix3::zeros();
                     for j in 0..3 {
-                        df[(i, j)] = q.grads[a][j];
+                        df[(i, j)] = grad[j];
                     }
                     let dp = p.material.tangent_action(s, &df);
-                    d[a][i] += q.w * (0..3).map(|j| dp[(i, j)] * q.grads[a][j]).sum::<f64>();
+                    da[i] += q.w * (0..3).map(|j| dp[(i, j)] * grad[j]).sum::<f64>();
                 }
             }
         }
-        for pp in p.penalty_points(k) {
-            for a in 0..NODES {
+        for (pp, n) in p.penalty_points(k) {
+            for (da, n) in d.iter_mut().zip(n) {
                 for i in 0..3 {
-                    d[a][i] += pp.weight * pp.mask[i] * pp.n[a] * pp.n[a];
+                    da[i] += pp.weight * pp.mask[i] * n * n;
                 }
             }
         }
         if let Some(s) = &p.s_term {
-            s.add_cell_diagonal(k, &mut d);
+            s.add_cell_diagonal(k, d);
         }
-        d
     }
 
     /// `y += K_cut x`: the cut cells' part of the tangent (their volume points
@@ -131,16 +136,14 @@ impl<'p> TangentOperator<'p> {
         let cut: Vec<usize> = (0..p.cells.len())
             .filter(|&k| p.cut_index[k].is_some())
             .collect();
-        let cell_vectors: Vec<(usize, CellVector)> = cut
-            .into_par_iter()
-            .map(|k| (k, self.cell_apply(k, &p.gather(k, x))))
-            .collect();
-        for (k, v) in cell_vectors {
-            for (a, &node) in p.cell_nodes[k].iter().enumerate() {
-                for i in 0..3 {
-                    y[3 * node as usize + i] += v[a][i];
-                }
-            }
+        let npc = p.nodes_per_cell();
+        let mut cell_vectors = vec![[0.0; 3]; npc * cut.len()];
+        cell_vectors
+            .par_chunks_mut(npc)
+            .zip(&cut)
+            .for_each(|(out, &k)| self.cell_apply_global(k, x, out));
+        for (out, &k) in cell_vectors.chunks_exact(npc).zip(&cut) {
+            p.scatter_cell(k, out, y);
         }
     }
 
@@ -151,12 +154,14 @@ impl<'p> TangentOperator<'p> {
             .into_par_iter()
             .map(|k| self.cell_matrix(k))
             .collect();
-        let mut triplets = Vec::with_capacity(blocks.len() * CELL_DOFS * CELL_DOFS);
+        let dofs = 3 * p.nodes_per_cell();
+        let mut triplets = Vec::with_capacity(blocks.len() * dofs * dofs);
         for (k, m) in blocks.iter().enumerate() {
-            let dof = |l: usize| 3 * p.cell_nodes[k][l / 3] as usize + l % 3;
-            for row in 0..CELL_DOFS {
-                for col in 0..CELL_DOFS {
-                    triplets.push(Triplet::new(dof(row), dof(col), m[row * CELL_DOFS + col]));
+            let nodes = p.cell_nodes(k);
+            let dof = |l: usize| 3 * nodes[l / 3] as usize + l % 3;
+            for row in 0..dofs {
+                for col in 0..dofs {
+                    triplets.push(Triplet::new(dof(row), dof(col), m[row * dofs + col]));
                 }
             }
         }
@@ -173,20 +178,14 @@ impl LinearOperator for TangentOperator<'_> {
 
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         let p = self.problem;
-        let cell_vectors: Vec<CellVector> = (0..p.cells.len())
-            .into_par_iter()
-            .map(|k| self.cell_apply(k, &p.gather(k, x)))
-            .collect();
+        let cell_vectors = p.cell_vectors(|k, out| self.cell_apply_global(k, x, out));
         y.fill(0.0);
         p.scatter(&cell_vectors, y);
     }
 
     fn diagonal(&self) -> Vec<f64> {
         let p = self.problem;
-        let cell_vectors: Vec<CellVector> = (0..p.cells.len())
-            .into_par_iter()
-            .map(|k| self.cell_diagonal(k))
-            .collect();
+        let cell_vectors = p.cell_vectors(|k, d| self.cell_diagonal(k, d));
         let mut d = vec![0.0; p.ndofs()];
         p.scatter(&cell_vectors, &mut d);
         d

@@ -17,7 +17,7 @@ use cgfem_gpu::grid::Grid;
 use cgfem_gpu::hyper::material::Material;
 use cgfem_gpu::hyper::newton::{solve_load_steps, CpuTangentSolver, HyperSolution};
 use cgfem_gpu::hyper::problem::{
-    DirichletCondition, HyperProblem, Loads, Ramp, Region, VectorField,
+    Conditions, DirichletCondition, HyperProblem, Loads, Ramp, Region, VectorField,
 };
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::solver::Preconditioner;
@@ -188,16 +188,13 @@ fn alone(
     ];
     let regions = [None, None, None, region];
     let beta = 30.0 * young;
-    HyperProblem::new_restricted(
-        &grid,
-        &cells,
-        material,
-        beta,
-        &dirichlet,
-        &regions,
-        &Loads::default(),
-    )
-    .unwrap()
+    let conditions = Conditions {
+        dirichlet: &dirichlet,
+        regions: &regions,
+        loads: &Loads::default(),
+    };
+    HyperProblem::new_restricted(&grid, &cells, ElementOrder::Q1, material, beta, &conditions)
+        .unwrap()
 }
 
 #[test]

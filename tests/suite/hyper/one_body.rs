@@ -1,9 +1,11 @@
-//! Large-deformation hyperelasticity of one body (without contact):
-//! the tangent against finite differences of the residual, against the linear
-//! operator at u = 0 and against its own assembly; the residual against the
-//! energy. The Newton solves are in `hyper/newton.rs`.
+//! Large-deformation hyperelasticity of one body (without contact), Q1 and
+//! Q2: the tangent against finite differences of the residual, against the
+//! linear operator at u = 0 and against its own assembly; the residual
+//! against the energy. The Newton solves are in `one_body/newton.rs`, the
+//! patch test in `one_body/patch.rs`.
 
 mod newton;
+mod patch;
 mod recovered;
 
 use std::sync::Arc;
@@ -26,12 +28,15 @@ const E: f64 = 1000.0;
 const NU: f64 = 0.3;
 const BETA: f64 = 30.0 * E;
 
+/// The elements and the sphere's level each is tested on.
+const ELEMENTS: [(ElementOrder, u32); 2] = [(ElementOrder::Q1, 3), (ElementOrder::Q2, 2)];
+
 /// The unit sphere on a shifted grid (every kind of cut), fixed on its surface
 /// to a non-trivial field, with a body load.
-fn sphere(level: u32, material: Material) -> HyperProblem {
+fn sphere(order: ElementOrder, level: u32, material: Material) -> HyperProblem {
     let g = Geometry::sphere([0.0; 3], 1.0).unwrap();
     let grid = Grid::new(&Aabb::new([-1.0; 3], [1.0; 3]), level, [0.13, 0.29, 0.41]).unwrap();
-    let cells = Cells::classify(&grid, &g, cut_rule_points(ElementOrder::Q1)).unwrap();
+    let cells = Cells::classify(&grid, &g, cut_rule_points(order)).unwrap();
     let dirichlet = [DirichletCondition {
         tag: 0,
         components: [true; 3],
@@ -42,14 +47,14 @@ fn sphere(level: u32, material: Material) -> HyperProblem {
         body: Some(Arc::new(|x: [f64; 3]| [10.0, -20.0 * x[0], 5.0])),
         tractions: Vec::new(),
     };
-    HyperProblem::new(&grid, &cells, material, BETA, &dirichlet, &loads).unwrap()
+    HyperProblem::new(&grid, &cells, order, material, BETA, &dirichlet, &loads).unwrap()
 }
 
 /// A smooth large displacement (|∇u| up to ~0.3) plus a little noise.
 fn nontrivial_u(p: &HyperProblem, rng: &mut ChaCha8Rng) -> Vec<f64> {
     let mut u = vec![0.0; p.ndofs()];
     for (a, &node) in p.dofs.active_to_node.iter().enumerate() {
-        let x = p.grid.node_position(ElementOrder::Q1, node as usize);
+        let x = p.grid.node_position(p.order(), node as usize);
         let smooth = [
             0.15 * (x[0] + x[1]).sin(),
             0.1 * x[0] * x[2] - 0.1 * x[1],
@@ -83,11 +88,18 @@ fn materials() -> [Material; 3] {
     ]
 }
 
+/// Every material with every element of [`ELEMENTS`].
+fn materials_and_elements() -> impl Iterator<Item = (Material, (ElementOrder, u32))> {
+    materials()
+        .into_iter()
+        .flat_map(|m| ELEMENTS.into_iter().map(move |e| (m, e)))
+}
+
 #[test]
 fn tangent_equals_central_differences_of_the_residual() {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
-    for material in materials() {
-        let p = sphere(3, material);
+    for (material, (order, level)) in materials_and_elements() {
+        let p = sphere(order, level, material);
         let t = 0.7;
         let u = nontrivial_u(&p, &mut rng);
         let v = random_vector(p.ndofs(), &mut rng);
@@ -106,16 +118,19 @@ fn tangent_equals_central_differences_of_the_residual() {
             .map(|(a, b)| (a - b) / (2.0 * eps))
             .collect();
         let err = relative_difference(&kv, &fd);
-        println!("{:?}: ‖K_T v − FD‖ / ‖FD‖ = {err:.2e}", material.model);
-        assert!(err < 1e-6, "{:?}: {err:e}", material.model);
+        println!(
+            "{order:?} {:?}: ‖K_T v − FD‖ / ‖FD‖ = {err:.2e}",
+            material.model
+        );
+        assert!(err < 1e-6, "{order:?} {:?}: {err:e}", material.model);
     }
 }
 
 #[test]
 fn residual_is_the_gradient_of_the_energy() {
     let mut rng = ChaCha8Rng::seed_from_u64(12);
-    for material in materials() {
-        let p = sphere(2, material);
+    for (material, order) in materials_and_elements().map(|(m, (o, _))| (m, o)) {
+        let p = sphere(order, 2, material);
         let t = 0.4;
         let u = nontrivial_u(&p, &mut rng);
         let v = random_vector(p.ndofs(), &mut rng);
@@ -128,25 +143,26 @@ fn residual_is_the_gradient_of_the_energy() {
         let fd = (shifted(eps) - shifted(-eps)) / (2.0 * eps);
         let exact: f64 = r.iter().zip(&v).map(|(a, b)| a * b).sum();
         let err = (fd - exact).abs() / exact.abs();
-        assert!(err < 1e-6, "{:?}: {err:e}", material.model);
+        assert!(err < 1e-6, "{order:?} {:?}: {err:e}", material.model);
     }
 }
 
 #[test]
 fn tangent_at_zero_is_the_linear_operator() {
     let mut rng = ChaCha8Rng::seed_from_u64(13);
-    let g = Geometry::sphere([0.0; 3], 1.0).unwrap();
-    let grid = Grid::new(&Aabb::new([-1.0; 3], [1.0; 3]), 3, [0.13, 0.29, 0.41]).unwrap();
-    let cells = Cells::classify(&grid, &g, cut_rule_points(ElementOrder::Q1)).unwrap();
-    let params = OperatorParams {
-        young: E,
-        poisson: NU,
-        beta: BETA,
-        dirichlet: &|_, _| Some([true; 3]),
-    };
-    let linear = ElasticOperator::new(&grid, &cells, ElementOrder::Q1, &params);
-    for material in materials() {
-        let p = sphere(3, material);
+    for (material, (order, level)) in materials_and_elements() {
+        let g = Geometry::sphere([0.0; 3], 1.0).unwrap();
+        let bbox = Aabb::new([-1.0; 3], [1.0; 3]);
+        let grid = Grid::new(&bbox, level, [0.13, 0.29, 0.41]).unwrap();
+        let cells = Cells::classify(&grid, &g, cut_rule_points(order)).unwrap();
+        let params = OperatorParams {
+            young: E,
+            poisson: NU,
+            beta: BETA,
+            dirichlet: &|_, _| Some([true; 3]),
+        };
+        let linear = ElasticOperator::new(&grid, &cells, order, &params);
+        let p = sphere(order, level, material);
         assert_eq!(p.ndofs(), linear.nrows());
         let k = TangentOperator::new(&p, &vec![0.0; p.ndofs()]).unwrap();
         for _ in 0..2 {
@@ -155,18 +171,22 @@ fn tangent_at_zero_is_the_linear_operator() {
             k.apply(&v, &mut a);
             linear.apply(&v, &mut b);
             let err = relative_difference(&a, &b);
-            assert!(err < 1e-12, "{:?}: {err:e}", material.model);
+            assert!(err < 1e-12, "{order:?} {:?}: {err:e}", material.model);
         }
         let err = relative_difference(&k.diagonal(), &linear.diagonal());
-        assert!(err < 1e-12, "{:?} diagonal: {err:e}", material.model);
+        assert!(
+            err < 1e-12,
+            "{order:?} {:?} diagonal: {err:e}",
+            material.model
+        );
     }
 }
 
 #[test]
 fn matrix_free_tangent_equals_the_assembled_one() {
     let mut rng = ChaCha8Rng::seed_from_u64(14);
-    for material in materials() {
-        let p = sphere(3, material);
+    for (material, (order, level)) in materials_and_elements() {
+        let p = sphere(order, level, material);
         let u = nontrivial_u(&p, &mut rng);
         let k = TangentOperator::new(&p, &u).unwrap();
         let assembled = AssembledOperator(k.assemble());
@@ -176,10 +196,14 @@ fn matrix_free_tangent_equals_the_assembled_one() {
             k.apply(&v, &mut a);
             assembled.apply(&v, &mut b);
             let err = relative_difference(&a, &b);
-            assert!(err < 1e-12, "{:?}: {err:e}", material.model);
+            assert!(err < 1e-12, "{order:?} {:?}: {err:e}", material.model);
         }
         let err = relative_difference(&k.diagonal(), &assembled.diagonal());
-        assert!(err < 1e-13, "{:?} diagonal: {err:e}", material.model);
+        assert!(
+            err < 1e-13,
+            "{order:?} {:?} diagonal: {err:e}",
+            material.model
+        );
         // Hyperelastic: K_T is symmetric, x·K y = y·K x.
         let x = random_vector(p.ndofs(), &mut rng);
         let y = random_vector(p.ndofs(), &mut rng);
@@ -196,7 +220,7 @@ fn matrix_free_tangent_equals_the_assembled_one() {
 
 #[test]
 fn inverted_states_have_no_residual() {
-    let p = sphere(2, Material::neo_hookean(E, NU));
+    let p = sphere(ElementOrder::Q1, 2, Material::neo_hookean(E, NU));
     // u = −2 X everywhere: F = −I, det F = −1.
     let mut u = vec![0.0; p.ndofs()];
     for (a, &node) in p.dofs.active_to_node.iter().enumerate() {

@@ -1,8 +1,8 @@
 //! The S-term of the large-deformation residual (src/hyper/stabilisation.rs):
 //! its residual, tangent and energy against finite differences with the
 //! recovered `S` held fixed, exact recovery of fields of the fit space on
-//! Ω* (also on a one-cell-thick slab), and a twisted ring solved with it in
-//! fixed-point passes.
+//! Ω* (also on a one-cell-thick slab), Q1 and Q2, and a twisted ring solved
+//! with it in fixed-point passes.
 
 use std::sync::Arc;
 
@@ -24,12 +24,17 @@ const E: f64 = 1000.0;
 const NU: f64 = 0.3;
 const K2: f64 = 0.01;
 
-/// The unit sphere on a shifted grid, fixed on its surface, with the S-term
-/// at threshold `a`.
+/// The unit sphere on a shifted grid, fixed on its surface, with Q1 elements
+/// and the S-term at threshold `a`.
 fn sphere(level: u32, a: f64) -> HyperProblem {
+    sphere_of(ElementOrder::Q1, level, a)
+}
+
+/// [`sphere`] with elements of `order`.
+fn sphere_of(order: ElementOrder, level: u32, a: f64) -> HyperProblem {
     let g = Geometry::sphere([0.0; 3], 1.0).unwrap();
     let grid = Grid::new(&Aabb::new([-1.0; 3], [1.0; 3]), level, [0.13, 0.29, 0.41]).unwrap();
-    let cells = Cells::classify(&grid, &g, cut_rule_points(ElementOrder::Q1)).unwrap();
+    let cells = Cells::classify(&grid, &g, cut_rule_points(order)).unwrap();
     let dirichlet = [DirichletCondition {
         tag: 0,
         components: [true; 3],
@@ -40,6 +45,7 @@ fn sphere(level: u32, a: f64) -> HyperProblem {
     let mut p = HyperProblem::new(
         &grid,
         &cells,
+        order,
         material,
         30.0 * E,
         &dirichlet,
@@ -83,6 +89,7 @@ fn twisted_ring_cells(level: u32, angle: f64, k2: f64, a: f64) -> (HyperProblem,
     let mut p = HyperProblem::new(
         &grid,
         &cells,
+        ElementOrder::Q1,
         material,
         30.0 * E,
         &dirichlet,
@@ -103,11 +110,22 @@ fn quadratic(x: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// A complete cubic field (the Q2 fit space's top terms and some below).
+fn cubic(x: [f64; 3]) -> [f64; 3] {
+    let [a, b, c] = quadratic(x);
+    let [x, y, z] = x;
+    [
+        a + 0.2 * x * x * x - 0.1 * x * y * z + 0.05 * y * y * z,
+        b - 0.15 * y * y * y + 0.1 * x * x * z,
+        c + 0.1 * z * z * z - 0.2 * x * z * z + 0.1 * x * y * y,
+    ]
+}
+
 /// The nodal interpolant of `f`.
 fn interpolate(p: &HyperProblem, f: impl Fn([f64; 3]) -> [f64; 3]) -> Vec<f64> {
     let mut u = vec![0.0; p.ndofs()];
     for (a, &node) in p.dofs.active_to_node.iter().enumerate() {
-        let v = f(p.grid.node_position(ElementOrder::Q1, node as usize));
+        let v = f(p.grid.node_position(p.order(), node as usize));
         u[3 * a..3 * a + 3].copy_from_slice(&v);
     }
     u
@@ -128,10 +146,16 @@ fn s_residual(p: &HyperProblem, bare: &HyperProblem, u: &[f64]) -> Vec<f64> {
 
 #[test]
 fn s_residual_tangent_and_energy_match_finite_differences() {
-    let p = sphere(3, 0.05);
+    for (order, level, a) in [(ElementOrder::Q1, 3, 0.05), (ElementOrder::Q2, 2, 0.2)] {
+        s_term_against_finite_differences(order, level, a);
+    }
+}
+
+fn s_term_against_finite_differences(order: ElementOrder, level: u32, a: f64) {
+    let p = sphere_of(order, level, a);
     let s = p.s_term.as_ref().unwrap();
     assert!(!s.omega_star.is_empty(), "the shifted sphere has Ω* cells");
-    let mut bare = sphere(3, 0.05);
+    let mut bare = sphere_of(order, level, a);
     bare.s_term = None;
     // S from one displacement, R_S at another: S held fixed.
     let u0 = interpolate(&p, quadratic);
@@ -218,7 +242,11 @@ fn recovery_error(p: &HyperProblem, f: fn([f64; 3]) -> [f64; 3]) -> f64 {
 
 #[test]
 fn fields_of_the_fit_space_are_recovered_exactly_on_omega_star() {
-    for p in [sphere(3, 0.05), twisted_ring(4, 0.2, K2, 0.05)] {
+    let q2 = sphere_of(ElementOrder::Q2, 2, 0.2);
+    assert!(!q2.s_term.as_ref().unwrap().omega_star.is_empty());
+    let err = recovery_error(&q2, cubic);
+    assert!(err < 1e-11, "Q2: |S − u| = {err:.3e} on Ω*");
+    for p in [sphere(3, 0.05), twisted_ring(4, 0.2, K2, 0.05), q2] {
         let s = p.s_term.as_ref().unwrap();
         assert!(!s.omega_star.is_empty());
         let err = recovery_error(&p, quadratic);
@@ -229,10 +257,13 @@ fn fields_of_the_fit_space_are_recovered_exactly_on_omega_star() {
         p.refresh_s_term(&u).unwrap();
         let mut bare_targets = 0.0f64;
         for (slot, &k) in s.entries().iter().enumerate() {
-            let ue = p.gather(k, &u);
-            let mut r = [[0.0; 3]; 8];
-            s.add_cell_residual(k, &ue, &s.targets(), &mut r);
-            let f = s.targets()[slot];
+            let n = p.nodes_per_cell();
+            let mut buffer = [[0.0; 3]; 27];
+            let ue = p.gather(k, &u, &mut buffer);
+            let mut r = [[0.0; 3]; 27];
+            let r = &mut r[..n];
+            s.add_cell_residual(k, ue, &s.targets(), r);
+            let f = &s.targets()[n * slot..n * (slot + 1)];
             let scale = f.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
             bare_targets = bare_targets.max(scale);
             for v in r.iter().flatten() {
@@ -294,7 +325,7 @@ fn a_twisted_ring_with_the_s_term_converges_in_fixed_point_passes() {
     let mut inside = vec![false; with.ndofs()];
     let bulk = |k: usize| with.cut_index[k].is_none_or(|i| cells.fraction[i] > 0.5);
     for k in (0..with.cells.len()).filter(|&k| bulk(k)) {
-        for &n in &with.cell_nodes[k] {
+        for &n in with.cell_nodes(k) {
             inside[3 * n as usize..3 * n as usize + 3].fill(true);
         }
     }

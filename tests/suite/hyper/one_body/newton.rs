@@ -48,7 +48,16 @@ fn stretched_box(material: Material, level: u32, delta: f64, beta: f64) -> Hyper
         roller("zmin", 2, zero()),
         roller("xmax", 0, Arc::new(move |_| [delta, 0.0, 0.0])),
     ];
-    HyperProblem::new(&grid, &cells, material, beta, &dirichlet, &Loads::default()).unwrap()
+    HyperProblem::new(
+        &grid,
+        &cells,
+        ElementOrder::Q1,
+        material,
+        beta,
+        &dirichlet,
+        &Loads::default(),
+    )
+    .unwrap()
 }
 
 fn options(steps: usize) -> NewtonOptions {
@@ -199,7 +208,16 @@ fn twisted_ring(level: u32, angle: f64) -> HyperProblem {
         },
     ];
     let material = Material::neo_hookean(E, NU);
-    HyperProblem::new(&grid, &cells, material, BETA, &dirichlet, &Loads::default()).unwrap()
+    HyperProblem::new(
+        &grid,
+        &cells,
+        ElementOrder::Q1,
+        material,
+        BETA,
+        &dirichlet,
+        &Loads::default(),
+    )
+    .unwrap()
 }
 
 /// The convergence order `log(r₂/r₁) / log(r₁/r₀)` of consecutive residuals.
