@@ -190,6 +190,17 @@ impl Grid {
         self.level.checked_sub(1).map(|l| self.at_level(l))
     }
 
+    /// The grid with each cell split in 2×2×2 (the Q2 node lattice's
+    /// cells): same origin, half the spacing.
+    pub fn refined(&self) -> Grid {
+        Grid {
+            origin: self.origin,
+            h: 0.5 * self.h,
+            n: self.n.map(|n| 2 * n),
+            level: self.level + 1,
+        }
+    }
+
     /// The same box at another level (cell counts scaled by powers of two).
     fn at_level(&self, level: u32) -> Grid {
         let scale = 2f64.powi(self.level as i32 - level as i32);

@@ -109,7 +109,7 @@ impl ContactCoupling {
                     master: p.master.body,
                     history: Mutex::new(vec![PointHistory::fresh(0.0); points.len()]),
                     points,
-                    surface: Surface::from_level_set(m.grid, m.solid, &[p.master.tag]),
+                    surface: Surface::for_element(m.grid, m.dofs.order, m.solid, &[p.master.tag]),
                     penalty: p.penalty,
                     young: case.bodies[p.slave.body].spec.material.young,
                     friction: p.friction,

@@ -189,15 +189,23 @@ master = "lower.zmax"
 "#;
 
 /// The stacked tangent with the case's contact pair against central
-/// differences of the stacked residual, at a state in contact.
+/// differences of the stacked residual, at a state in contact; Q1 and Q2.
 #[test]
 fn the_stacked_tangent_with_contact_is_the_derivative_of_the_residual() {
+    let material = "material = { young = 1000.0, poisson = 0.3 }";
+    let q2 = PRESS.replace(material, &format!("{material}\nelement = \"q2\""));
+    assert_eq!(q2.matches("q2").count(), 2);
+    for text in [PRESS, &q2] {
+        stacked_tangent_against_central_differences(text);
+    }
+}
+
+fn stacked_tangent_against_central_differences(text: &str) {
     use cgfem_gpu::bodies::setup::BodiesSetup;
     use cgfem_gpu::case::Case;
-    use cgfem_gpu::element::ElementOrder;
     use cgfem_gpu::hyper::newton::NonlinearProblem;
     use cgfem_gpu::progress::Silent;
-    let case = Case::from_str_with("press.toml", PRESS, &[]).unwrap();
+    let case = Case::from_str_with("press.toml", text, &[]).unwrap();
     let setup = BodiesSetup::new(&case, None, &Silent).unwrap();
     let p = &setup.problem;
     let n = p.ndofs();
@@ -205,7 +213,7 @@ fn the_stacked_tangent_with_contact_is_the_derivative_of_the_residual() {
     for b in 0..2 {
         let body = &p.bodies[b];
         for (a, &node) in body.dofs.active_to_node.iter().enumerate() {
-            let x = body.grid.node_position(ElementOrder::Q1, node as usize);
+            let x = body.grid.node_position(body.order(), node as usize);
             let d = &mut u[p.offsets[b] + 3 * a..p.offsets[b] + 3 * a + 3];
             if b == 1 {
                 d[0] = 0.002 * x[1];
@@ -239,7 +247,8 @@ fn the_stacked_tangent_with_contact_is_the_derivative_of_the_residual() {
         .sqrt();
     let norm = fd.iter().map(|a| a * a).sum::<f64>().sqrt();
     println!(
-        "stacked tangent with contact vs central differences: {:.2e}",
+        "{:?}: stacked tangent with contact vs central differences: {:.2e}",
+        p.bodies[0].order(),
         diff / norm
     );
     assert!(diff < 1e-8 * norm, "{diff:e} of {norm:e}");
