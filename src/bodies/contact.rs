@@ -117,7 +117,7 @@ impl ContactCoupling {
                     search_radius: 0.5 * diagonal(s.solid).min(diagonal(m.solid)),
                     sampler: spec
                         .recovered_traction
-                        .then(|| StressSampler::new(s.grid, s.cells, s.mirror)),
+                        .then(|| StressSampler::new(s.grid, s.cells, s.dofs.order, s.mirror)),
                 }
             })
             .collect();

@@ -3,9 +3,9 @@
 //! `T̂_N = n1 · σ̂ n1` of contact.
 //!
 //! **Samples.** At the Gauss points of an inside cell (Q1: 2×2×2, Q2:
-//! 3×3×3) and at most 16
-//! points of a cut cell ([`Cells::fit_points`], strided: fewer than the
-//! linear recovery of [`crate::driver::recovery::sample_positions`] takes) the Cauchy stress of the
+//! 3×3×3) and at most twice as many points of a cut cell
+//! ([`Cells::fit_points`], strided: fewer than the linear recovery of
+//! [`crate::driver::recovery::sample_positions`] takes) the Cauchy stress of the
 //! current state, `σ = P Fᵀ / J`, stored as Voigt `(xx, yy, zz, yz, xz, xy)`
 //! at the point's **reference** position `X`.
 //!
@@ -34,16 +34,18 @@ use crate::hyper::problem::{CellBuffer, HyperProblem, QuadPoint, MAX_NODES};
 use crate::hyper::residual::deformation_gradient;
 use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
 
-/// Sample points of a cut cell: at most 16, twice the inside cell's 2×2×2.
-/// The recovered contact pressure at coarse levels moves with the choice of
-/// points: with every point (up to [`crate::cells::MAX_FIT_POINTS`]) the
-/// earlier Hertz case (ball's grid offset, rollers) at level 2 gave a
-/// recovered peak +14% from Hertz's against −0.5% with these, so the
-/// traction keeps them. They are not
+/// Sample points of a cut cell: at most twice the inside cell's Gauss
+/// points (Q1: 16, Q2: 54). The recovered contact pressure at coarse levels
+/// moves with the choice of points: with every point (up to
+/// [`crate::cells::MAX_FIT_POINTS`]) the earlier Hertz case (ball's grid
+/// offset, rollers) at level 2 gave a recovered Q1 peak +14% from Hertz's
+/// against −0.5% with these, so the traction keeps them. They are not
 /// mirror symmetric, but across a symmetry plane the patches take the
 /// mirror image of the body's own samples, so a half (quarter) model is
 /// still symmetric.
-const CUT_CELL_SAMPLES: usize = 16;
+fn cut_cell_samples(order: ElementOrder) -> usize {
+    2 * order.gauss_points_per_axis().pow(3)
+}
 
 /// What the stress recovery of one body needs from its cell classification:
 /// the cell kinds, per cut cell its sample points (reference coordinates in
@@ -59,9 +61,9 @@ pub struct StressSampler {
 }
 
 impl StressSampler {
-    /// The sampler of a body on `grid` classified as `cells`,
-    /// with the symmetry planes `mirror` (faces of the grid box).
-    pub fn new(grid: &Grid, cells: &Cells, mirror: Mirror) -> StressSampler {
+    /// The sampler of a body of elements `order` on `grid` classified as
+    /// `cells`, with the symmetry planes `mirror` (faces of the grid box).
+    pub fn new(grid: &Grid, cells: &Cells, order: ElementOrder, mirror: Mirror) -> StressSampler {
         let inv_h = 1.0 / grid.h;
         let cut_samples = cells
             .cut
@@ -70,7 +72,7 @@ impl StressSampler {
             .map(|(i, &c)| {
                 let lo = grid.cell_box(c).lo;
                 cells
-                    .fit_points(i, CUT_CELL_SAMPLES)
+                    .fit_points(i, cut_cell_samples(order))
                     .into_iter()
                     .map(|x| ([0, 1, 2].map(|a| (x[a] - lo[a]) * inv_h), x))
                     .collect()
@@ -247,7 +249,7 @@ mod tests {
                 [d[0], d[1], d[2]]
             })
             .collect();
-        let sigma = StressSampler::new(&grid, &cells, Mirror::none())
+        let sigma = StressSampler::new(&grid, &cells, order, Mirror::none())
             .recover(&body, &u, &cells.cut)
             .unwrap();
         let j = f0.determinant();

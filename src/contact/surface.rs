@@ -317,4 +317,35 @@ mod tests {
         }
         assert_eq!(Surface::from_level_set(&grid, &g, &[]).num_triangles(), 0);
     }
+
+    /// A Q2 body's face on a grid plane: every Q2 node of the face is a
+    /// vertex (the Q1 surface has the vertex nodes only), each vertex lies in
+    /// its cell of the body's grid, and the area is the face's.
+    #[test]
+    fn a_q2_surface_has_every_q2_node_of_a_face_as_a_vertex() {
+        let g = Geometry::cuboid([0.0; 3], [1.0, 1.0, 0.5]).unwrap();
+        let grid = Grid::new(&g.bounding_box(), 2, [0.0; 3]).unwrap();
+        let top = [g.tag_id("zmax").unwrap()];
+        let (q1, q2) = (
+            Surface::for_element(&grid, ElementOrder::Q1, &g, &top),
+            Surface::for_element(&grid, ElementOrder::Q2, &g, &top),
+        );
+        // 4 × 4 cells on the face: 5² vertex nodes, 9² Q2 nodes.
+        assert_eq!((q1.vertices.len(), q2.vertices.len()), (25, 81));
+        for s in [&q1, &q2] {
+            assert!((s.area(&s.vertices) - 1.0).abs() < 1e-14);
+            for (x, &c) in s.vertices.iter().zip(&s.vertex_cell) {
+                let b = grid.cell_box(c);
+                assert!((0..3).all(|a| b.lo[a] - 1e-14 <= x[a] && x[a] <= b.hi[a] + 1e-14));
+            }
+        }
+        let mut lattice: Vec<[i64; 2]> = q2
+            .vertices
+            .iter()
+            .map(|x| [0, 1].map(|a| (x[a] / (0.5 * grid.h)).round() as i64))
+            .collect();
+        lattice.sort_unstable();
+        lattice.dedup();
+        assert_eq!(lattice.len(), 81);
+    }
 }
