@@ -1,4 +1,4 @@
-//! Contact: the search, the enforcement and its tangent, Newton on contact, grids that fall anywhere, friction, Hertz and Cattaneo–Mindlin.
+//! Contact: the search, the enforcement and its tangent, Newton on contact, grids that fall anywhere, friction, Hertz and Cattaneo–Mindlin, Q2 bodies.
 
 mod enforce;
 mod friction;
@@ -7,4 +7,5 @@ mod hertz;
 mod mindlin;
 mod multigrid;
 mod newton;
+mod q2;
 mod search;
