@@ -199,9 +199,10 @@ pub fn parse_nrrd(bytes: &[u8]) -> std::result::Result<Image, String> {
     let values = match need("encoding")? {
         "raw" => decode(data, count, width, kind, big_endian)?,
         "gzip" | "gz" => {
+            // Every member of the stream (trailing bytes are not gzip: refused).
             let expected = count * width;
             let mut out = Vec::new();
-            flate2::read::GzDecoder::new(data)
+            flate2::read::MultiGzDecoder::new(data)
                 .take(expected as u64 + 1)
                 .read_to_end(&mut out)
                 .map_err(|e| format!("the gzip data does not decompress: {e}"))?;

@@ -34,6 +34,10 @@ pub trait Scalar:
     fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
         img.piecewise(u)
     }
+    /// Its partial derivatives `∂ψ/∂u_a` at `u` (each met cell's, hulled).
+    fn voxel_slopes(img: &Voxels, u: [Self; 3]) -> [Self; 3] {
+        img.piecewise_slopes(u)
+    }
 }
 
 /// Scalars that also have min and max, for CSG (union = min, intersection = max).
@@ -66,6 +70,9 @@ impl Scalar for f64 {
     }
     fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
         img.value(u)
+    }
+    fn voxel_slopes(img: &Voxels, u: [Self; 3]) -> [Self; 3] {
+        img.slope_range(u.map(|x| (x, x))).map(|i| i.lo)
     }
 }
 
@@ -170,6 +177,9 @@ impl Scalar for Interval {
     }
     fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
         img.range(u.map(|i| (i.lo, i.hi)))
+    }
+    fn voxel_slopes(img: &Voxels, u: [Self; 3]) -> [Self; 3] {
+        img.slope_range(u.map(|i| (i.lo, i.hi)))
     }
     fn sqr(self) -> Self {
         if self.lo >= 0.0 {
@@ -290,6 +300,20 @@ impl<T: Scalar> Scalar for Dual<T> {
         Dual {
             v: self.v.hull(o.v),
             d: [0, 1, 2].map(|i| self.d[i].hull(o.d[i])),
+        }
+    }
+    /// The chain rule on the value's own voxel and slope enclosures (tight
+    /// for intervals, where the cells' polynomials in dual form are not).
+    fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
+        let uv = u.map(|x| x.v);
+        let s = T::voxel_slopes(img, uv);
+        let mut d = [T::cst(0.0); 3];
+        for (j, dj) in d.iter_mut().enumerate() {
+            *dj = s[0] * u[0].d[j] + s[1] * u[1].d[j] + s[2] * u[2].d[j];
+        }
+        Dual {
+            v: T::voxel(img, uv),
+            d,
         }
     }
 }

@@ -218,7 +218,7 @@ mod tests {
         ];
         for shape in leaves {
             let leaf = Leaf {
-                shape,
+                shape: shape.clone(),
                 frame: f,
                 tag: 0,
             };

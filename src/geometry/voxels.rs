@@ -407,6 +407,48 @@ impl Voxels {
         acc.expect("at least one cell")
     }
 
+    /// `∂ψ/∂u_a` at `u` in any scalar: each met cell's bilinear slope
+    /// polynomials on the part of `u` in it, and 0 beyond the image,
+    /// hulled.
+    pub fn piecewise_slopes<T: Scalar>(&self, u: [T; 3]) -> [T; 3] {
+        let r = u.map(|x| x.range());
+        let (cells, beyond) = self.cells_met(r);
+        let mut acc = beyond.then(|| [T::cst(0.0); 3]);
+        let Some(cells) = cells else {
+            return acc.expect("a box that misses the image is beyond it");
+        };
+        for k in cells[2].0..=cells[2].1 {
+            for j in cells[1].0..=cells[1].1 {
+                for i in cells[0].0..=cells[0].1 {
+                    let c = [i, j, k];
+                    let t = [0, 1, 2].map(|a| {
+                        let lo = c[a] as f64;
+                        u[a].restrict(lo, lo + 1.0) - T::cst(lo)
+                    });
+                    let s = [0, 1, 2].map(|a| {
+                        let (b, d) = ((a + 1) % 3, (a + 2) % 3);
+                        let diff = |sb: usize, sd: usize| {
+                            let mut p = c;
+                            p[b] += sb;
+                            p[d] += sd;
+                            let mut q = p;
+                            q[a] += 1;
+                            self.at(q[0], q[1], q[2]) - self.at(p[0], p[1], p[2])
+                        };
+                        let e0 = t[b].scale(diff(1, 0) - diff(0, 0)) + T::cst(diff(0, 0));
+                        let e1 = t[b].scale(diff(1, 1) - diff(0, 1)) + T::cst(diff(0, 1));
+                        e0 + t[d] * (e1 - e0)
+                    });
+                    acc = Some(match acc {
+                        Some(a) => [0, 1, 2].map(|x| a[x].hull(s[x])),
+                        None => s,
+                    });
+                }
+            }
+        }
+        acc.expect("at least one cell")
+    }
+
     /// The trilinear polynomial of cell `c` at the offsets `t`.
     fn cell_polynomial<T: Scalar>(&self, c: [usize; 3], t: [T; 3]) -> T {
         let [i, j, k] = c;
