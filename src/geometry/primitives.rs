@@ -208,7 +208,7 @@ impl Geometry {
             for b in 0..3 {
                 let d: f64 = (0..3).map(|i| axes[a][i] * axes[b][i]).sum();
                 let want = if a == b { 1.0 } else { 0.0 };
-                if !((d - want).abs() < 1e-6) {
+                if (d - want).abs() >= 1e-6 || d.is_nan() {
                     return Err(Error::InvalidGeometry {
                         what: "image".into(),
                         reason: format!("the sampling directions must be orthogonal, got {axes:?}"),

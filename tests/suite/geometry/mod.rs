@@ -4,6 +4,7 @@ mod cut_volume;
 mod dirty_meshes;
 mod image;
 mod image_fuzz;
+mod image_shell;
 mod moment_fit;
 mod pieces;
 mod quadrature;

@@ -19,15 +19,23 @@
 //! multilinear function is attained at the corners of the box's pieces, so
 //! [`Voxels::range`] is exact for boxes of a few voxels, and bounded by the
 //! min/max of the samples the box touches (a pyramid of block min/max) for
-//! larger ones. Scalars other than `f64` and [`Interval`] evaluate each cell's
-//! polynomial on the part of the box in it and take the hull
-//! ([`Voxels::piecewise`]): their gradients are those of the cells, and a
-//! [`super::scalar::Dual2`]'s Hessian is the cells' (the jumps across faces
-//! are not in it, so no second-order bound is built on it; see
+//! larger ones; [`Voxels::slope_range`] gives the cells' gradients' exact
+//! ranges the same way. A [`super::scalar::Dual`] takes the chain rule on
+//! those (tight where the cells' polynomials in dual form are not); other
+//! scalars evaluate each cell's polynomial on the part of the box in it and
+//! take the hull ([`Voxels::piecewise`]): a [`super::scalar::Dual2`]'s
+//! Hessian is the cells' (the gradient's jumps across faces are not in it,
+//! so no second-order bound is built on it; see
 //! [`super::surface::Leaf::bounds`]).
+
+mod cells;
+mod smooth;
+
+pub use smooth::gaussian;
 
 use super::scalar::{Interval, Scalar};
 use crate::error::{Error, Result};
+use smooth::mean_slope;
 
 /// Which side of the threshold is material.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -273,7 +281,7 @@ impl Voxels {
         )
     }
 
-    fn at(&self, i: usize, j: usize, k: usize) -> f64 {
+    pub(super) fn at(&self, i: usize, j: usize, k: usize) -> f64 {
         self.phi[i + self.n[0] * (j + self.n[1] * k)]
     }
 
@@ -306,7 +314,7 @@ impl Voxels {
     /// The cells met by the box `r` of voxel coordinates per axis (`None`
     /// when the box misses the padded image on some axis), and whether the
     /// box reaches beyond it.
-    fn cells_met(&self, r: [(f64, f64); 3]) -> (Option<[(usize, usize); 3]>, bool) {
+    pub(super) fn cells_met(&self, r: [(f64, f64); 3]) -> (Option<[(usize, usize); 3]>, bool) {
         let top = |a: usize| (self.n[a] - 1) as f64;
         let beyond = (0..3).any(|a| !(r[a].0 >= 0.0 && r[a].1 <= top(a)));
         if (0..3).any(|a| !(r[a].1 >= 0.0 && r[a].0 <= top(a))) {
@@ -379,216 +387,8 @@ impl Voxels {
         Interval::new(out.lo.min(lo), out.hi.max(hi))
     }
 
-    /// ψ at `u` in any scalar: each met cell's trilinear polynomial on the
-    /// part of `u` in it, and ψ_out beyond the image, hulled.
-    pub fn piecewise<T: Scalar>(&self, u: [T; 3]) -> T {
-        let r = u.map(|x| x.range());
-        let (cells, beyond) = self.cells_met(r);
-        let mut acc = beyond.then(|| T::cst(self.outside));
-        let Some(cells) = cells else {
-            return acc.expect("a box that misses the image is beyond it");
-        };
-        for k in cells[2].0..=cells[2].1 {
-            for j in cells[1].0..=cells[1].1 {
-                for i in cells[0].0..=cells[0].1 {
-                    let c = [i, j, k];
-                    let t = [0, 1, 2].map(|a| {
-                        let lo = c[a] as f64;
-                        u[a].restrict(lo, lo + 1.0) - T::cst(lo)
-                    });
-                    let v = self.cell_polynomial(c, t);
-                    acc = Some(match acc {
-                        Some(a) => a.hull(v),
-                        None => v,
-                    });
-                }
-            }
-        }
-        acc.expect("at least one cell")
-    }
-
-    /// `∂ψ/∂u_a` at `u` in any scalar: each met cell's bilinear slope
-    /// polynomials on the part of `u` in it, and 0 beyond the image,
-    /// hulled.
-    pub fn piecewise_slopes<T: Scalar>(&self, u: [T; 3]) -> [T; 3] {
-        let r = u.map(|x| x.range());
-        let (cells, beyond) = self.cells_met(r);
-        let mut acc = beyond.then(|| [T::cst(0.0); 3]);
-        let Some(cells) = cells else {
-            return acc.expect("a box that misses the image is beyond it");
-        };
-        for k in cells[2].0..=cells[2].1 {
-            for j in cells[1].0..=cells[1].1 {
-                for i in cells[0].0..=cells[0].1 {
-                    let c = [i, j, k];
-                    let t = [0, 1, 2].map(|a| {
-                        let lo = c[a] as f64;
-                        u[a].restrict(lo, lo + 1.0) - T::cst(lo)
-                    });
-                    let s = [0, 1, 2].map(|a| {
-                        let (b, d) = ((a + 1) % 3, (a + 2) % 3);
-                        let diff = |sb: usize, sd: usize| {
-                            let mut p = c;
-                            p[b] += sb;
-                            p[d] += sd;
-                            let mut q = p;
-                            q[a] += 1;
-                            self.at(q[0], q[1], q[2]) - self.at(p[0], p[1], p[2])
-                        };
-                        let e0 = t[b].scale(diff(1, 0) - diff(0, 0)) + T::cst(diff(0, 0));
-                        let e1 = t[b].scale(diff(1, 1) - diff(0, 1)) + T::cst(diff(0, 1));
-                        e0 + t[d] * (e1 - e0)
-                    });
-                    acc = Some(match acc {
-                        Some(a) => [0, 1, 2].map(|x| a[x].hull(s[x])),
-                        None => s,
-                    });
-                }
-            }
-        }
-        acc.expect("at least one cell")
-    }
-
-    /// The trilinear polynomial of cell `c` at the offsets `t`.
-    fn cell_polynomial<T: Scalar>(&self, c: [usize; 3], t: [T; 3]) -> T {
-        let [i, j, k] = c;
-        let edge = |j: usize, k: usize| {
-            let a = self.at(i, j, k);
-            t[0].scale(self.at(i + 1, j, k) - a) + T::cst(a)
-        };
-        let face = |k: usize| {
-            let (a, b) = (edge(j, k), edge(j + 1, k));
-            a + t[1] * (b - a)
-        };
-        let (a, b) = (face(k), face(k + 1));
-        a + t[2] * (b - a)
-    }
-
-    /// The exact range of each `∂ψ/∂u_a` over the box `r` (voxel
-    /// coordinates): in each cell met, `∂ψ/∂u_a` is the bilinear
-    /// interpolant of the sample differences along `a` in the other two
-    /// coordinates, whose extremes are at the corners of the box's piece.
-    /// Beyond the image ψ is constant (a zero slope).
-    pub fn slope_range(&self, r: [(f64, f64); 3]) -> [Interval; 3] {
-        let (cells, beyond) = self.cells_met(r);
-        let start = if beyond {
-            Interval::cst(0.0)
-        } else {
-            Interval::new(f64::INFINITY, f64::NEG_INFINITY)
-        };
-        let mut out = [start; 3];
-        let Some(cells) = cells else {
-            return out;
-        };
-        for k in cells[2].0..=cells[2].1 {
-            for j in cells[1].0..=cells[1].1 {
-                for i in cells[0].0..=cells[0].1 {
-                    let c = [i, j, k];
-                    // The box's piece in this cell, as offsets in [0, 1].
-                    let t = [0, 1, 2].map(|a| {
-                        let lo = c[a] as f64;
-                        ((r[a].0 - lo).clamp(0.0, 1.0), (r[a].1 - lo).clamp(0.0, 1.0))
-                    });
-                    for (a, o) in out.iter_mut().enumerate() {
-                        let (b, d) = ((a + 1) % 3, (a + 2) % 3);
-                        let diff = |sb: usize, sd: usize| {
-                            let mut p = c;
-                            p[b] += sb;
-                            p[d] += sd;
-                            let mut q = p;
-                            q[a] += 1;
-                            self.at(q[0], q[1], q[2]) - self.at(p[0], p[1], p[2])
-                        };
-                        let (d00, d10, d01, d11) = (diff(0, 0), diff(1, 0), diff(0, 1), diff(1, 1));
-                        for tb in [t[b].0, t[b].1] {
-                            for td in [t[d].0, t[d].1] {
-                                let e0 = d00 + (d10 - d00) * tb;
-                                let e1 = d01 + (d11 - d01) * tb;
-                                let v = e0 + (e1 - e0) * td;
-                                *o = Interval::new(o.lo.min(v), o.hi.max(v));
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        out
-    }
-
     /// Bounds of `∂ψ/∂u_a` anywhere: the largest sample difference.
     pub fn slope_bounds(&self) -> [f64; 3] {
         self.slopes
     }
-}
-
-/// The mean of `|∇v|` (per unit length) at the centres of the voxel cells
-/// whose corners straddle `t`; 1 when no cell does.
-fn mean_slope(size: [usize; 3], v: &[f64], spacing: [f64; 3], t: f64) -> f64 {
-    let at = |i: usize, j: usize, k: usize| v[i + size[0] * (j + size[1] * k)];
-    let (mut sum, mut count) = (0.0, 0usize);
-    for k in 0..size[2] - 1 {
-        for j in 0..size[1] - 1 {
-            for i in 0..size[0] - 1 {
-                let c = [0, 1].map(|a| [0, 1].map(|b| [0, 1].map(|d| at(i + d, j + b, k + a))));
-                let flat = c.iter().flatten().flatten();
-                let above = flat.clone().filter(|&&x| x > t).count();
-                if above == 0 || above == 8 {
-                    continue;
-                }
-                let mut g = [0.0; 3];
-                for a in 0..2 {
-                    for b in 0..2 {
-                        g[0] += c[a][b][1] - c[a][b][0];
-                        g[1] += c[a][1][b] - c[a][0][b];
-                        g[2] += c[1][a][b] - c[0][a][b];
-                    }
-                }
-                let g = [0, 1, 2].map(|a| 0.25 * g[a] / spacing[a]);
-                let m = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                if m.is_finite() && m > 0.0 {
-                    sum += m;
-                    count += 1;
-                }
-            }
-        }
-    }
-    if count == 0 {
-        1.0
-    } else {
-        sum / count as f64
-    }
-}
-
-/// The values smoothed by a Gaussian of standard deviation `sigma` voxels
-/// (separable, truncated at 3σ, the edge samples repeated beyond the image).
-pub fn gaussian(size: [usize; 3], values: &[f64], sigma: f64) -> Vec<f64> {
-    if sigma <= 0.0 {
-        return values.to_vec();
-    }
-    let radius = (3.0 * sigma).ceil() as isize;
-    let w: Vec<f64> = (-radius..=radius)
-        .map(|d| (-0.5 * (d as f64 / sigma).powi(2)).exp())
-        .collect();
-    let total: f64 = w.iter().sum();
-    let w: Vec<f64> = w.iter().map(|x| x / total).collect();
-    let mut cur = values.to_vec();
-    let stride = [1, size[0], size[0] * size[1]];
-    for a in 0..3 {
-        let mut next = vec![0.0; cur.len()];
-        let len = size[a] as isize;
-        for (idx, out) in next.iter_mut().enumerate() {
-            let s = (idx / stride[a]) % size[a];
-            let base = idx - s * stride[a];
-            *out = w
-                .iter()
-                .enumerate()
-                .map(|(m, wm)| {
-                    let q = (s as isize + m as isize - radius).clamp(0, len - 1) as usize;
-                    wm * cur[base + q * stride[a]]
-                })
-                .sum();
-        }
-        cur = next;
-    }
-    cur
 }
