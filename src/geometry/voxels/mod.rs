@@ -392,3 +392,6 @@ impl Voxels {
         self.slopes
     }
 }
+
+#[cfg(test)]
+mod tests;
