@@ -4,7 +4,7 @@
 //! ```toml
 //! [geometry]
 //! type = "image"
-//! file = "scans/part.nrrd"     # relative to the case file
+//! file = "scans/part.nrrd"     # relative to the case file; or a .nhdr header
 //! threshold = 127.5            # the iso-value
 //! inside = "above"             # material where the value is above it (default); or "below"
 //! spacing = [0.05, 0.05, 0.05] # replaces the header's sample spacing (default: the header's, else 1)
@@ -14,8 +14,8 @@
 //! ```
 //! The level set is the trilinear interpolant of the (smoothed) samples
 //! minus the threshold, negative on the `inside` side, and outside beyond
-//! the image ([`crate::geometry::voxels`]). Files: NRRD (`.nrrd`,
-//! [`crate::geometry::nrrd`]). Errors name the case file and the key: a
+//! the image ([`crate::geometry::voxels`]). Files: NRRD (`.nrrd`, or a
+//! detached header `.nhdr` with its data file, [`crate::geometry::nrrd`]). Errors name the case file and the key: a
 //! file that cannot be read or is not a supported image under `file`, a
 //! threshold that leaves the solid empty or the whole image under
 //! `threshold`.
@@ -100,11 +100,14 @@ impl ImageSpec {
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
         let image = match ext.as_deref() {
-            Some("nrrd") => read_nrrd(&full).map_err(|e| err("file", e.to_string()))?,
+            Some("nrrd" | "nhdr") => read_nrrd(&full).map_err(|e| err("file", e.to_string()))?,
             _ => {
                 return Err(err(
                     "file",
-                    format!("{}: unsupported image format (.nrrd)", full.display()),
+                    format!(
+                        "{}: unsupported image format (.nrrd, .nhdr)",
+                        full.display()
+                    ),
                 ))
             }
         };

@@ -1,9 +1,10 @@
 //! A strict reader of NRRD images (`.nrrd`, one file with the header and
-//! the data): three dimensions; samples `int8`, `uint8`, `int16`, `uint16`,
+//! the data; or a detached header `.nhdr` whose `data file` names one raw
+//! or gzip file beside it): three dimensions; samples `int8`, `uint8`, `int16`, `uint16`,
 //! `int32`, `uint32`, `float` or `double`; `raw`, `gzip` or `ascii`
 //! encoding; placed by `space directions` (or `spacings`) and `space
-//! origin`. Anything else is refused with the reason: detached data, skips,
-//! unknown fields, a size that does not match the data.
+//! origin`. Anything else is refused with the reason: a list of data
+//! files, skips, unknown fields, a size that does not match the data.
 
 use std::io::Read;
 use std::path::Path;
@@ -84,14 +85,35 @@ pub fn read_nrrd(path: &Path) -> Result<Image> {
         path: path.display().to_string(),
         reason: format!("cannot read the image: {e}"),
     })?;
-    parse_nrrd(&bytes).map_err(|reason| Error::Image {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let detached = |name: &str| {
+        std::fs::read(dir.join(name)).map_err(|e| {
+            format!(
+                "cannot read the data file {}: {e}",
+                dir.join(name).display()
+            )
+        })
+    };
+    parse_nrrd_with(&bytes, &detached).map_err(|reason| Error::Image {
         path: path.display().to_string(),
         reason,
     })
 }
 
-/// Parses the bytes of a NRRD file; the error is the reason.
+/// Parses the bytes of a NRRD file with its data in it; the error is the
+/// reason.
 pub fn parse_nrrd(bytes: &[u8]) -> std::result::Result<Image, String> {
+    parse_nrrd_with(bytes, &|_| {
+        Err("detached data ('data file') needs the header's folder: read the file".into())
+    })
+}
+
+/// Parses a NRRD header and its data: after the header, or in the file
+/// `data file` names, read by `detached`.
+fn parse_nrrd_with(
+    bytes: &[u8],
+    detached: &dyn Fn(&str) -> std::result::Result<Vec<u8>, String>,
+) -> std::result::Result<Image, String> {
     if !bytes.starts_with(b"NRRD000") || bytes.len() < 8 || !(b'1'..=b'5').contains(&bytes[7]) {
         return Err("not a NRRD file (the first line must be NRRD0001 to NRRD0005)".into());
     }
@@ -148,11 +170,22 @@ pub fn parse_nrrd(bytes: &[u8]) -> std::result::Result<Image, String> {
             return Err(format!("unknown field '{k}'"));
         }
     }
-    if get("data file").or(get("datafile")).is_some() {
-        return Err(
-            "detached data ('data file') is not supported: keep the data in the .nrrd".into(),
-        );
-    }
+    let external;
+    let data = match get("data file").or(get("datafile")) {
+        Some(name) if name.contains(char::is_whitespace) || name == "LIST" => {
+            return Err(format!(
+                "'data file: {name}': only one data file is read (no list or pattern)"
+            ))
+        }
+        Some(name) => {
+            if !data.is_empty() {
+                return Err(format!("'data file: {name}' and data after the header"));
+            }
+            external = detached(name)?;
+            &external[..]
+        }
+        None => data,
+    };
     for skip in ["byte skip", "byteskip", "line skip", "lineskip"] {
         if let Some(v) = get(skip) {
             if v != "0" {
