@@ -40,6 +40,10 @@ pub enum Error {
     /// Reading or writing a file failed.
     #[error("{path}: {reason}")]
     Io { path: String, reason: String },
+    /// An image file that cannot be read as one (bad header, unsupported
+    /// type or encoding, data that does not match the sizes).
+    #[error("{path}: {reason}")]
+    Image { path: String, reason: String },
     /// A boundary tag that no boundary part carries.
     #[error("unknown boundary tag '{tag}' (known: {known})")]
     UnknownTag { tag: String, known: String },

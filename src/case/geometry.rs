@@ -18,10 +18,12 @@
 //! others); `translate {by, of}`, `rotate {axis, angle_deg, of}` (about the
 //! origin); `tag {name, of}` (every part of `of` renamed) and `retag {from, to,
 //! of}`; `stl {path, scale, tag, parts}`, a solid bounded by a triangle mesh
-//! ([`super::stl`]). Lengths are in the case's length unit; angles in degrees.
+//! ([`super::stl`]); `image {file, threshold, inside, spacing, origin,
+//! smooth, tag}`, a solid cut out of a voxel image ([`super::image`]). Lengths are in the case's length unit; angles in degrees.
 
 use serde::Deserialize;
 
+use super::image::ImageSpec;
 use super::stl::StlSpec;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -92,6 +94,7 @@ pub enum GeometrySpec {
         of: Box<GeometrySpec>,
     },
     Stl(StlSpec),
+    Image(ImageSpec),
 }
 
 impl GeometrySpec {
@@ -170,6 +173,7 @@ impl GeometrySpec {
             GeometrySpec::Tag { name, of } => Ok(one(of)?.with_tag(name)),
             GeometrySpec::Retag { from, to, of } => one(of)?.retag(from, to),
             GeometrySpec::Stl(stl) => stl.build(file, path),
+            GeometrySpec::Image(image) => image.build(file, path),
         }
         .map_err(located)
     }

@@ -47,6 +47,7 @@ pub mod boundary;
 mod check;
 pub mod contact;
 pub mod geometry;
+pub mod image;
 pub mod physics;
 mod plane_strain;
 pub mod stl;

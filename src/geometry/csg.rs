@@ -103,7 +103,10 @@ impl Geometry {
     fn is_convex(&self) -> bool {
         fn convex(g: &Geometry, n: &Node) -> bool {
             match n {
-                Node::Leaf(i) => !matches!(g.leaves[*i].shape, super::surface::Shape::Torus { .. }),
+                Node::Leaf(i) => !matches!(
+                    g.leaves[*i].shape,
+                    super::surface::Shape::Torus { .. } | super::surface::Shape::Image(_)
+                ),
                 Node::Intersection(a, b) => convex(g, a) && convex(g, b),
                 _ => false,
             }

@@ -11,15 +11,19 @@
 //! A leaf may also be a solid bounded by a triangle mesh (an `stl` node,
 //! [`MeshSolid`]), whose level set is `½ − w` with `w` the generalised winding
 //! number. Over one box the tree reduces to what crosses it ([`local`]): that
-//! decides which cut rule a cell gets.
+//! decides which cut rule a cell gets. A leaf may be a voxel image
+//! ([`voxels`], read by [`nrrd`]): its level set is the trilinear
+//! interpolant of the image, and the analytic leaves' cut rules apply to it.
 
 mod csg;
 mod local;
 mod mesh_solid;
+pub mod nrrd;
 pub mod polarity;
 mod primitives;
 pub mod scalar;
 pub mod surface;
+pub mod voxels;
 
 pub use local::LocalSolid;
 

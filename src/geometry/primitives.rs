@@ -1,7 +1,10 @@
 //! Constructors of the primitive solids. Each validates its parameters and
 //! names its boundary parts with default tags (documented per constructor).
 
+use std::sync::Arc;
+
 use super::surface::{Frame, Leaf, Shape};
+use super::voxels::Voxels;
 use super::{Geometry, Node};
 use crate::error::{Error, Result};
 use crate::spatial::vec3::{norm, normalize};
@@ -188,6 +191,43 @@ impl Geometry {
         );
         Ok(Geometry::leaf(
             Shape::Torus { big_r, r },
+            frame,
+            "surface",
+            bbox,
+        ))
+    }
+}
+
+impl Geometry {
+    /// The solid of a voxel image ([`Voxels`]): its first sample at
+    /// `origin`, its axes along `axes` (unit, orthogonal: the image's
+    /// sampling directions); tag `surface`.
+    pub fn image(img: Voxels, origin: [f64; 3], axes: [[f64; 3]; 3]) -> Result<Geometry> {
+        check_point("image", "origin", origin)?;
+        for a in 0..3 {
+            for b in 0..3 {
+                let d: f64 = (0..3).map(|i| axes[a][i] * axes[b][i]).sum();
+                let want = if a == b { 1.0 } else { 0.0 };
+                if (d - want).abs() >= 1e-6 || d.is_nan() {
+                    return Err(Error::InvalidGeometry {
+                        what: "image".into(),
+                        reason: format!("the sampling directions must be orthogonal, got {axes:?}"),
+                    });
+                }
+            }
+        }
+        let frame = Frame { q: axes, t: origin };
+        let (lo, hi) = img.material_box();
+        let corners: Vec<[f64; 3]> = (0..8)
+            .map(|k| {
+                let p = [0, 1, 2].map(|i| if k >> i & 1 == 1 { hi[i] } else { lo[i] });
+                [0, 1, 2]
+                    .map(|i| origin[i] + axes[0][i] * p[0] + axes[1][i] * p[1] + axes[2][i] * p[2])
+            })
+            .collect();
+        let bbox = Aabb::around(&corners);
+        Ok(Geometry::leaf(
+            Shape::Image(Arc::new(img)),
             frame,
             "surface",
             bbox,

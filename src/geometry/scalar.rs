@@ -4,6 +4,7 @@
 
 use std::ops::{Add, Mul, Neg, Sub};
 
+use super::voxels::Voxels;
 use crate::mesh::MeshSolid;
 use crate::spatial::Aabb;
 
@@ -18,6 +19,24 @@ pub trait Scalar:
     /// `self * self` (tighter than a product for intervals).
     fn sqr(self) -> Self {
         self * self
+    }
+    /// The range of the value part: `(v, v)` for a point, `(lo, hi)` for an
+    /// interval.
+    fn range(&self) -> (f64, f64);
+    /// The value part restricted to `[lo, hi]` (a point is left as it is).
+    fn restrict(self, lo: f64, hi: f64) -> Self;
+    /// An enclosure of both (a point keeps `self`: a point lies in one
+    /// piece of a piecewise function).
+    fn hull(self, o: Self) -> Self;
+    /// A voxel image's level set at the padded voxel coordinates `u`
+    /// ([`Voxels::piecewise`], the trilinear polynomial of each voxel cell
+    /// met; [`f64`] and [`Interval`] take shortcuts).
+    fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
+        img.piecewise(u)
+    }
+    /// Its partial derivatives `∂ψ/∂u_a` at `u` (each met cell's, hulled).
+    fn voxel_slopes(img: &Voxels, u: [Self; 3]) -> [Self; 3] {
+        img.piecewise_slopes(u)
     }
 }
 
@@ -39,6 +58,21 @@ impl Scalar for f64 {
     }
     fn scale(self, s: f64) -> Self {
         self * s
+    }
+    fn range(&self) -> (f64, f64) {
+        (*self, *self)
+    }
+    fn restrict(self, _lo: f64, _hi: f64) -> Self {
+        self
+    }
+    fn hull(self, _o: Self) -> Self {
+        self
+    }
+    fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
+        img.value(u)
+    }
+    fn voxel_slopes(img: &Voxels, u: [Self; 3]) -> [Self; 3] {
+        img.slope_range(u.map(|x| (x, x))).map(|i| i.lo)
     }
 }
 
@@ -131,6 +165,21 @@ impl Scalar for Interval {
         } else {
             Interval::new(self.hi * s, self.lo * s)
         }
+    }
+    fn range(&self) -> (f64, f64) {
+        (self.lo, self.hi)
+    }
+    fn restrict(self, lo: f64, hi: f64) -> Self {
+        Interval::new(self.lo.max(lo), self.hi.min(hi))
+    }
+    fn hull(self, o: Self) -> Self {
+        Interval::new(self.lo.min(o.lo), self.hi.max(o.hi))
+    }
+    fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
+        img.range(u.map(|i| (i.lo, i.hi)))
+    }
+    fn voxel_slopes(img: &Voxels, u: [Self; 3]) -> [Self; 3] {
+        img.slope_range(u.map(|i| (i.lo, i.hi)))
     }
     fn sqr(self) -> Self {
         if self.lo >= 0.0 {
@@ -237,6 +286,35 @@ impl<T: Scalar> Scalar for Dual<T> {
             *di = (self.v * self.d[i]).scale(2.0);
         }
         Dual { v: self.v.sqr(), d }
+    }
+    fn range(&self) -> (f64, f64) {
+        self.v.range()
+    }
+    fn restrict(self, lo: f64, hi: f64) -> Self {
+        Dual {
+            v: self.v.restrict(lo, hi),
+            d: self.d,
+        }
+    }
+    fn hull(self, o: Self) -> Self {
+        Dual {
+            v: self.v.hull(o.v),
+            d: [0, 1, 2].map(|i| self.d[i].hull(o.d[i])),
+        }
+    }
+    /// The chain rule on the value's own voxel and slope enclosures (tight
+    /// for intervals, where the cells' polynomials in dual form are not).
+    fn voxel(img: &Voxels, u: [Self; 3]) -> Self {
+        let uv = u.map(|x| x.v);
+        let s = T::voxel_slopes(img, uv);
+        let mut d = [T::cst(0.0); 3];
+        for (j, dj) in d.iter_mut().enumerate() {
+            *dj = s[0] * u[0].d[j] + s[1] * u[1].d[j] + s[2] * u[2].d[j];
+        }
+        Dual {
+            v: T::voxel(img, uv),
+            d,
+        }
     }
 }
 
@@ -361,6 +439,17 @@ impl<T: Scalar> Scalar for Dual2<T> {
             r.h[i][i] = (self.v * self.h[i][i]).scale(2.0) + self.d[i].sqr().scale(2.0);
         }
         r
+    }
+    fn range(&self) -> (f64, f64) {
+        self.v.range()
+    }
+    fn restrict(self, lo: f64, hi: f64) -> Self {
+        let mut r = self;
+        r.v = self.v.restrict(lo, hi);
+        r
+    }
+    fn hull(self, o: Self) -> Self {
+        self.map2(o, |a, b| a.hull(b))
     }
 }
 

@@ -3,14 +3,18 @@
 //! Each leaf is a polynomial level set ψ (negative inside) scaled so that
 //! `|∇ψ| = 1` on its zero set (or close to it, for the torus), placed by a rigid
 //! frame. Polynomials keep interval bounds tight and roots well behaved, which is
-//! what the cut-cell quadrature relies on.
+//! what the cut-cell quadrature relies on. A voxel image is a leaf too: its ψ
+//! is the trilinear interpolant of the image ([`Voxels`]).
+
+use std::sync::Arc;
 
 use super::scalar::{Dual, Dual2, Interval, Scalar};
+use super::voxels::Voxels;
 use crate::spatial::vec3::{cross, normalize};
 use crate::spatial::Aabb;
 
 /// The shape of a leaf in its local frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
     /// `ψ = n·x − d` with `n` a unit vector: the half-space `n·x ≤ d`.
     Plane { normal: [f64; 3], offset: f64 },
@@ -22,6 +26,9 @@ pub enum Shape {
     /// Solid torus about the local z axis, major radius `big_r`, tube radius `r`:
     /// `ψ = ((|x|² + R² − r²)² − 4R²(x² + y²)) / (8R²r)`.
     Torus { big_r: f64, r: f64 },
+    /// A voxel image: ψ is its trilinear interpolant minus the threshold,
+    /// scaled ([`Voxels`]); the local origin is its first sample.
+    Image(Arc<Voxels>),
 }
 
 /// A rigid placement: local coordinates are `Qᵀ (x − t)`, `Q` orthogonal
@@ -101,16 +108,17 @@ impl Leaf {
     /// ψ at the global point `x`, in any scalar type.
     pub fn eval<T: Scalar>(&self, x: [T; 3]) -> T {
         let p = self.frame.to_local(x);
-        match self.shape {
-            Shape::Plane { normal, offset } => {
+        match &self.shape {
+            Shape::Image(img) => T::voxel(img, img.coords(p)),
+            &Shape::Plane { normal, offset } => {
                 p[0].scale(normal[0]) + p[1].scale(normal[1]) + p[2].scale(normal[2])
                     - T::cst(offset)
             }
-            Shape::Sphere { r } => {
+            &Shape::Sphere { r } => {
                 (p[0].sqr() + p[1].sqr() + p[2].sqr() - T::cst(r * r)).scale(0.5 / r)
             }
-            Shape::Cylinder { r } => (p[0].sqr() + p[1].sqr() - T::cst(r * r)).scale(0.5 / r),
-            Shape::Torus { big_r, r } => {
+            &Shape::Cylinder { r } => (p[0].sqr() + p[1].sqr() - T::cst(r * r)).scale(0.5 / r),
+            &Shape::Torus { big_r, r } => {
                 let rho2 = p[0].sqr() + p[1].sqr();
                 let s = rho2 + p[2].sqr() + T::cst(big_r * big_r - r * r);
                 (s.sqr() - rho2.scale(4.0 * big_r * big_r)).scale(1.0 / (8.0 * big_r * big_r * r))
@@ -124,7 +132,12 @@ impl Leaf {
     /// natural interval extension intersected with the mean-value forms
     /// `ψ(c) + ∇ψ(B)·(B − c)` and `∇ψ(c) + ∇²ψ(B)(B − c)`, which are tight to
     /// second order in the box size where the natural extension is not.
+    /// An image leaf's ψ is only piecewise smooth: it gets the exact range
+    /// and the hull of its cells' gradients ([`Leaf::image_bounds`]).
     pub fn bounds(&self, b: &Aabb) -> Dual<Interval> {
+        if let Shape::Image(img) = &self.shape {
+            return self.image_bounds(img, b);
+        }
         if let Shape::Plane { .. } = self.shape {
             // Linear: the first-order extension is already exact.
             let x = [0, 1, 2].map(|i| Dual::var(Interval::new(b.lo[i], b.hi[i]), i));
@@ -147,6 +160,36 @@ impl Leaf {
             v: nat.v.meet(v),
             d: [0, 1, 2].map(|k| nat.d[k].meet(d[k])),
         }
+    }
+}
+
+/// Most voxel cells a box may meet for [`Leaf::image_bounds`] to hull
+/// their gradients; beyond, the largest sample differences bound them.
+const IMAGE_GRADIENT_CELLS: usize = 512;
+
+impl Leaf {
+    /// ψ's exact range over the box ([`Voxels::range`]) and an enclosure of
+    /// its gradient: the exact ranges of the voxel cells' gradients over
+    /// the box ([`Voxels::slope_range`]), or for a box that meets many
+    /// cells the largest sample differences.
+    fn image_bounds(&self, img: &Voxels, b: &Aabb) -> Dual<Interval> {
+        let local = self.frame.to_local(super::scalar::box_intervals(b));
+        let u = img.coords(local);
+        let v = Interval::voxel(img, u);
+        let r = u.map(|i| (i.lo, i.hi));
+        let (h, q) = (img.spacing(), self.frame.q);
+        let slopes = if img.cell_count(r) <= IMAGE_GRADIENT_CELLS {
+            img.slope_range(r)
+        } else {
+            img.slope_bounds().map(|m| Interval::new(-m, m))
+        };
+        // ∂ψ/∂x_j = Σ_c ∂ψ/∂u_c (1 / spacing_c) q[c][j].
+        let d = [0, 1, 2].map(|j| {
+            (0..3).fold(Interval::cst(0.0), |acc, c| {
+                acc + slopes[c].scale(q[c][j] / h[c])
+            })
+        });
+        Dual { v, d }
     }
 }
 
@@ -175,7 +218,7 @@ mod tests {
         ];
         for shape in leaves {
             let leaf = Leaf {
-                shape,
+                shape: shape.clone(),
                 frame: f,
                 tag: 0,
             };

@@ -37,6 +37,9 @@
 //! the plateau at levels 2–4 (plate, Q1 rules: 8.6e-7 and 7.2e-7 at levels 2
 //! and 3), so the extra point is the price of the rate.
 //!
+//! Voxel image leaves keep `q`: their ψ is trilinear per voxel, with no
+//! branch point to resolve ([`super::saye`] leaves them out).
+//!
 //! Only the volume rule takes the extra points: the surface rule, the SPR
 //! samples and everything built on them stay as they were (see
 //! [`super::saye::box_rule`]).

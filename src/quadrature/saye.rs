@@ -179,7 +179,13 @@ fn top(ctx: &Ctx, b: &Aabb, free: &[usize], depth: u32, rule: &mut BoxRule) {
     for (sweep, (k, emit, monotone)) in plan.into_iter().enumerate() {
         let size = free.iter().map(|&a| b.hi[a] - b.lo[a]).fold(0.0, f64::max);
         let n = if sweep == 0 && want_surface {
-            super::branch::lower_points(fns.iter().map(|f| &f.1), free, k, size, ctx.cell, ctx.q)
+            // An image's ψ is trilinear per voxel, not smooth: more points
+            // per segment gain nothing there.
+            let smooth = fns
+                .iter()
+                .filter(|f| !matches!(ctx.g.leaves()[f.0.leaf].shape, Shape::Image(_)))
+                .map(|f| &f.1);
+            super::branch::lower_points(smooth, free, k, size, ctx.cell, ctx.q)
         } else {
             ctx.q
         };

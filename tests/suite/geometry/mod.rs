@@ -1,7 +1,10 @@
-//! Geometry and cut cells: quadrature, cut volumes, moment fitting, STL parts (clean, fuzzed, dirty), pieces.
+//! Geometry and cut cells: quadrature, cut volumes, moment fitting, STL parts (clean, fuzzed, dirty), voxel images, pieces.
 
 mod cut_volume;
 mod dirty_meshes;
+mod image;
+mod image_fuzz;
+mod image_shell;
 mod moment_fit;
 mod pieces;
 mod quadrature;
