@@ -12,8 +12,8 @@ use std::path::Path;
 
 use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::Case;
-use cgfem_gpu::progress::Silent;
 use cgfem_gpu::contact::ContactRow;
+use cgfem_gpu::progress::Silent;
 
 /// The shipped case `name` with every body Q2 (and `set`), run at `level`:
 /// the contact rows of its converged steps and the ball's (first body's) h.
@@ -30,7 +30,10 @@ fn contact_rows(name: &str, q2: bool, level: u32, set: &[String]) -> (Vec<Contac
     let outcome = run(&case, Some(level), None, &Silent).unwrap();
     outcome.result.unwrap();
     let report = &outcome.report;
-    assert_eq!(report.load.as_ref().unwrap().converged_steps, case.spec.load.steps);
+    assert_eq!(
+        report.load.as_ref().unwrap().converged_steps,
+        case.spec.load.steps
+    );
     (report.contact.clone(), outcome.setup.bodies[0].grid.h)
 }
 
@@ -66,6 +69,9 @@ fn contact_cases_with_q2_converge_every_step_and_carry_the_q1_force() {
             100.0 * (radius / a - 1.0),
             100.0 * (peak / p0 - 1.0)
         );
-        assert!((radius / a - 1.0).abs() < 0.1, "level {level}: {radius} vs {a}");
+        assert!(
+            (radius / a - 1.0).abs() < 0.1,
+            "level {level}: {radius} vs {a}"
+        );
     }
 }
