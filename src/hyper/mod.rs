@@ -4,9 +4,11 @@
 //!
 //! - [`material`]: compressible neo-Hookean and St Venant–Kirchhoff, `P(F)` and
 //!   the tangent `A = ∂P/∂F`.
-//! - [`problem`]: the body on its grid (Q1): quadrature points of inside and cut
-//!   cells, Dirichlet penalty points with per-component masks (rollers), dead
-//!   loads.
+//! - [`points`]: quadrature points stored flat, the element's nodes per cell
+//!   as the stride.
+//! - [`problem`]: the body on its grid (Q1 or Q2): quadrature points of inside
+//!   and cut cells, Dirichlet penalty points with per-component masks
+//!   (rollers), dead loads.
 //! - [`residual`]: `R(u) = Σ ∫ Bᵀ P(F(u)) dV + (β/h) ∫_ΓD Nᵀ M (u − t g) dA − t f_ext`
 //!   and the potential energy it derives from.
 //! - [`tangent`]: `K_T(u) = ∂R/∂u` matrix-free (a [`crate::backend::LinearOperator`]),
@@ -45,6 +47,7 @@ pub mod gpu;
 pub mod material;
 pub mod mirror;
 pub mod newton;
+pub mod points;
 pub mod problem;
 pub mod residual;
 pub mod stabilisation;

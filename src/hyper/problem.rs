@@ -19,13 +19,14 @@ use rayon::prelude::*;
 
 use crate::cells::{CellKind, Cells};
 use crate::discrete::dofs::DofMap;
-use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
+use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::{Error, Result};
 use crate::fem::rhs::add_point_load;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 
 use super::material::Material;
+pub use super::points::{PointSet, QuadPoint};
 use super::stabilisation::STerm;
 
 /// The most nodes a cell has (Q2): the size of a cell's stack buffers.
@@ -100,69 +101,6 @@ pub struct TractionLoad {
 pub struct ExternalLoad {
     pub ramps: [Ramp; 3],
     pub f: Vec<f64>,
-}
-
-/// A volume quadrature point: physical shape gradients `∇_X N_a` (one per
-/// node of the cell) and weight.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct QuadPoint<'a> {
-    pub grads: &'a [[f64; 3]],
-    pub w: f64,
-}
-
-/// Quadrature points stored flat: `grads` holds `stride` gradients per point.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PointSet {
-    stride: usize,
-    grads: Vec<[f64; 3]>,
-    w: Vec<f64>,
-}
-
-impl PointSet {
-    fn new(stride: usize) -> PointSet {
-        PointSet {
-            stride,
-            ..PointSet::default()
-        }
-    }
-
-    /// Adds the point at reference coordinates `xi` with weight `w`.
-    fn push(&mut self, order: ElementOrder, xi: [f64; 3], w: f64, inv_h: f64) {
-        let start = self.grads.len();
-        self.grads.resize(start + self.stride, [0.0; 3]);
-        let grads = &mut self.grads[start..];
-        shape_gradients(order, xi, grads);
-        for g in grads.iter_mut() {
-            *g = g.map(|v| v * inv_h);
-        }
-        self.w.push(w);
-    }
-
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        self.w.len()
-    }
-
-    /// Whether there is no point.
-    pub fn is_empty(&self) -> bool {
-        self.w.is_empty()
-    }
-
-    /// Point `q`.
-    pub fn get(&self, q: usize) -> QuadPoint<'_> {
-        QuadPoint {
-            grads: &self.grads[q * self.stride..(q + 1) * self.stride],
-            w: self.w[q],
-        }
-    }
-
-    /// Points `range`.
-    pub fn range(
-        &self,
-        range: std::ops::Range<usize>,
-    ) -> impl ExactSizeIterator<Item = QuadPoint<'_>> + Clone {
-        range.map(|q| self.get(q))
-    }
 }
 
 /// A Dirichlet penalty point: its boundary tag, `w β/h`, mask, `g` at load 1
