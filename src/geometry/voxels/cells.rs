@@ -9,71 +9,72 @@ impl Voxels {
     /// ψ at `u` in any scalar: each met cell's trilinear polynomial on the
     /// part of `u` in it, and ψ_out beyond the image, hulled.
     pub fn piecewise<T: Scalar>(&self, u: [T; 3]) -> T {
-        let r = u.map(|x| x.range());
-        let (cells, beyond) = self.cells_met(r);
-        let mut acc = beyond.then(|| T::cst(self.outside));
-        let Some(cells) = cells else {
-            return acc.expect("a box that misses the image is beyond it");
-        };
-        for k in cells[2].0..=cells[2].1 {
-            for j in cells[1].0..=cells[1].1 {
-                for i in cells[0].0..=cells[0].1 {
-                    let c = [i, j, k];
-                    let t = [0, 1, 2].map(|a| {
-                        let lo = c[a] as f64;
-                        u[a].restrict(lo, lo + 1.0) - T::cst(lo)
-                    });
-                    let v = self.cell_polynomial(c, t);
-                    acc = Some(match acc {
-                        Some(a) => a.hull(v),
-                        None => v,
-                    });
-                }
-            }
-        }
-        acc.expect("at least one cell")
+        self.hull_over_cells(
+            u,
+            T::cst(self.outside),
+            |c, t| self.cell_polynomial(c, t),
+            T::hull,
+        )
     }
 
     /// `∂ψ/∂u_a` at `u` in any scalar: each met cell's bilinear slope
     /// polynomials on the part of `u` in it, and 0 beyond the image,
     /// hulled.
     pub fn piecewise_slopes<T: Scalar>(&self, u: [T; 3]) -> [T; 3] {
-        let r = u.map(|x| x.range());
-        let (cells, beyond) = self.cells_met(r);
-        let mut acc = beyond.then(|| [T::cst(0.0); 3]);
-        let Some(cells) = cells else {
-            return acc.expect("a box that misses the image is beyond it");
+        let slopes = |c: [usize; 3], t: [T; 3]| {
+            [0, 1, 2].map(|a| {
+                let (b, d) = ((a + 1) % 3, (a + 2) % 3);
+                let [d00, d10, d01, d11] = self.slope_differences(c, a);
+                let e0 = t[b].scale(d10 - d00) + T::cst(d00);
+                let e1 = t[b].scale(d11 - d01) + T::cst(d01);
+                e0 + t[d] * (e1 - e0)
+            })
         };
-        for k in cells[2].0..=cells[2].1 {
-            for j in cells[1].0..=cells[1].1 {
-                for i in cells[0].0..=cells[0].1 {
-                    let c = [i, j, k];
-                    let t = [0, 1, 2].map(|a| {
-                        let lo = c[a] as f64;
-                        u[a].restrict(lo, lo + 1.0) - T::cst(lo)
-                    });
-                    let s = [0, 1, 2].map(|a| {
-                        let (b, d) = ((a + 1) % 3, (a + 2) % 3);
-                        let diff = |sb: usize, sd: usize| {
-                            let mut p = c;
-                            p[b] += sb;
-                            p[d] += sd;
-                            let mut q = p;
-                            q[a] += 1;
-                            self.at(q[0], q[1], q[2]) - self.at(p[0], p[1], p[2])
-                        };
-                        let e0 = t[b].scale(diff(1, 0) - diff(0, 0)) + T::cst(diff(0, 0));
-                        let e1 = t[b].scale(diff(1, 1) - diff(0, 1)) + T::cst(diff(0, 1));
-                        e0 + t[d] * (e1 - e0)
-                    });
-                    acc = Some(match acc {
-                        Some(a) => [0, 1, 2].map(|x| a[x].hull(s[x])),
-                        None => s,
-                    });
-                }
-            }
+        let hull = |x: [T; 3], y: [T; 3]| [0, 1, 2].map(|a| x[a].hull(y[a]));
+        self.hull_over_cells(u, [T::cst(0.0); 3], slopes, hull)
+    }
+
+    /// `eval(c, t)` of every cell `c` that `u` meets, with `t` the part of
+    /// `u` in it as offsets in [0, 1], and `beyond` where `u` reaches past
+    /// the image, hulled.
+    fn hull_over_cells<T: Scalar, V>(
+        &self,
+        u: [T; 3],
+        beyond: V,
+        eval: impl Fn([usize; 3], [T; 3]) -> V,
+        hull: impl Fn(V, V) -> V,
+    ) -> V {
+        let (cells, reaches_beyond) = self.cells_met(u.map(|x| x.range()));
+        let mut acc = reaches_beyond.then_some(beyond);
+        if let Some(cells) = cells {
+            for_each_cell(cells, |c| {
+                let t = [0, 1, 2].map(|a| {
+                    let lo = c[a] as f64;
+                    u[a].restrict(lo, lo + 1.0) - T::cst(lo)
+                });
+                let v = eval(c, t);
+                acc = Some(match acc.take() {
+                    Some(a) => hull(a, v),
+                    None => v,
+                });
+            });
         }
-        acc.expect("at least one cell")
+        acc.expect("a box meets a cell or reaches beyond the image")
+    }
+
+    /// The sample differences along `a` at the four edges of cell `c`
+    /// along `a`: `[d00, d10, d01, d11]`, the second index along `a + 1`,
+    /// the third along `a + 2` (mod 3).
+    fn slope_differences(&self, c: [usize; 3], a: usize) -> [f64; 4] {
+        let (b, d) = ((a + 1) % 3, (a + 2) % 3);
+        [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(sb, sd)| {
+            let mut p = c;
+            p[b] += sb;
+            p[d] += sd;
+            let mut q = p;
+            q[a] += 1;
+            self.at(q[0], q[1], q[2]) - self.at(p[0], p[1], p[2])
+        })
     }
 
     /// The trilinear polynomial of cell `c` at the offsets `t`.
@@ -107,38 +108,36 @@ impl Voxels {
         let Some(cells) = cells else {
             return out;
         };
-        for k in cells[2].0..=cells[2].1 {
-            for j in cells[1].0..=cells[1].1 {
-                for i in cells[0].0..=cells[0].1 {
-                    let c = [i, j, k];
-                    // The box's piece in this cell, as offsets in [0, 1].
-                    let t = [0, 1, 2].map(|a| {
-                        let lo = c[a] as f64;
-                        ((r[a].0 - lo).clamp(0.0, 1.0), (r[a].1 - lo).clamp(0.0, 1.0))
-                    });
-                    for (a, o) in out.iter_mut().enumerate() {
-                        let (b, d) = ((a + 1) % 3, (a + 2) % 3);
-                        let diff = |sb: usize, sd: usize| {
-                            let mut p = c;
-                            p[b] += sb;
-                            p[d] += sd;
-                            let mut q = p;
-                            q[a] += 1;
-                            self.at(q[0], q[1], q[2]) - self.at(p[0], p[1], p[2])
-                        };
-                        let (d00, d10, d01, d11) = (diff(0, 0), diff(1, 0), diff(0, 1), diff(1, 1));
-                        for tb in [t[b].0, t[b].1] {
-                            for td in [t[d].0, t[d].1] {
-                                let e0 = d00 + (d10 - d00) * tb;
-                                let e1 = d01 + (d11 - d01) * tb;
-                                let v = e0 + (e1 - e0) * td;
-                                *o = Interval::new(o.lo.min(v), o.hi.max(v));
-                            }
-                        }
+        for_each_cell(cells, |c| {
+            // The box's piece in this cell, as offsets in [0, 1].
+            let t = [0, 1, 2].map(|a| {
+                let lo = c[a] as f64;
+                ((r[a].0 - lo).clamp(0.0, 1.0), (r[a].1 - lo).clamp(0.0, 1.0))
+            });
+            for (a, o) in out.iter_mut().enumerate() {
+                let (b, d) = ((a + 1) % 3, (a + 2) % 3);
+                let [d00, d10, d01, d11] = self.slope_differences(c, a);
+                for tb in [t[b].0, t[b].1] {
+                    for td in [t[d].0, t[d].1] {
+                        let e0 = d00 + (d10 - d00) * tb;
+                        let e1 = d01 + (d11 - d01) * tb;
+                        let v = e0 + (e1 - e0) * td;
+                        *o = Interval::new(o.lo.min(v), o.hi.max(v));
                     }
                 }
             }
-        }
+        });
         out
+    }
+}
+
+/// Calls `f` on every cell `[i, j, k]` of the inclusive index ranges `cells`.
+fn for_each_cell(cells: [(usize, usize); 3], mut f: impl FnMut([usize; 3])) {
+    for k in cells[2].0..=cells[2].1 {
+        for j in cells[1].0..=cells[1].1 {
+            for i in cells[0].0..=cells[0].1 {
+                f([i, j, k]);
+            }
+        }
     }
 }
