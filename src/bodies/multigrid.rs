@@ -50,7 +50,7 @@ use crate::fem::level::LevelOperator;
 use crate::fem::operator::{ElasticOperator, OperatorParams};
 use crate::grid::Grid;
 use crate::multigrid::galerkin_s::FineSTerm;
-use crate::multigrid::{Hierarchy, Multigrid, MultigridOptions};
+use crate::multigrid::{level_below, Hierarchy, LevelBelow, Multigrid, MultigridOptions};
 use crate::solver::ApplyInverse;
 
 /// Every body's levels: its linear operator on its grid and the hierarchy
@@ -84,13 +84,12 @@ impl BodiesMultigrid {
             };
             let q1 = ElementOrder::Q1;
             let hierarchy = Hierarchy::build(&fine, opts, |last| {
-                let mut op =
-                    if last.dofs.order == ElementOrder::Q2 {
-                        body_operator(case, i, body, (&body.grid, &body.cells), q1, 0.0)
-                    } else {
-                        let Some(grid) = last.grid.coarsened() else {
-                            return Ok(None);
-                        };
+                let mut op = match level_below(last) {
+                    None => return Ok(None),
+                    Some(LevelBelow::SameCells(grid)) => {
+                        body_operator(case, i, body, (&grid, &body.cells), q1, 0.0)
+                    }
+                    Some(LevelBelow::Coarser(grid)) => {
                         let cells = Cells::classify(&grid, &body.solid, cut_rule_points(q1))
                             .map_err(|e| Error::CaseFile {
                                 file: case.file.clone(),
@@ -98,7 +97,8 @@ impl BodiesMultigrid {
                                 reason: format!("multigrid level {}: {e}", grid.level),
                             })?;
                         body_operator(case, i, body, (&grid, &cells), q1, 0.0)
-                    };
+                    }
+                };
                 s_term.add_to(&mut op);
                 Ok(Some(op))
             })?;

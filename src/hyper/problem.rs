@@ -371,10 +371,9 @@ impl HyperProblem {
     /// Adds cell vectors (`nodes_per_cell` rows per entry of
     /// [`Self::cells`], back to back) into a global vector.
     pub fn scatter(&self, cell_vectors: &[[f64; 3]], y: &mut [f64]) {
-        for (&node, v) in self.cell_nodes.iter().zip(cell_vectors) {
-            for i in 0..3 {
-                y[3 * node as usize + i] += v[i];
-            }
+        let npc = self.nodes_per_cell();
+        for (k, v) in cell_vectors.chunks_exact(npc).enumerate() {
+            self.scatter_cell(k, v, y);
         }
     }
 

@@ -177,6 +177,22 @@ pub struct Hierarchy {
     pub seconds: f64,
 }
 
+/// Where the Q1 level below an operator lies.
+pub enum LevelBelow {
+    /// Below a Q2 operator: the same grid and cut cells (p-multigrid).
+    SameCells(Grid),
+    /// Below a Q1 operator: the coarsened grid, classified anew.
+    Coarser(Grid),
+}
+
+/// The level below `last`, `None` below level 0.
+pub fn level_below(last: &ElasticOperator) -> Option<LevelBelow> {
+    match last.dofs.order {
+        ElementOrder::Q2 => Some(LevelBelow::SameCells(last.grid.clone())),
+        ElementOrder::Q1 => last.grid.coarsened().map(LevelBelow::Coarser),
+    }
+}
+
 /// One line per level, for logs and reports.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelSummary {
@@ -224,12 +240,10 @@ impl Hierarchy {
             Ok(op)
         };
         Hierarchy::build(fine, opts, |last| {
-            Ok(match last.dofs.order {
-                ElementOrder::Q2 => Some(level(&last.grid, cells)?),
-                ElementOrder::Q1 => match last.grid.coarsened() {
-                    Some(grid) => Some(level(&grid, &case.classify(&grid)?)?),
-                    None => None,
-                },
+            Ok(match level_below(last) {
+                Some(LevelBelow::SameCells(grid)) => Some(level(&grid, cells)?),
+                Some(LevelBelow::Coarser(grid)) => Some(level(&grid, &case.classify(&grid)?)?),
+                None => None,
             })
         })
     }
