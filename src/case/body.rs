@@ -5,7 +5,7 @@
 //! ```toml
 //! [[body]]
 //! name = "lower"                # letters, digits and '_' (used in `body.tag`)
-//! element = "q1"                # or "q2" (linear path only)
+//! element = "q1"                # or "q2"
 //! geometry = { type = "cuboid", min = [-1, -1, -1], max = [1, 1, 0] }
 //! grid = { level = 3, offset = [0.3, 0.6, 0.45] }
 //! quadrature = { points = 4 }   # Gauss points per segment of the cut-cell rules
