@@ -52,7 +52,7 @@ def walk(a, b, path, rtol, scale, out):
         STATS["numbers"] += 1
         if a != b and math.isfinite(a) and math.isfinite(b):
             STATS["max_relative"] = max(STATS["max_relative"], abs(a - b) / max(abs(a), abs(b)))
-        tol = rtol * max(abs(a), abs(b), rtol * scale if scale else 0.0)
+        tol = rtol * max(abs(a), abs(b), scale)
         if not (abs(a - b) <= tol or a == b):
             rel = abs(a - b) / max(abs(a), abs(b))
             out.append(f"{path}: {a!r} before, {b!r} after ({rel:.1e} relative)")

@@ -123,6 +123,16 @@ impl fmt::Display for FitFailure {
 /// Steps of iterative refinement after the first solve.
 const REFINEMENT_STEPS: usize = 2;
 
+/// The largest condition number of the equilibrated normal matrix `M̃` of a
+/// fit solved from its moments, without refinement (about `1e3·ε` relative
+/// in its coefficients). On the sphere at levels 4 and 5 Q1's stress fits
+/// are below 1e2, its displacement fits and Q2's stress fits below 1e3, and
+/// Q2's displacement fits (degree 3) mostly between 1e3 and 1e5; the patch
+/// tests with rollers and Q2 on parts with edges converge to their 1e-14
+/// fixed-point tolerance at 1e3 and stall near 1e-12 with every fit from
+/// moments.
+const MOMENTS_CONDITION: f64 = 1e3;
+
 /// Fits a complete polynomial of `basis` to each of the `NC` components of the
 /// `samples` (scaled point `ξ_s`, values `B_s`), under `constraints` if given.
 /// Returns the stacked coefficients (component `c`, term `j` at
@@ -157,14 +167,14 @@ pub fn fit_and_factor<const NC: usize>(
 /// The half of a patch fit that depends on the sample points and the
 /// constraints only, never on the values: the points' centroid, the shift
 /// back to the node's basis and the factored (KKT) system. A fixed-point loop
-/// recovers a new field on the same patches at every iteration;
-/// [`FitFactor::fit`] then skips the acceptance check and the factorisation
-/// and returns what [`fit_polynomial`] returns, bit for bit.
+/// recovers a new field on the same patches at every iteration; with the
+/// factor it skips the acceptance check and the factorisation and solves
+/// from the moments of the values ([`FitFactor::fit_moments`]).
 pub struct FitFactor {
+    /// The condition number of the equilibrated normal matrix.
+    pub(super) condition: f64,
     centroid: [f64; 3],
     shift: DMatrix<f64>,
-    /// Sample points the factor was made for.
-    num_points: usize,
     kkt: Kkt,
 }
 
@@ -203,31 +213,39 @@ impl FitFactor {
             return Err(FitFailure::Unstable { lambda, min });
         }
         let s = equilibrate(&mut m);
+        let eigenvalues = SymmetricEigen::new(m.clone()).eigenvalues;
+        let condition = eigenvalues.max() / eigenvalues.min();
         let constraints = constraints.map(|k| LinearConstraints {
             c: shifted_constraints(&k.c, &shift),
             d: k.d.clone(),
         });
         let kkt = Kkt::new(&m, &s, nc, constraints.as_ref())?;
         let factor = FitFactor {
+            condition,
             centroid,
             shift,
-            num_points: points.len(),
             kkt,
         };
         Ok((factor, a))
     }
 
+    /// The centroid `ξ̄` of the sample points, the origin of the centred
+    /// coordinates `ζ = ξ − ξ̄` the factor solves in.
+    pub(super) fn centroid(&self) -> [f64; 3] {
+        self.centroid
+    }
+
     /// The fit of `samples` at the points this factor was made for (same
-    /// points, same order; `NC` its number of components).
+    /// points, same order; `NC` its number of components): what
+    /// [`fit_polynomial`] returns, bit for bit.
     ///
     /// # Panics
-    /// When the number of samples or of components differs from the factor's.
-    pub fn fit<const NC: usize>(
+    /// When the number of components differs from the factor's.
+    pub(super) fn fit<const NC: usize>(
         &self,
         basis: &Monomials,
         samples: &[Sample<NC>],
     ) -> Result<Vec<f64>, FitFailure> {
-        assert_eq!(samples.len(), self.num_points, "samples of a fit factor");
         assert_eq!(
             NC * basis.len(),
             self.kkt.c.ncols(),
@@ -240,11 +258,38 @@ impl FitFactor {
         self.solve(design)
     }
 
+    /// Whether a solve from the moments ([`FitFactor::fit_moments`]) is as
+    /// accurate as the refined one: the normal equations lose
+    /// `cond(M̃)·ε` of the coefficients, so a fit whose equilibrated normal
+    /// matrix has a condition number above [`MOMENTS_CONDITION`] is refined
+    /// on its samples ([`FitFactor::fit`]).
+    pub(super) fn solves_from_moments(&self) -> bool {
+        self.condition <= MOMENTS_CONDITION
+    }
+
+    /// The fit from the moments of its values in the centred coordinates,
+    /// `atb[j·nc + c] = Σ_s φ_j(ζ_s) v_{s,c}` (`Aᵀ B`), for values at the
+    /// points this factor was made for: one solve of the factored system,
+    /// without the refinement of [`fit_polynomial`] (which needs every
+    /// sample) and without its check of the constrained residual (the
+    /// factor passed it when it was made).
+    ///
+    /// # Panics
+    /// When `nc` is not the factor's number of components.
+    pub(super) fn fit_moments(&self, atb: &[f64], nc: usize) -> Result<Vec<f64>, FitFailure> {
+        assert_eq!(
+            nc * self.shift.nrows(),
+            self.kkt.c.ncols(),
+            "components of a fit factor"
+        );
+        let x = self.kkt.solve(&self.kkt.rhs_from_moments(atb, nc));
+        self.in_node_basis(&x, nc)
+    }
+
     /// The constrained least-squares solve with iterative refinement, mapped
     /// back to the node's basis.
     fn solve(&self, design: Design) -> Result<Vec<f64>, FitFailure> {
         let kkt = &self.kkt;
-        let nb = self.shift.nrows();
         let nc = design.b.ncols();
         let first = kkt.residual_at_zero(&design);
         let rhs = first.amax();
@@ -262,7 +307,14 @@ impl FitFactor {
                 return Err(FitFailure::Singular);
             }
         }
-        let centred = DMatrix::from_fn(nb, nc, |j, c| kkt.s[j] * x[c * nb + j]);
+        self.in_node_basis(&x, nc)
+    }
+
+    /// The node-basis coefficients `a = T S x` of the solution `x` of the
+    /// equilibrated system (component `c`, term `j` at `c·n_b + j`).
+    fn in_node_basis(&self, x: &DVector<f64>, nc: usize) -> Result<Vec<f64>, FitFailure> {
+        let nb = self.shift.nrows();
+        let centred = DMatrix::from_fn(nb, nc, |j, c| self.kkt.s[j] * x[c * nb + j]);
         let a = (&self.shift * centred).as_slice().to_vec();
         if a.iter().any(|v| !v.is_finite()) {
             return Err(FitFailure::NonFinite);

@@ -118,6 +118,21 @@ impl Kkt {
         res
     }
 
+    /// The right-hand side `[S Aᵀ B; d]` from the moments `Aᵀ B` given as
+    /// `atb[j·nc + c]` (term `j`, component `c`).
+    pub(super) fn rhs_from_moments(&self, atb: &[f64], nc: usize) -> DVector<f64> {
+        let nb = self.s.len();
+        let n = self.c.ncols();
+        let mut res = DVector::zeros(self.size());
+        for c in 0..nc {
+            for j in 0..nb {
+                res[c * nb + j] = self.s[j] * atb[j * nc + c];
+            }
+        }
+        res.rows_mut(n, self.c.nrows()).copy_from(&self.d);
+        res
+    }
+
     /// [`Kkt::residual`] at `x = 0`: `[S Aᵀ B; d̃]`.
     pub(super) fn residual_at_zero(&self, design: &Design) -> DVector<f64> {
         let n = self.c.ncols();

@@ -11,6 +11,8 @@
 //! `x_a ↦ 2 p_a − x_a` and the field by [`super::PatchSamples::reflected`]
 //! (for a displacement: `u_a ↦ −u_a`).
 
+use super::spr::PatchSamples;
+use super::Sample;
 use crate::cells::CellKind;
 use crate::grid::Grid;
 
@@ -103,6 +105,36 @@ pub(super) fn reflect_point(grid: &Grid, mask: u8, x: [f64; 3]) -> [f64; 3] {
         } else {
             x[a]
         }
+    })
+}
+
+/// A sample of a cell seen across the faces in `mask`: its point mirrored,
+/// its value reflected by the field ([`PatchSamples::reflected`]).
+pub(super) fn reflect_sample<const NC: usize, S: PatchSamples<NC>>(
+    grid: &Grid,
+    samples: &S,
+    mask: u8,
+    (x, v): Sample<NC>,
+) -> Sample<NC> {
+    if mask == 0 {
+        return (x, v);
+    }
+    (
+        reflect_point(grid, mask, x),
+        reflect_value(samples, mask, v),
+    )
+}
+
+/// A field value seen across the faces in `mask`.
+pub(super) fn reflect_value<const NC: usize, S: PatchSamples<NC>>(
+    samples: &S,
+    mask: u8,
+    v: [f64; NC],
+) -> [f64; NC] {
+    reflected_axes(mask).fold(v, |v, a| {
+        samples
+            .reflected(a, v)
+            .expect("mirrored patches only for reflectable fields")
     })
 }
 

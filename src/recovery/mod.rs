@@ -34,6 +34,7 @@ mod kkt;
 mod mirror;
 #[cfg(test)]
 mod mirror_tests;
+mod moments;
 mod plan;
 mod recovered;
 mod sample_cache;

@@ -5,11 +5,14 @@
 //! constraint matrix, never on the values ([`super::FitFactor`]), so the
 //! fixed-point loop, which recovers a new displacement on the same patches at
 //! every iteration, pays for the ring search, the stability check and the
-//! factorisations once. The coefficients are bit-identical to
-//! [`super::recover`]'s.
+//! factorisations once, and solves each fit from the moments of its cells'
+//! samples ([`super::moments`]). The coefficients equal [`super::recover`]'s
+//! to round-off (the first recovery refines its solves on the samples, the
+//! later ones solve once from the moments).
 
 use std::sync::OnceLock;
 
+use super::moments::recover_from_moments;
 use super::spr::{recover_with, NodePlan, Planning};
 use super::{recover, PatchSamples, Recovered, SprOptions};
 use crate::cells::CellKind;
@@ -17,17 +20,42 @@ use crate::error::Result;
 use crate::grid::Grid;
 
 /// The accepted fit of every patch of one recovery: per distinct node (in
-/// ascending order), the ring and the factored fit.
+/// ascending order), its cells and the factored fit, with each patch cell
+/// given as its slot in the list of the distinct cells of all patches.
 pub struct FitPlans {
-    degree: usize,
+    pub(super) degree: usize,
     components: usize,
-    plans: Vec<NodePlan>,
+    /// The cells of all patches, ascending and distinct.
+    pub(super) cells: Vec<usize>,
+    pub(super) plans: Vec<NodePlan>,
 }
 
 impl FitPlans {
+    /// The plans of one recovery, their patch cells renamed to slots.
+    fn new(degree: usize, components: usize, mut plans: Vec<NodePlan>) -> FitPlans {
+        let mut cells: Vec<usize> = plans
+            .iter()
+            .flat_map(|p| p.cells.iter().map(|&(c, _)| c))
+            .collect();
+        cells.sort_unstable();
+        cells.dedup();
+
+        for plan in &mut plans {
+            for (c, _) in &mut plan.cells {
+                *c = cells.binary_search(c).expect("a patch cell is listed");
+            }
+        }
+        FitPlans {
+            degree,
+            components,
+            cells,
+            plans,
+        }
+    }
+
     /// The accepted ring of each patch, in ascending node order.
     pub fn rings(&self) -> Vec<usize> {
-        self.plans.iter().map(|p| p.ring).collect()
+        self.plans.iter().map(|p| p.info.ring).collect()
     }
 }
 
@@ -35,8 +63,8 @@ impl FitPlans {
 /// an earlier call with the same nodes, degree, sample positions and
 /// constraints), and otherwise searching every patch's ring and leaving the
 /// accepted fits' plans there for the next call; `None`: [`super::recover`].
-/// A planned fit that fails on its values (non-finite samples) searches the
-/// larger rings as [`super::recover`] does.
+/// When a planned fit fails on its values (non-finite samples), the whole
+/// recovery searches the rings as [`super::recover`] does.
 ///
 /// # Panics
 /// As [`super::recover`]; and when the plans were made for another number of
@@ -59,18 +87,19 @@ pub fn recover_planned<const NC: usize, S: PatchSamples<NC>>(
             (degree, NC),
             "fit plans of another degree or field"
         );
-        let follow = Planning::Follow(&p.plans);
-        let (rec, _) = recover_with(grid, kinds, nodes, degree, samples, opts, follow)?;
-        return Ok(rec);
+        let mut distinct = nodes.to_vec();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert_eq!(distinct.len(), p.plans.len(), "one plan per distinct node");
+        return match recover_from_moments(grid, distinct, samples, p) {
+            Some(rec) => Ok(rec),
+            None => recover(grid, kinds, nodes, degree, samples, opts),
+        };
     }
     let keep = Planning::SearchAndKeep;
     let (rec, kept) = recover_with(grid, kinds, nodes, degree, samples, opts, keep)?;
     // Another thread may have planned the same recovery meanwhile: its plans
     // are the same, so either is kept.
-    let _ = plans.set(FitPlans {
-        degree,
-        components: NC,
-        plans: kept,
-    });
+    let _ = plans.set(FitPlans::new(degree, NC, kept));
     Ok(rec)
 }

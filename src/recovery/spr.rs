@@ -1,6 +1,5 @@
 //! Patch recovery over the grid's Q1 vertex nodes: gathering a node's patch
-//! ring by ring (or at the ring of its plan, [`super::recover_planned`]) and
-//! fitting it ([`super::fit_polynomial`]) in parallel over the requested
+//! ring by ring and fitting it ([`super::fit_polynomial`]) in parallel over the requested
 //! nodes, into a [`Recovered`] field.
 //!
 //! The work is proportional to the number of requested nodes: each patch visits
@@ -11,7 +10,7 @@
 use rayon::prelude::*;
 
 use super::fit::{fit_and_factor, FitFactor, FitFailure, FitOptions, LinearConstraints};
-use super::mirror::{reflect_point, reflected_axes, ring_cells, Mirror};
+use super::mirror::{reflect_sample, ring_cells, Mirror};
 use super::recovered::Recovered;
 use super::sample_cache::SampleCache;
 use super::{Monomials, Sample};
@@ -149,16 +148,14 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     recover_with(grid, kinds, nodes, degree, samples, opts, Planning::Search).map(|(r, _)| r)
 }
 
-/// How [`recover_with`] treats each node's fit.
+/// Whether [`recover_with`] returns each accepted fit's plan.
 #[derive(Clone, Copy)]
-pub(super) enum Planning<'a> {
+pub(super) enum Planning {
     /// Search the rings from 1.
     Search,
     /// Search, and return each accepted fit's plan (one per distinct node,
     /// ascending).
     SearchAndKeep,
-    /// Fit at each plan's ring with its factor (one per distinct node).
-    Follow(&'a [NodePlan]),
 }
 
 /// The recovery of [`recover`] and [`super::recover_planned`], each node's
@@ -171,19 +168,12 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     degree: usize,
     samples: &S,
     opts: &SprOptions,
-    planning: Planning<'_>,
+    planning: Planning,
 ) -> Result<(Recovered<NC>, Vec<NodePlan>)> {
     assert_eq!(kinds.len(), grid.num_cells(), "one kind per cell");
     let mut nodes = nodes.to_vec();
     nodes.sort_unstable();
     nodes.dedup();
-    let plans = match planning {
-        Planning::Follow(p) => {
-            assert_eq!(p.len(), nodes.len(), "one plan per distinct node");
-            Some(p)
-        }
-        Planning::Search | Planning::SearchAndKeep => None,
-    };
     let keep = matches!(planning, Planning::SearchAndKeep);
     let num_nodes = grid.num_nodes(ElementOrder::Q1);
     if let Some(&node) = nodes.iter().find(|&&n| n >= num_nodes) {
@@ -210,10 +200,9 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     };
     let fits: Vec<Result<NodeFit>> = nodes
         .par_iter()
-        .enumerate()
         .map_init(
             || (Vec::new(), SampleCache::new()),
-            |(buf, cache), (slot, &node)| ctx.fit_node(node, plans.map(|p| &p[slot]), buf, cache),
+            |(buf, cache), &node| ctx.fit_node(node, buf, cache),
         )
         .collect();
     let mut coeffs = Vec::with_capacity(nodes.len() * NC * basis.len());
@@ -235,9 +224,12 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     Ok((recovered, kept))
 }
 
-/// One node's accepted fit: the ring and the [`FitFactor`] of its samples.
+/// One node's accepted fit: its patch's cells with their mirror masks (in
+/// the order their samples were fitted), what the patch was, and the
+/// [`FitFactor`] of its samples.
 pub(super) struct NodePlan {
-    pub(super) ring: usize,
+    pub(super) cells: Vec<(usize, u8)>,
+    pub(super) info: PatchInfo,
     pub(super) factor: FitFactor,
 }
 
@@ -264,14 +256,11 @@ struct Context<'a, S> {
 }
 
 impl<S> Context<'_, S> {
-    /// Fits `node`'s patch: at `plan`'s ring with its factor when given (the
-    /// cells of the rings inside it included), then, or without a plan, ring
-    /// by ring up to the ring limit; `buf` is scratch, `cache` the worker's
-    /// memo of cell samples.
+    /// Fits `node`'s patch ring by ring up to the ring limit; `buf` is
+    /// scratch, `cache` the worker's memo of cell samples.
     fn fit_node<const NC: usize>(
         &self,
         node: usize,
-        plan: Option<&NodePlan>,
         buf: &mut Vec<Sample<NC>>,
         cache: &mut SampleCache<NC>,
     ) -> Result<NodeFit>
@@ -285,7 +274,6 @@ impl<S> Context<'_, S> {
         buf.clear();
         let mut failure = None;
         let max_rings = self.opts.max_rings.max(1);
-        let first_ring = plan.map_or(1, |p| p.ring.min(max_rings));
         for ring in 1..=max_rings {
             let first = patch_cells.len();
             ring_cells(
@@ -308,29 +296,19 @@ impl<S> Context<'_, S> {
                     cells.push(c);
                 }
                 buf.extend(samples.iter().map(|&(x, v)| {
-                    let (x, v) = self.reflect(mask, x, v);
+                    let (x, v) = reflect_sample(self.grid, self.samples, mask, (x, v));
                     (scaled(center, self.grid.h, x), v)
                 }));
             }
-            if ring < first_ring {
-                continue;
-            }
-            let fitted = match plan.filter(|p| p.ring == ring) {
-                Some(p) => p.factor.fit(self.basis, buf).map(|a| (a, None)),
-                None => {
-                    let patch = Patch {
-                        node,
-                        center,
-                        h: self.grid.h,
-                        ring,
-                        cells: &cells,
-                    };
-                    let constraints = self.samples.constraints(&patch, self.basis);
-                    fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit)
-                        .map(|(a, f)| (a, Some(f)))
-                }
+            let patch = Patch {
+                node,
+                center,
+                h: self.grid.h,
+                ring,
+                cells: &cells,
             };
-            match fitted {
+            let constraints = self.samples.constraints(&patch, self.basis);
+            match fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit) {
                 Ok((coefficients, factor)) => {
                     let info = PatchInfo {
                         ring,
@@ -340,9 +318,11 @@ impl<S> Context<'_, S> {
                     return Ok(NodeFit {
                         coefficients,
                         info,
-                        plan: factor
-                            .filter(|_| self.keep)
-                            .map(|factor| NodePlan { ring, factor }),
+                        plan: self.keep.then_some(NodePlan {
+                            cells: patch_cells,
+                            info,
+                            factor,
+                        }),
                     });
                 }
                 Err(f) => failure = Some(f),
@@ -355,24 +335,6 @@ impl<S> Context<'_, S> {
                 failure.map_or_else(String::new, |f: FitFailure| f.to_string())
             ),
         })
-    }
-}
-
-impl<S> Context<'_, S> {
-    /// A sample of a cell seen across the faces in `mask`.
-    fn reflect<const NC: usize>(&self, mask: u8, x: [f64; 3], v: [f64; NC]) -> Sample<NC>
-    where
-        S: PatchSamples<NC>,
-    {
-        if mask == 0 {
-            return (x, v);
-        }
-        let v = reflected_axes(mask).fold(v, |v, a| {
-            self.samples
-                .reflected(a, v)
-                .expect("mirrored patches only for reflectable fields")
-        });
-        (reflect_point(self.grid, mask, x), v)
     }
 }
 

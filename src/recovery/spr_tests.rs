@@ -233,11 +233,12 @@ fn small_cut_patches_are_enlarged_and_stay_exact() {
     assert!(rec.patch(thinnest).unwrap().ring > 1);
 }
 
-/// Reusing the fits an earlier recovery accepted and factored gives the same
-/// patches and bit-identical coefficients for another field, constrained fits
-/// included; the planning recovery itself is the plain one.
+/// Reusing the fits an earlier recovery accepted and factored (solving from
+/// the cells' moments) gives the same patches and the same coefficients to
+/// round-off for another field, constrained fits included; the planning
+/// recovery itself is the plain one, bit for bit.
 #[test]
-fn fit_plans_reproduce_the_recovery_bit_for_bit() {
+fn fit_plans_reproduce_the_recovery_to_round_off() {
     let (grid, cells) = sphere(4, 1.0, 0.9, ElementOrder::Q1);
     let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
     let opts = SprOptions::default();
@@ -262,9 +263,9 @@ fn fit_plans_reproduce_the_recovery_bit_for_bit() {
             first.coefficients(node).unwrap(),
             planning.coefficients(node).unwrap()
         );
-        assert_eq!(
+        assert_close(
             plain.coefficients(node).unwrap(),
-            planned.coefficients(node).unwrap()
+            planned.coefficients(node).unwrap(),
         );
     }
     let pinned = PinnedAtNode {
@@ -279,13 +280,20 @@ fn fit_plans_reproduce_the_recovery_bit_for_bit() {
     };
     let (planning, planned) = (again(), again());
     for &node in constrained.nodes() {
-        for rec in [&planning, &planned] {
-            assert_eq!(
-                constrained.coefficients(node).unwrap(),
-                rec.coefficients(node).unwrap()
-            );
-        }
+        let want = constrained.coefficients(node).unwrap();
+        assert_eq!(want, planning.coefficients(node).unwrap());
+        assert_close(want, planned.coefficients(node).unwrap());
     }
+}
+
+/// `got` equals `want` to 1e-12 of the largest coefficient.
+fn assert_close(want: &[f64], got: &[f64]) {
+    let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = want
+        .iter()
+        .zip(got)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(worst <= 1e-12 * scale, "{worst:e} of {scale:e}");
 }
 
 /// The (up to 8) cells sharing the vertex `node`.
