@@ -57,6 +57,12 @@ pub struct FixedPointReport {
     /// Seconds spent computing the recovered right-hand side (and, after the
     /// loop, the recovered tractions of the reactions).
     pub recovery_seconds: f64,
+    /// The recoveries those seconds were spent on (the loop's, and the one
+    /// of the reactions).
+    pub recoveries: usize,
+    /// The multigrid V-cycles of the solves and their seconds, where the
+    /// solver timed them ([`LinearSolver::v_cycles`]).
+    pub v_cycles: Option<(usize, f64)>,
 }
 
 /// Runs the loop, solving with `solver` (any backend). `recovered(U)` returns
@@ -207,6 +213,7 @@ pub(super) fn recorded_recovery(
     });
     let extra = extra?;
     report.recovery_seconds += t.elapsed().as_secs_f64();
+    report.recoveries += 1;
     Ok(extra)
 }
 

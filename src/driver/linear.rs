@@ -8,12 +8,20 @@ use crate::backend::{CpuBackend, LinearOperator};
 use crate::driver::setup::Setup;
 use crate::error::Result;
 use crate::multigrid::Multigrid;
-use crate::solver::{solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner};
+use crate::solver::{
+    solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner, TimedInverse,
+};
 
 /// Solves `A u = rhs` with the Krylov options given, warm-started at `u`.
 pub trait LinearSolver {
     fn solve(&mut self, rhs: &[f64], u: &mut Vec<f64>, opts: &KrylovOptions)
         -> Result<KrylovStats>;
+
+    /// The multigrid V-cycles applied so far and their seconds, where the
+    /// solver times them on the host (`None`: not timed, or no V-cycle).
+    fn v_cycles(&self) -> Option<(usize, f64)> {
+        None
+    }
 }
 
 /// The CPU backend with a host operator and its diagonal (computed once),
@@ -23,6 +31,8 @@ pub struct CpuSolver<'a> {
     diag: Vec<f64>,
     multigrid: Option<Multigrid<'a>>,
     be: CpuBackend,
+    /// The V-cycles applied so far and their seconds.
+    cycles: (usize, f64),
 }
 
 impl<'a> CpuSolver<'a> {
@@ -34,6 +44,7 @@ impl<'a> CpuSolver<'a> {
             diag: op.diagonal(),
             multigrid: None,
             be: CpuBackend::new(),
+            cycles: (0, 0.0),
         }
     }
 
@@ -60,9 +71,17 @@ impl LinearSolver for CpuSolver<'_> {
         let rhs = rhs.to_vec();
         match (&self.multigrid, opts.preconditioner) {
             (Some(mg), Preconditioner::Multigrid | Preconditioner::Auto) => {
-                solve_preconditioned(&self.be, self.op, mg, &rhs, u, opts)
+                let timed = TimedInverse::new(mg);
+                let stats = solve_preconditioned(&self.be, self.op, &timed, &rhs, u, opts);
+                let (n, seconds) = timed.totals();
+                self.cycles = (self.cycles.0 + n, self.cycles.1 + seconds);
+                stats
             }
             _ => solve(&self.be, self.op, Some(&self.diag), &rhs, u, opts),
         }
+    }
+
+    fn v_cycles(&self) -> Option<(usize, f64)> {
+        self.multigrid.as_ref().map(|_| self.cycles)
     }
 }

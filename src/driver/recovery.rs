@@ -107,19 +107,27 @@ pub fn recover_stress(
     )
 }
 
-/// `t̂ = M σ̂ n` at the Dirichlet points (`M` the mask of the held components).
+/// `t̂ = M σ̂ n` at the Dirichlet points (`M` the mask of the held components),
+/// the blend of each run of points in one cell prepared once.
 pub fn recovered_tractions(
     points: &[DirichletPoint],
     sigma: &Recovered<6>,
 ) -> Result<Vec<[f64; 3]>> {
-    points
+    let runs: Vec<&[DirichletPoint]> = points.chunk_by(|a, b| a.cell == b.cell).collect();
+    let per_run: Vec<Vec<[f64; 3]>> = runs
         .par_iter()
-        .map(|p| {
-            let s = sigma.eval(p.cell, p.x)?;
-            let t = voigt_times(&s, p.n);
-            Ok([0, 1, 2].map(|i| p.mask[i] * t[i]))
+        .map(|run| {
+            let blend = sigma.cell_blend(run[0].cell)?;
+            Ok(run
+                .iter()
+                .map(|p| {
+                    let t = voigt_times(&blend.eval(p.x), p.n);
+                    [0, 1, 2].map(|i| p.mask[i] * t[i])
+                })
+                .collect())
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    Ok(per_run.concat())
 }
 
 /// `σ n` for a Voigt stress (xx, yy, zz, yz, xz, xy).

@@ -120,6 +120,8 @@ pub fn solve_with_progress(
         phase: Phase::Recovery,
     });
     report.recovery_seconds += t.elapsed().as_secs_f64();
+    report.recoveries += 1;
+    report.v_cycles = solver.v_cycles();
     let (t_hat, extra) = recovered?;
     let mut reactions = reactions(setup, &u, &t_hat);
     for (r, e) in reactions.iter_mut().zip(&extra) {

@@ -38,7 +38,7 @@
 //! cells only (a corner of a slab) would be rejected at every ring. The
 //! `f_c` integral takes the same rule: `N_a S` has degree 2p + 1 per axis.
 
-use std::sync::{PoisonError, RwLock, RwLockReadGuard};
+use std::sync::{OnceLock, PoisonError, RwLock, RwLockReadGuard};
 
 use rayon::prelude::*;
 
@@ -50,7 +50,9 @@ use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::fem::level::pathological_cells;
 use crate::geometry::Geometry;
-use crate::recovery::{recover, Mirror, PatchSamples, Recovered, Sample, SprOptions};
+use crate::recovery::{
+    recover_planned, FitPlans, Mirror, PatchSamples, Recovered, Sample, SprOptions,
+};
 
 /// The S-term of one body: Ω*, the scaled cell mass and the current `f_c`.
 pub struct STerm {
@@ -80,6 +82,9 @@ pub struct STerm {
     /// The faces of the grid box that are symmetry planes: the patches
     /// continue across them (`crate::bodies::symmetry`).
     pub mirror: Mirror,
+    /// The patch fits of the first recovery, which the later ones reuse
+    /// (the sample positions never change; [`recover_planned`]).
+    plans: OnceLock<FitPlans>,
 }
 
 impl STerm {
@@ -135,6 +140,7 @@ impl STerm {
             cut_samples,
             cut_sample_start,
             mirror: Mirror::none(),
+            plans: OnceLock::new(),
         }
     }
 
@@ -260,7 +266,8 @@ impl STerm {
             ..SprOptions::default()
         };
         let degree = self.order.degree() + 1;
-        recover(&p.grid, &self.kinds, &nodes, degree, &samples, &opts)
+        let plans = Some(&self.plans);
+        recover_planned(&p.grid, &self.kinds, &nodes, degree, &samples, &opts, plans)
     }
 
     /// `S` of the displacement `u` of `p`.

@@ -124,14 +124,16 @@ impl fmt::Display for FitFailure {
 const REFINEMENT_STEPS: usize = 2;
 
 /// The largest condition number of the equilibrated normal matrix `M̃` of a
-/// fit solved from its moments, without refinement (about `1e3·ε` relative
-/// in its coefficients). On the sphere at levels 4 and 5 Q1's stress fits
+/// fit solved from its moments, without refinement, and the largest basis
+/// (degree 2) solved so. On the sphere at levels 4 and 5 Q1's stress fits
 /// are below 1e2, its displacement fits and Q2's stress fits below 1e3, and
-/// Q2's displacement fits (degree 3) mostly between 1e3 and 1e5; the patch
-/// tests with rollers and Q2 on parts with edges converge to their 1e-14
-/// fixed-point tolerance at 1e3 and stall near 1e-12 with every fit from
-/// moments.
+/// Q2's displacement fits (degree 3) mostly between 1e3 and 1e5. With every
+/// fit from moments the patch tests with rollers and Q2 on parts with edges
+/// stall near 1e-12 short of their 1e-14 fixed-point tolerance; with the
+/// condition limit they converge, but degree-3 fits below it still miss a
+/// quadratic field by 2.5e-10 on a Q2 sphere's Ω* (refined: below 1e-11).
 const MOMENTS_CONDITION: f64 = 1e3;
+const MOMENTS_MAX_TERMS: usize = 10;
 
 /// Fits a complete polynomial of `basis` to each of the `NC` components of the
 /// `samples` (scaled point `ξ_s`, values `B_s`), under `constraints` if given.
@@ -213,7 +215,7 @@ impl FitFactor {
             return Err(FitFailure::Unstable { lambda, min });
         }
         let s = equilibrate(&mut m);
-        let eigenvalues = SymmetricEigen::new(m.clone()).eigenvalues;
+        let eigenvalues = m.symmetric_eigenvalues();
         let condition = eigenvalues.max() / eigenvalues.min();
         let constraints = constraints.map(|k| LinearConstraints {
             c: shifted_constraints(&k.c, &shift),
@@ -261,10 +263,11 @@ impl FitFactor {
     /// Whether a solve from the moments ([`FitFactor::fit_moments`]) is as
     /// accurate as the refined one: the normal equations lose
     /// `cond(M̃)·ε` of the coefficients, so a fit whose equilibrated normal
-    /// matrix has a condition number above [`MOMENTS_CONDITION`] is refined
-    /// on its samples ([`FitFactor::fit`]).
+    /// matrix has a condition number above [`MOMENTS_CONDITION`], or whose
+    /// basis is larger than [`MOMENTS_MAX_TERMS`], is refined on its samples
+    /// ([`FitFactor::fit`]).
     pub(super) fn solves_from_moments(&self) -> bool {
-        self.condition <= MOMENTS_CONDITION
+        self.condition <= MOMENTS_CONDITION && self.shift.nrows() <= MOMENTS_MAX_TERMS
     }
 
     /// The fit from the moments of its values in the centred coordinates,

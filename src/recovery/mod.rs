@@ -69,6 +69,9 @@ pub const MAX_DEGREE: usize = 8;
 pub struct Monomials {
     degree: usize,
     exponents: Vec<[usize; 3]>,
+    /// The terms of a change of origin ([`Monomials::for_each_shift`]):
+    /// `(e, f, Π_k C(e_k, f_k), e − f)` for every pair `f ≤ e`.
+    shifts: Vec<(usize, usize, u32, [usize; 3])>,
 }
 
 impl Monomials {
@@ -89,7 +92,20 @@ impl Monomials {
                 }
             }
         }
-        Monomials { degree, exponents }
+        let mut shifts = Vec::new();
+        for (i, e) in exponents.iter().enumerate() {
+            for (j, f) in exponents.iter().enumerate() {
+                if (0..3).all(|k| f[k] <= e[k]) {
+                    let binom = (0..3).map(|k| binomial(e[k], f[k])).product::<f64>();
+                    shifts.push((i, j, binom as u32, [0, 1, 2].map(|k| e[k] - f[k])));
+                }
+            }
+        }
+        Monomials {
+            degree,
+            exponents,
+            shifts,
+        }
     }
 
     pub fn degree(&self) -> usize {
@@ -130,6 +146,18 @@ impl Monomials {
             }
             v
         })
+    }
+
+    /// The change of origin `φ_e(ξ + t) = Σ_{f ≤ e} w_ef(t) φ_f(ξ)`, with
+    /// `w_ef(t) = Π_k C(e_k, f_k) t_k^{e_k − f_k}` (the binomial theorem per
+    /// axis): calls `term(e, f, w_ef)` for every pair `f ≤ e`. Moments move
+    /// with it (`Σ_s φ_e(ξ_s + t) v_s = Σ_f w_ef Σ_s φ_f(ξ_s) v_s`), and so
+    /// do coefficients (`Σ_e a_e φ_e(ξ + t) = Σ_f (Σ_e w_ef a_e) φ_f(ξ)`).
+    pub fn for_each_shift(&self, t: [f64; 3], mut term: impl FnMut(usize, usize, f64)) {
+        let pw = self.powers(t);
+        for &(e, f, binom, d) in &self.shifts {
+            term(e, f, binom as f64 * pw[d[0]][0] * pw[d[1]][1] * pw[d[2]][2]);
+        }
     }
 
     /// Powers `ξ_k^e` for `e ≤ p`, per axis.

@@ -6,8 +6,8 @@
 //! `ζ = (x − x_node)/h − ξ̄`. A cell lies in up to 8 patches (more for
 //! enlarged rings), so each cell's moments are taken once, about its own
 //! centre `x_c` in `ξ_c = (x − x_c)/h`, and moved into each patch by the
-//! binomial theorem: with `ζ = ξ_c + t`, `t = (x_c − x_node)/h − ξ̄`,
-//! `φ_e(ξ_c + t) = Σ_{f ≤ e} Π_k C(e_k, f_k) t_k^{e_k − f_k} φ_f(ξ_c)`. A cell
+//! binomial theorem ([`Monomials::for_each_shift`]): `ζ = ξ_c + t` with
+//! `t = (x_c − x_node)/h − ξ̄`. A cell
 //! seen across a mirror face has its moments reflected: the image of a
 //! point has `ξ_c` negated on the mirrored axes (a sign `(−1)^{f_a}` per
 //! monomial) and its value reflected by [`PatchSamples::reflected`], which
@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use super::mirror::{reflect_point, reflect_sample, reflect_value, reflected_axes};
 use super::plan::FitPlans;
 use super::spr::{scaled, PatchSamples};
-use super::{binomial, Monomials, Recovered, Sample};
+use super::{Monomials, Recovered, Sample};
 use crate::element::ElementOrder;
 use crate::grid::Grid;
 
@@ -43,7 +43,6 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
     let basis = Monomials::new(plans.degree);
     let stride = basis.len() * NC;
     let cells = cell_data(grid, &basis, samples, plans);
-    let shift = Shift::new(&basis);
     let fits: Vec<Option<Vec<f64>>> = plans
         .plans
         .par_iter()
@@ -73,7 +72,11 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
                         x = reflect_point(grid, mask, x);
                     }
                     let t = [0, 1, 2].map(|k| (x[k] - centre[k]) / grid.h - centroid[k]);
-                    shift.accumulate::<NC>(t, m, atb);
+                    basis.for_each_shift(t, |e, f, w| {
+                        for c in 0..NC {
+                            atb[e * NC + c] += w * m[f * NC + c];
+                        }
+                    });
                 }
                 plan.factor.fit_moments(atb, NC).ok()
             },
@@ -173,47 +176,4 @@ fn reflect_moments<const NC: usize, S: PatchSamples<NC>>(
 fn cell_centre(grid: &Grid, cell: usize) -> [f64; 3] {
     let lo = grid.cell_box(cell).lo;
     lo.map(|v| v + 0.5 * grid.h)
-}
-
-/// The change of origin of the moments: `φ_e(ξ + t) = Σ_{f ≤ e} w_ef(t)
-/// φ_f(ξ)`, as the list of the pairs `f ≤ e` with their binomial factors.
-struct Shift {
-    degree: usize,
-    /// `(e, f, Π_k C(e_k, f_k), e − f)`.
-    pairs: Vec<(usize, usize, f64, [usize; 3])>,
-}
-
-impl Shift {
-    fn new(basis: &Monomials) -> Shift {
-        let exps = basis.exponents();
-        let mut pairs = Vec::new();
-        for (i, e) in exps.iter().enumerate() {
-            for (j, f) in exps.iter().enumerate() {
-                if (0..3).all(|k| f[k] <= e[k]) {
-                    let binom = (0..3).map(|k| binomial(e[k], f[k])).product();
-                    pairs.push((i, j, binom, [0, 1, 2].map(|k| e[k] - f[k])));
-                }
-            }
-        }
-        Shift {
-            degree: basis.degree(),
-            pairs,
-        }
-    }
-
-    /// `atb_e += Σ_{f ≤ e} w_ef(t) m_f` (`NC` components a term).
-    fn accumulate<const NC: usize>(&self, t: [f64; 3], m: &[f64], atb: &mut [f64]) {
-        let mut pw = [[1.0; 3]; super::MAX_DEGREE + 1];
-        for d in 1..=self.degree {
-            for k in 0..3 {
-                pw[d][k] = pw[d - 1][k] * t[k];
-            }
-        }
-        for &(e, f, binom, d) in &self.pairs {
-            let w = binom * pw[d[0]][0] * pw[d[1]][1] * pw[d[2]][2];
-            for c in 0..NC {
-                atb[e * NC + c] += w * m[f * NC + c];
-            }
-        }
-    }
 }

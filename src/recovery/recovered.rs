@@ -99,8 +99,9 @@ impl<const NC: usize> Recovered<NC> {
         Ok(self.cell_blend(cell)?.eval(x))
     }
 
-    /// [`Recovered::eval`] on `cell` with the cell's vertices looked up once,
-    /// for callers that evaluate many points of one cell.
+    /// [`Recovered::eval`] on `cell` with the cell's vertices looked up once
+    /// and their polynomials moved to one origin, for callers that evaluate
+    /// many points of one cell.
     ///
     /// # Panics
     /// When `cell` is not a cell of the grid.
@@ -108,35 +109,47 @@ impl<const NC: usize> Recovered<NC> {
         assert!(cell < self.grid.num_cells(), "cell {cell} out of range");
         let mut vertices = [0; 8];
         self.grid.cell_nodes(ElementOrder::Q1, cell, &mut vertices);
-        let mut coeffs: [&[f64]; 8] = [&[]; 8];
-        for (slot, &node) in coeffs.iter_mut().zip(&vertices) {
-            *slot = self.coefficients(node)?;
+        let (h, nb) = (self.grid.h, self.basis.len());
+        let lo = self.grid.cell_box(cell).lo;
+        // σ*_i(x) = Σ_e a_e φ_e((x − x_i)/h) = Σ_e a_e φ_e(ξ + t_i), with
+        // ξ = (x − lo)/h and t_i = (lo − x_i)/h.
+        let mut coeffs = vec![0.0; 8 * NC * nb];
+        for (b, &node) in coeffs.chunks_exact_mut(NC * nb).zip(&vertices) {
+            let a = self.coefficients(node)?;
+            let x = self.grid.node_position(ElementOrder::Q1, node);
+            let t = [0, 1, 2].map(|k| (lo[k] - x[k]) / h);
+            self.basis.for_each_shift(t, |e, f, w| {
+                for c in 0..NC {
+                    b[c * nb + f] += w * a[c * nb + e];
+                }
+            });
         }
         Ok(CellBlend {
             basis: &self.basis,
-            h: self.grid.h,
-            lo: self.grid.cell_box(cell).lo,
-            centers: vertices.map(|node| self.grid.node_position(ElementOrder::Q1, node)),
+            h,
+            lo,
             coeffs,
         })
     }
 }
 
-/// The CPE blend on one cell: its 8 vertices' positions and polynomials
-/// ([`Recovered::cell_blend`]).
+/// The CPE blend on one cell: its 8 vertices' polynomials in the cell's
+/// scaled coordinates `ξ = (x − lo)/h` ([`Recovered::cell_blend`]).
 pub struct CellBlend<'a, const NC: usize> {
     basis: &'a Monomials,
     h: f64,
     lo: [f64; 3],
-    centers: [[f64; 3]; 8],
-    coeffs: [&'a [f64]; 8],
+    /// Vertex `i`'s stacked coefficients at `i·NC·n_b` (component `c`, term
+    /// `j` at `c·n_b + j` within).
+    coeffs: Vec<f64>,
 }
 
 impl<const NC: usize> CellBlend<'_, NC> {
     /// `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` for `x` in the cell's box.
     pub fn eval(&self, x: [f64; 3]) -> [f64; NC] {
+        let xi = scaled(self.lo, self.h, x);
         let mut hat = [0.0; 8];
-        shape_values(ElementOrder::Q1, scaled(self.lo, self.h, x), &mut hat);
+        shape_values(ElementOrder::Q1, xi, &mut hat);
         let nb = self.basis.len();
         let mut small = [0.0; SMALL_BASIS];
         let mut large = Vec::new();
@@ -146,11 +159,11 @@ impl<const NC: usize> CellBlend<'_, NC> {
             large.resize(nb, 0.0);
             &mut large[..]
         };
+        self.basis.values(xi, phi);
         let mut out = [0.0; NC];
-        for ((center, a), &w) in self.centers.iter().zip(&self.coeffs).zip(&hat) {
-            let s: [f64; NC] = polynomial_at(self.basis, a, *center, self.h, x, phi);
-            for c in 0..NC {
-                out[c] += w * s[c];
+        for (b, &w) in self.coeffs.chunks_exact(NC * nb).zip(&hat) {
+            for (o, bc) in out.iter_mut().zip(b.chunks_exact(nb)) {
+                *o += w * bc.iter().zip(phi.iter()).map(|(a, p)| a * p).sum::<f64>();
             }
         }
         out

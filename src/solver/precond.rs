@@ -38,6 +38,39 @@ pub trait ApplyInverse<B: Backend> {
     fn apply_inverse(&self, r: &B::Vector, z: &mut B::Vector);
 }
 
+/// An [`ApplyInverse`] that counts its applications and the seconds they
+/// took (the V-cycles of a run, for its timings).
+pub struct TimedInverse<'a, B: Backend> {
+    inner: &'a dyn ApplyInverse<B>,
+    applications: std::cell::Cell<usize>,
+    seconds: std::cell::Cell<f64>,
+}
+
+impl<'a, B: Backend> TimedInverse<'a, B> {
+    pub fn new(inner: &'a dyn ApplyInverse<B>) -> Self {
+        TimedInverse {
+            inner,
+            applications: std::cell::Cell::new(0),
+            seconds: std::cell::Cell::new(0.0),
+        }
+    }
+
+    /// The applications so far and their seconds.
+    pub fn totals(&self) -> (usize, f64) {
+        (self.applications.get(), self.seconds.get())
+    }
+}
+
+impl<B: Backend> ApplyInverse<B> for TimedInverse<'_, B> {
+    fn apply_inverse(&self, r: &B::Vector, z: &mut B::Vector) {
+        let t = std::time::Instant::now();
+        self.inner.apply_inverse(r, z);
+        self.seconds
+            .set(self.seconds.get() + t.elapsed().as_secs_f64());
+        self.applications.set(self.applications.get() + 1);
+    }
+}
+
 /// `M⁻¹` on the backend: the identity, `D⁻¹` as a vector, or an
 /// [`ApplyInverse`] built by the caller.
 pub(crate) struct Precond<'p, B: Backend> {
