@@ -113,6 +113,20 @@ struct StepLanes<'a> {
     first: usize,
 }
 
+/// The operands' lanes one component of a rule reads: values (`a0`, `b0`),
+/// the component itself (`ak`, `bk`) and, for a Hessian component of axes
+/// `(i, j)`, the gradient components `i` and `j` (`ai`, `aj`, `bi`, `bj`).
+struct Ops<'a> {
+    a0: &'a Lane,
+    ak: &'a Lane,
+    ai: &'a Lane,
+    aj: &'a Lane,
+    b0: &'a Lane,
+    bk: &'a Lane,
+    bi: &'a Lane,
+    bj: &'a Lane,
+}
+
 impl StepLanes<'_> {
     #[inline(always)]
     fn a(&self, k: usize) -> &Lane {
@@ -124,32 +138,42 @@ impl StepLanes<'_> {
         &self.read[self.st.b[k] as usize]
     }
 
-    /// Writes `f(component, l)` into each active component.
+    /// Writes `f(ops, l)` into lane `l` of each active component.
     #[inline(always)]
-    fn each(&mut self, f: impl Fn(usize, usize) -> f64) {
-        self.rules(|l| f(0, l), &f, |k, _, _, l| f(k, l));
+    fn each(&mut self, f: impl Fn(&Ops, usize) -> f64) {
+        self.rules(&f, &f, &f);
     }
 
-    /// Writes the active components, lane `l`: `value(l)`, gradient
-    /// component `k` `grad(k, l)`, Hessian component `k` of axes `(i, j)`
-    /// `hess(k, i, j, l)`.
+    /// Writes the active components, lane `l`: the value `value(ops, l)`, a
+    /// gradient component `grad(ops, l)`, a Hessian component `hess(ops, l)`,
+    /// with the lanes `ops` of the component gathered before the loop over
+    /// the lanes (which the compiler then vectorises).
     #[inline(always)]
     fn rules(
         &mut self,
-        value: impl Fn(usize) -> f64,
-        grad: impl Fn(usize, usize) -> f64,
-        hess: impl Fn(usize, usize, usize, usize) -> f64,
+        value: impl Fn(&Ops, usize) -> f64,
+        grad: impl Fn(&Ops, usize) -> f64,
+        hess: impl Fn(&Ops, usize) -> f64,
     ) {
-        for &k in &self.st.active {
+        let (read, st) = (self.read, self.st);
+        for &k in &st.active {
             let k = k as usize;
-            let o = &mut self.write[self.st.out[k] as usize - self.first];
+            let (i, j) = if k >= 4 { HESSIAN[k - 4] } else { (0, 0) };
+            let ops = Ops {
+                a0: &read[st.a[0] as usize],
+                ak: &read[st.a[k] as usize],
+                ai: &read[st.a[1 + i] as usize],
+                aj: &read[st.a[1 + j] as usize],
+                b0: &read[st.b[0] as usize],
+                bk: &read[st.b[k] as usize],
+                bi: &read[st.b[1 + i] as usize],
+                bj: &read[st.b[1 + j] as usize],
+            };
+            let o = &mut self.write[st.out[k] as usize - self.first];
             match k {
-                0 => (0..LANES).for_each(|l| o[l] = value(l)),
-                1..=3 => (0..LANES).for_each(|l| o[l] = grad(k, l)),
-                _ => {
-                    let (i, j) = HESSIAN[k - 4];
-                    (0..LANES).for_each(|l| o[l] = hess(k, i, j, l));
-                }
+                0 => fill(o, &ops, &value),
+                1..=3 => fill(o, &ops, &grad),
+                _ => fill(o, &ops, &hess),
             }
         }
     }
@@ -157,47 +181,41 @@ impl StepLanes<'_> {
     /// `g(a)` from the lanes `s = [g, g', g'']`.
     #[inline(always)]
     fn chain(&mut self, s: &[Lane; 6]) {
-        let (read, st) = (self.read, self.st);
-        let a = |k: usize| &read[st.a[k] as usize];
         self.rules(
-            |l| s[0][l],
-            |k, l| s[1][l] * a(k)[l],
-            |k, i, j, l| s[2][l] * (a(1 + i)[l] * a(1 + j)[l]) + s[1][l] * a(k)[l],
+            |_, l| s[0][l],
+            |p, l| s[1][l] * p.ak[l],
+            |p, l| s[2][l] * (p.ai[l] * p.aj[l]) + s[1][l] * p.ak[l],
         );
     }
 
     #[inline(always)]
     fn binary(&mut self, op: Op2, order: Order, s: &mut [Lane; 6]) {
-        let (read, st) = (self.read, self.st);
-        let a = |k: usize| &read[st.a[k] as usize];
-        let b = |k: usize| &read[st.b[k] as usize];
         match op {
-            Op2::Add => self.each(|k, l| a(k)[l] + b(k)[l]),
-            Op2::Sub => self.each(|k, l| a(k)[l] - b(k)[l]),
-            Op2::Min => self.each(|k, l| (if b(0)[l] < a(0)[l] { b(k) } else { a(k) })[l]),
-            Op2::Max => self.each(|k, l| (if b(0)[l] > a(0)[l] { b(k) } else { a(k) })[l]),
+            Op2::Add => self.each(|p, l| p.ak[l] + p.bk[l]),
+            Op2::Sub => self.each(|p, l| p.ak[l] - p.bk[l]),
+            Op2::Min => self.each(|p, l| if p.b0[l] < p.a0[l] { p.bk[l] } else { p.ak[l] }),
+            Op2::Max => self.each(|p, l| if p.b0[l] > p.a0[l] { p.bk[l] } else { p.ak[l] }),
             // `f_u = v`, `f_v = u`, `f_uu = f_vv = 0`, `f_uv = 1`.
             Op2::Mul => self.rules(
-                |l| a(0)[l] * b(0)[l],
-                |k, l| b(0)[l] * a(k)[l] + a(0)[l] * b(k)[l],
-                |k, i, j, l| {
-                    (b(0)[l] * a(k)[l] + a(0)[l] * b(k)[l])
-                        + (a(1 + i)[l] * b(1 + j)[l] + b(1 + i)[l] * a(1 + j)[l])
+                |p, l| p.a0[l] * p.b0[l],
+                |p, l| p.b0[l] * p.ak[l] + p.a0[l] * p.bk[l],
+                |p, l| {
+                    (p.b0[l] * p.ak[l] + p.a0[l] * p.bk[l])
+                        + (p.ai[l] * p.bj[l] + p.bi[l] * p.aj[l])
                 },
             ),
             Op2::Div | Op2::Atan2 | Op2::Pow => {
                 self.binary_partials(op, order, s);
-                let p = |q: usize, l: usize| s[q][l];
+                let s: &[Lane; 6] = s;
                 self.rules(
-                    |l| p(0, l),
-                    |k, l| p(1, l) * a(k)[l] + p(2, l) * b(k)[l],
-                    |k, i, j, l| {
-                        let (ui, uj, vi, vj) = (a(1 + i)[l], a(1 + j)[l], b(1 + i)[l], b(1 + j)[l]);
-                        p(1, l) * a(k)[l]
-                            + p(2, l) * b(k)[l]
-                            + p(3, l) * (ui * uj)
-                            + p(5, l) * (vi * vj)
-                            + p(4, l) * (ui * vj + vi * uj)
+                    |_, l| s[0][l],
+                    |p, l| s[1][l] * p.ak[l] + s[2][l] * p.bk[l],
+                    |p, l| {
+                        s[1][l] * p.ak[l]
+                            + s[2][l] * p.bk[l]
+                            + s[3][l] * (p.ai[l] * p.aj[l])
+                            + s[5][l] * (p.bi[l] * p.bj[l])
+                            + s[4][l] * (p.ai[l] * p.bj[l] + p.bi[l] * p.aj[l])
                     },
                 );
             }
@@ -209,9 +227,10 @@ impl StepLanes<'_> {
     /// rule there, as the recursive evaluator does.
     #[inline(always)]
     fn binary_partials(&self, op: Op2, order: Order, s: &mut [Lane; 6]) {
-        let n = order.components();
+        let (a, b) = (self.a(0), self.b(0));
+        let slopes: Vec<&Lane> = (1..order.components()).map(|k| self.b(k)).collect();
         for l in 0..LANES {
-            let (u, v) = (self.a(0)[l], self.b(0)[l]);
+            let (u, v) = (a[l], b[l]);
             let p = match op {
                 _ if order == Order::Value => Partials {
                     value: op.value(u, v),
@@ -220,7 +239,7 @@ impl StepLanes<'_> {
                 },
                 Op2::Div => div_partials(u, v),
                 Op2::Atan2 => atan2_partials(u, v),
-                _ if (1..n).all(|k| self.b(k)[l] == 0.0) => {
+                _ if slopes.iter().all(|d| d[l] == 0.0) => {
                     let [g, d1, d2] = power_rule(u, v);
                     Partials {
                         value: g,
@@ -235,6 +254,14 @@ impl StepLanes<'_> {
                 s[q][l] = x;
             }
         }
+    }
+}
+
+/// `o[l] = f(ops, l)` over the lanes.
+#[inline(always)]
+fn fill(o: &mut Lane, ops: &Ops, f: &impl Fn(&Ops, usize) -> f64) {
+    for (l, o) in o.iter_mut().enumerate() {
+        *o = f(ops, l);
     }
 }
 
