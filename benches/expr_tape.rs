@@ -57,13 +57,17 @@ fn main() {
                 recursive / batched
             );
         };
-        let recursive = ns_per_point(|| xs.iter().map(|&x| u.value_and_gradient(x)).last());
+        let recursive = ns_per_point(|| {
+            xs.iter()
+                .map(|&x| u.value_and_gradient(x).1[0][0])
+                .sum::<f64>()
+        });
         let batched = ns_per_point(|| tape.values_and_gradients(&xs, &mut values, &mut grads));
         row("value+gradient", recursive, batched);
         let recursive = ns_per_point(|| {
             xs.iter()
-                .map(|&x| body_load_from_displacement(&u, lambda, mu, x))
-                .last()
+                .map(|&x| body_load_from_displacement(&u, lambda, mu, x)[0])
+                .sum::<f64>()
         });
         let batched = ns_per_point(|| tape.body_loads(lambda, mu, &xs, &mut values));
         row("Hessian (body load)", recursive, batched);
