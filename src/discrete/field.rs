@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use super::dofs::DofMap;
 use crate::cells::{CellKind, Cells};
 use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
-use crate::expr::VectorExpr;
+use crate::expr::{VectorExpr, VectorTape};
 use crate::grid::Grid;
 
 /// `u_h(x)` and `∇u_h(x)` (`g[i][j] = ∂u_i/∂x_j`) at a point of `cell`.
@@ -59,24 +59,48 @@ impl CellField {
 
     /// `u_h(x)` and `∇u_h(x)` at a point `x` of the cell.
     pub fn value_and_gradient(&self, x: [f64; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
-        let npc = self.nodes_per_cell;
-        let mut n = [0.0; 27];
-        let mut dn = [[0.0; 3]; 27];
         let xi = [0, 1, 2].map(|a| (x[a] - self.lo[a]) / self.h);
-        shape_values(self.order, xi, &mut n[..npc]);
-        shape_gradients(self.order, xi, &mut dn[..npc]);
+        self.at(&Shapes::at(self.order, xi, self.h))
+    }
+
+    /// `u_h` and `∇u_h` at the point whose shape functions are `s`.
+    fn at(&self, s: &Shapes) -> ([f64; 3], [[f64; 3]; 3]) {
         let mut val = [0.0; 3];
         let mut grad = [[0.0; 3]; 3];
-        for a in 0..npc {
+        for a in 0..self.nodes_per_cell {
             for i in 0..3 {
                 let ui = self.values[a][i];
-                val[i] += n[a] * ui;
+                val[i] += s.n[a] * ui;
                 for j in 0..3 {
-                    grad[i][j] += dn[a][j] / self.h * ui;
+                    grad[i][j] += s.dn[a][j] * ui;
                 }
             }
         }
         (val, grad)
+    }
+}
+
+/// The shape functions at a point of a cell of size `h`: values and
+/// gradients in physical coordinates (`∂N/∂ξ / h`), tabulated once per
+/// quadrature point of a rule for all inside cells.
+struct Shapes {
+    n: [f64; 27],
+    dn: [[f64; 3]; 27],
+}
+
+impl Shapes {
+    fn at(order: ElementOrder, xi: [f64; 3], h: f64) -> Shapes {
+        let npc = order.nodes_per_cell();
+        let mut s = Shapes {
+            n: [0.0; 27],
+            dn: [[0.0; 3]; 27],
+        };
+        shape_values(order, xi, &mut s.n[..npc]);
+        shape_gradients(order, xi, &mut s.dn[..npc]);
+        for d in &mut s.dn[..npc] {
+            *d = d.map(|v| v / h);
+        }
+        s
     }
 }
 
@@ -107,13 +131,25 @@ fn energy_density(g: &[[f64; 3]; 3], lambda: f64, mu: f64) -> f64 {
 
 /// The nodal interpolant of `u` on the active nodes.
 pub fn interpolate(grid: &Grid, dofs: &DofMap, u: &VectorExpr) -> Vec<f64> {
+    let tape = u.tape();
     let mut out = vec![0.0; dofs.ndofs()];
-    out.par_chunks_mut(3).enumerate().for_each(|(a, o)| {
-        let x = grid.node_position(dofs.order, dofs.active_to_node[a] as usize);
-        o.copy_from_slice(&u.eval(x));
-    });
+    out.par_chunks_mut(3 * POINT_CHUNK)
+        .enumerate()
+        .for_each(|(k, o)| {
+            let first = k * POINT_CHUNK;
+            let xs: Vec<[f64; 3]> = (first..first + o.len() / 3)
+                .map(|a| grid.node_position(dofs.order, dofs.active_to_node[a] as usize))
+                .collect();
+            let mut values = vec![[0.0; 3]; xs.len()];
+            tape.values(&xs, &mut values);
+            o.copy_from_slice(values.as_flattened());
+        });
     out
 }
+
+/// Points per batched evaluation of an exact field where the points are not
+/// gathered per cell.
+const POINT_CHUNK: usize = 1024;
 
 /// Errors of `u_h` against the exact field.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -155,16 +191,22 @@ fn error_norms_of<const N: usize>(
     mu: f64,
 ) -> [ErrorNorms; N] {
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
+    let shapes: Vec<Shapes> = rule
+        .iter()
+        .map(|(xi, _)| Shapes::at(dofs.order, *xi, grid.h))
+        .collect();
+    let tape = exact.tape();
     let vol = grid.h.powi(3);
     // Per field: [energy of e, energy of u, L2 of e, L2 of u], weighted.
     type Sums<const N: usize> = [[f64; 4]; N];
     let cell_fields = |cell: usize| fields.map(|u_h| CellField::new(grid, dofs, u_h, cell));
-    let point = |cell_fields: &[CellField; N], x: [f64; 3], w: f64| -> Sums<N> {
-        let (ue, ge) = exact.value_and_gradient(x);
+    // The sums at one point from the exact value `ue` and gradient `ge` and
+    // the fields' value and gradient `fe(field)`.
+    let point = |ue: [f64; 3], ge: [[f64; 3]; 3], w: f64, fe: &dyn Fn(usize) -> Exact| -> Sums<N> {
         let energy_u = w * energy_density(&ge, lambda, mu);
         let ul2: f64 = (0..3).map(|i| ue[i].powi(2)).sum();
-        cell_fields.each_ref().map(|field| {
-            let (v, g) = field.value_and_gradient(x);
+        std::array::from_fn(|f| {
+            let (v, g) = fe(f);
             let e: [[f64; 3]; 3] =
                 std::array::from_fn(|i| std::array::from_fn(|j| ge[i][j] - g[i][j]));
             let el2: f64 = (0..3).map(|i| (ue[i] - v[i]).powi(2)).sum();
@@ -180,26 +222,52 @@ fn error_norms_of<const N: usize>(
         std::array::from_fn(|f| std::array::from_fn(|k| a[f][k] + b[f][k]))
     };
     let zero = [[0.0; 4]; N];
-    let inside = (0..grid.num_cells())
-        .into_par_iter()
+    let inside: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| cells.kinds[c] == CellKind::Inside)
-        .map(|c| {
-            let lo = grid.cell_box(c).lo;
-            let fields = cell_fields(c);
-            rule.iter().fold(zero, |acc, (xi, w)| {
-                let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-                add(acc, point(&fields, x, w * vol))
+        .collect();
+    let inside = inside
+        .par_chunks(NORM_GROUP)
+        .map(|group| {
+            let xs: Vec<[f64; 3]> = group
+                .iter()
+                .flat_map(|&c| {
+                    let lo = grid.cell_box(c).lo;
+                    rule.iter()
+                        .map(move |(xi, _)| [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]))
+                })
+                .collect();
+            let (ue, ge) = exact_at(&tape, &xs);
+            let mut k = 0;
+            group.iter().fold(zero, |acc, &c| {
+                let fields = cell_fields(c);
+                let cell = rule.iter().zip(&shapes).fold(zero, |acc, ((_, w), s)| {
+                    k += 1;
+                    add(
+                        acc,
+                        point(ue[k - 1], ge[k - 1], w * vol, &|f| fields[f].at(s)),
+                    )
+                });
+                add(acc, cell)
             })
         })
         .reduce(|| zero, add);
-    let cut = (0..cells.cut.len())
-        .into_par_iter()
-        .map(|i| {
-            let fields = cell_fields(cells.cut[i]);
-            cells
-                .volume_points(i)
-                .iter()
-                .fold(zero, |acc, q| add(acc, point(&fields, q.x, q.w)))
+    let cut: Vec<usize> = (0..cells.cut.len()).collect();
+    let cut = cut
+        .par_chunks(NORM_GROUP)
+        .map(|group| {
+            let points = |i: usize| cells.volume_points(i).iter();
+            let xs: Vec<[f64; 3]> = group.iter().flat_map(|&i| points(i).map(|q| q.x)).collect();
+            let (ue, ge) = exact_at(&tape, &xs);
+            let mut k = 0;
+            group.iter().fold(zero, |acc, &i| {
+                let fields = cell_fields(cells.cut[i]);
+                let cell = points(i).fold(zero, |acc, q| {
+                    k += 1;
+                    let fe = |f: usize| fields[f].value_and_gradient(q.x);
+                    add(acc, point(ue[k - 1], ge[k - 1], q.w, &fe))
+                });
+                add(acc, cell)
+            })
         })
         .reduce(|| zero, add);
     // `NaN.max(0.0)` is 0 in Rust: keep a NaN a NaN (null in the report).
@@ -210,6 +278,21 @@ fn error_norms_of<const N: usize>(
         l2: s[2].sqrt(),
         l2_relative: (s[2] / s[3]).sqrt(),
     })
+}
+
+/// Cells whose quadrature points [`error_norms_of`] evaluates the exact field
+/// at in one batched call.
+const NORM_GROUP: usize = 16;
+
+/// A value and a gradient of a vector field.
+type Exact = ([f64; 3], [[f64; 3]; 3]);
+
+/// The values and gradients of the compiled field `tape` at `xs`.
+fn exact_at(tape: &VectorTape, xs: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<[[f64; 3]; 3]>) {
+    let mut values = vec![[0.0; 3]; xs.len()];
+    let mut gradients = vec![[[0.0; 3]; 3]; xs.len()];
+    tape.values_and_gradients(xs, &mut values, &mut gradients);
+    (values, gradients)
 }
 
 /// A nodal value of the exact field more than this many times its largest
@@ -264,22 +347,37 @@ fn singular_node(
     exact: &VectorExpr,
     ui: &[f64],
 ) -> Result<(), String> {
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let inside = (0..grid.num_cells())
-        .into_par_iter()
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let tape = exact.tape();
+    let largest = |xs: &[[f64; 3]]| {
+        let mut values = vec![[0.0; 3]; xs.len()];
+        tape.values(xs, &mut values);
+        values.iter().map(norm).fold(0.0, f64::max)
+    };
+    let inside: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| cells.kinds[c] == CellKind::Inside)
-        .map(|c| {
-            let b = grid.cell_box(c);
-            norm(exact.eval([0, 1, 2].map(|a| 0.5 * (b.lo[a] + b.hi[a]))))
+        .collect();
+    let inside = inside
+        .par_chunks(POINT_CHUNK)
+        .map(|group| {
+            let centre = |c: &usize| {
+                let b = grid.cell_box(*c);
+                [0, 1, 2].map(|a| 0.5 * (b.lo[a] + b.hi[a]))
+            };
+            largest(&group.iter().map(centre).collect::<Vec<_>>())
         })
         .reduce(|| 0.0, f64::max);
-    let cut = (0..cells.cut.len())
-        .into_par_iter()
-        .flat_map_iter(|i| cells.volume_points(i).iter().map(|q| norm(exact.eval(q.x))))
+    let cut: Vec<usize> = (0..cells.cut.len()).collect();
+    let cut = cut
+        .par_chunks(NORM_GROUP)
+        .map(|group| {
+            let points = |i: &usize| cells.volume_points(*i).iter().map(|q| q.x);
+            largest(&group.iter().flat_map(points).collect::<Vec<_>>())
+        })
         .reduce(|| 0.0, f64::max);
     let scale = inside.max(cut);
     for (a, v) in ui.chunks(3).enumerate() {
-        let m = norm([v[0], v[1], v[2]]);
+        let m = norm(&[v[0], v[1], v[2]]);
         let singular = !m.is_finite() || (scale > 0.0 && m > SINGULAR_RATIO * scale);
         if singular {
             let x = grid.node_position(dofs.order, dofs.active_to_node[a] as usize);

@@ -201,7 +201,11 @@ fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFi
         level_set(geometry, &points),
     ];
     if let Some(exact) = &setup.problem.exact {
-        let ue: Vec<[f64; 3]> = points.par_iter().map(|&x| exact.eval(x)).collect();
+        let tape = exact.tape();
+        let mut ue = vec![[0.0; 3]; points.len()];
+        ue.par_chunks_mut(1024)
+            .zip(points.par_chunks(1024))
+            .for_each(|(ue, xs)| tape.values(xs, ue));
         point_data.push(DataArray::vectors("exact_displacement", &ue));
     }
     let mut fraction = vec![1.0; body.len()];

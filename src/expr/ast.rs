@@ -40,7 +40,7 @@ impl Constant {
 }
 
 /// One-operand operations: negation and the one-argument functions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum Op1 {
     Neg,
     Sin,
@@ -92,7 +92,7 @@ impl Op1 {
 
 /// Two-operand operations: the arithmetic operators and the two-argument
 /// functions (`pow` is `^`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum Op2 {
     Add,
     Sub,

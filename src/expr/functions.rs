@@ -7,7 +7,7 @@ use super::ast::{Op1, Op2, Scalar};
 
 /// Integer exponents up to this size are evaluated by repeated
 /// multiplication (exact for negative bases); others with `powf`.
-const MAX_POWI: f64 = 64.0;
+pub(super) const MAX_POWI: f64 = 64.0;
 
 /// Value and partial derivatives of `f(a, b)`: `first = [f_a, f_b]`,
 /// `second = [f_aa, f_ab, f_bb]`.

@@ -9,16 +9,25 @@
 //! unary `-` and `+`, parentheses, the functions `sin cos tan exp log sqrt abs
 //! sinh cosh tanh atan` of one argument and `atan2 min max pow` of two.
 //! Submodules: `ast` (tree, printing), `lexer`, `parser`, `functions`
-//! (scalar maths), `dual` (first-order AD), `jet` (second-order AD) and
-//! `elasticity` (vector fields and the derived stress and body load).
+//! (scalar maths), `dual` (first-order AD), `jet` (second-order AD),
+//! `tape` (trees compiled into a tape of operations on slots), `lanes` (the
+//! tape evaluated over batches of points, values and derivatives) and
+//! `elasticity` (vector fields and the derived stress and body load, point by
+//! point and in batches).
+//!
+//! The recursive evaluation of the tree ([`Expr::eval`] and the AD types) is
+//! the reference, and the faster one for a single point; callers with many
+//! points compile a [`VectorTape`] once and evaluate it in batches.
 
 mod ast;
 mod dual;
 mod elasticity;
 mod functions;
 mod jet;
+mod lanes;
 mod lexer;
 mod parser;
+mod tape;
 #[cfg(test)]
 mod tests;
 
@@ -31,7 +40,9 @@ use ast::{Node, Op1};
 use dual::Dual;
 use jet::Jet;
 
-pub use elasticity::{body_load_from_displacement, stress_from_displacement, VectorExpr};
+pub use elasticity::{
+    body_load_from_displacement, stress_from_displacement, VectorExpr, VectorTape,
+};
 
 /// A parsed expression in `x`, `y`, `z`, with the text it came from.
 ///

@@ -69,7 +69,9 @@ use rayon::prelude::*;
 
 use super::moment_fit::{lagrange, lagrange_derivative, FitBasis};
 use super::problem::{Boundary, Problem};
-use super::rhs::{add_cell_loads, add_element_point_load, add_point_load, DirichletPoint};
+use super::rhs::{
+    add_cell_loads, add_element_point_load, add_point_load, per_item, DirichletPoint,
+};
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
 use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
@@ -214,13 +216,14 @@ impl FluxCorrection {
             .filter(|&i| self.exact_share[i] > 0.0)
             .collect();
         let cell_of = |i: usize| cells.cut[i];
-        add_cell_loads(grid, dofs, &exact, &cell_of, rhs, |i, fe| {
+        let element = per_item(|i, fe| {
             let c = cells.cut[i];
             let mut tau = |x: [f64; 3]| Ok(problem.exact_stress(x).unwrap_or([[0.0; 3]; 3]));
             let mut sink = |x, f| add_element_point_load(grid, dofs.order, c, x, f, fe);
             self.for_each_load(grid, cells, i, self.exact_share[i], &mut tau, &mut sink)
-        })
-        .expect("the exact stress is infallible");
+        });
+        add_cell_loads(grid, dofs, &exact, &cell_of, rhs, element)
+            .expect("the exact stress is infallible");
         for &(i, tag, share) in &self.pressure_share {
             let c = cells.cut[i];
             let mut tau = |x: [f64; 3]| {
@@ -244,13 +247,14 @@ impl FluxCorrection {
     ) -> Result<()> {
         let recovered: Vec<usize> = self.recovered_cells().collect();
         let cell_of = |i: usize| cells.cut[i];
-        add_cell_loads(grid, dofs, &recovered, &cell_of, rhs, |i, fe| {
+        let element = per_item(|i, fe| {
             let c = cells.cut[i];
             let blend = sigma.cell_blend(c)?;
             let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
             let mut sink = |x, f| add_element_point_load(grid, dofs.order, c, x, f, fe);
             self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)
-        })
+        });
+        add_cell_loads(grid, dofs, &recovered, &cell_of, rhs, element)
     }
 }
 

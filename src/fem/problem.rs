@@ -8,7 +8,7 @@ use crate::case::boundary::{DirichletSpec, NeumannSpec};
 use crate::case::physics::FieldValue;
 use crate::case::Case;
 use crate::element::reference::lame;
-use crate::expr::{body_load_from_displacement, stress_from_displacement, VectorExpr};
+use crate::expr::{body_load_from_displacement, stress_from_displacement, VectorExpr, VectorTape};
 
 /// The condition on one boundary part.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +30,9 @@ pub struct Problem {
     pub mu: f64,
     pub exact: Option<VectorExpr>,
     body: Option<FieldValue>,
+    /// The body load's field compiled (the given load, or the exact field
+    /// whose load it is), for [`Problem::body_loads`].
+    body_tape: Option<VectorTape>,
     /// Per boundary tag id.
     pub boundary: Vec<Boundary>,
 }
@@ -44,6 +47,11 @@ impl Problem {
             (Some(b), _) => Some(b.value.clone()),
             (None, Some(_)) => Some(FieldValue::Exact),
             (None, None) => None,
+        };
+        let body_tape = match &body {
+            Some(FieldValue::Given(v)) => Some(v.tape()),
+            Some(FieldValue::Exact) => exact.as_ref().map(VectorExpr::tape),
+            None => None,
         };
         let boundary = case
             .body()
@@ -67,6 +75,7 @@ impl Problem {
             mu,
             exact,
             body,
+            body_tape,
             boundary,
         }
     }
@@ -106,6 +115,16 @@ impl Problem {
             Some(FieldValue::Exact) => {
                 body_load_from_displacement(self.exact(), self.lambda, self.mu, x)
             }
+        }
+    }
+
+    /// The body loads at the points `xs`, into `out` (as long): the values of
+    /// [`Problem::body_load`], computed in batches.
+    pub fn body_loads(&self, xs: &[[f64; 3]], out: &mut [[f64; 3]]) {
+        match (&self.body, &self.body_tape) {
+            (Some(FieldValue::Given(_)), Some(tape)) => tape.values(xs, out),
+            (Some(FieldValue::Exact), Some(tape)) => tape.body_loads(self.lambda, self.mu, xs, out),
+            _ => out.fill([0.0; 3]),
         }
     }
 

@@ -98,16 +98,7 @@ pub fn fixed_rhs(
     let mut rhs = vec![0.0; dofs.ndofs()];
     if problem.has_body_load() {
         add_inside_body_load(grid, cells, dofs, problem, &mut rhs);
-        let cut: Vec<usize> = (0..cells.cut.len()).collect();
-        let cell_of = |i: usize| cells.cut[i];
-        add_cell_loads(grid, dofs, &cut, &cell_of, &mut rhs, |i, fe| {
-            for q in cells.volume_points(i) {
-                let b = problem.body_load(q.x).map(|v| v * q.w);
-                add_element_point_load(grid, dofs.order, cells.cut[i], q.x, b, fe);
-            }
-            Ok(())
-        })
-        .expect("a body load is infallible");
+        add_cut_body_load(grid, cells, dofs, problem, &mut rhs);
     }
     for (i, &c) in cells.cut.iter().enumerate() {
         for q in cells.surface_points(i) {
@@ -148,15 +139,52 @@ fn add_inside_body_load(
         .filter(|&c| cells.kinds[c] == CellKind::Inside)
         .collect();
     let cell_of = |c: usize| c;
-    add_cell_loads(grid, dofs, &inside, &cell_of, rhs, |c, fe| {
-        let lo = grid.cell_box(c).lo;
-        for ((xi, w), n) in rule.iter().zip(&shapes) {
-            let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-            let b = problem.body_load(x).map(|v| v * w * vol);
-            for a in 0..npc {
-                for d in 0..3 {
-                    fe[3 * a + d] += n[a] * b[d];
+    add_cell_loads(grid, dofs, &inside, &cell_of, rhs, |group, fes| {
+        let xs: Vec<[f64; 3]> = group
+            .iter()
+            .flat_map(|&c| {
+                let lo = grid.cell_box(c).lo;
+                rule.iter()
+                    .map(move |(xi, _)| [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]))
+            })
+            .collect();
+        let mut loads = vec![[0.0; 3]; xs.len()];
+        problem.body_loads(&xs, &mut loads);
+        for (fe, loads) in fes.iter_mut().zip(loads.chunks(rule.len())) {
+            for (((_, w), n), b) in rule.iter().zip(&shapes).zip(loads) {
+                let b = b.map(|v| v * w * vol);
+                for a in 0..npc {
+                    for d in 0..3 {
+                        fe[3 * a + d] += n[a] * b[d];
+                    }
                 }
+            }
+        }
+        Ok(())
+    })
+    .expect("a body load is infallible");
+}
+
+/// The body load of the cut cells on their volume points.
+fn add_cut_body_load(
+    grid: &Grid,
+    cells: &Cells,
+    dofs: &DofMap,
+    problem: &Problem,
+    rhs: &mut [f64],
+) {
+    let cut: Vec<usize> = (0..cells.cut.len()).collect();
+    let cell_of = |i: usize| cells.cut[i];
+    add_cell_loads(grid, dofs, &cut, &cell_of, rhs, |group, fes| {
+        let points = |i: usize| cells.volume_points(i).iter();
+        let xs: Vec<[f64; 3]> = group.iter().flat_map(|&i| points(i).map(|q| q.x)).collect();
+        let mut loads = vec![[0.0; 3]; xs.len()];
+        problem.body_loads(&xs, &mut loads);
+        let mut loads = loads.iter();
+        for (&i, fe) in group.iter().zip(fes) {
+            for (q, b) in points(i).zip(&mut loads) {
+                let b = b.map(|v| v * q.w);
+                add_element_point_load(grid, dofs.order, cells.cut[i], q.x, b, fe);
             }
         }
         Ok(())
@@ -168,15 +196,20 @@ fn add_inside_body_load(
 /// vectors held at a time.
 const LOAD_BLOCK: usize = 4096;
 
+/// Cells whose element vectors one call of [`add_cell_loads`]'s `element`
+/// computes: enough points for batched evaluations of expressions.
+const LOAD_GROUP: usize = 16;
+
 /// One cell's load vector, node-major (`3 a + d`), room for a Q2 cell.
 pub type ElementLoad = [f64; 81];
 
-/// Adds the element load vectors of `items` to `rhs`: `element(item, fe)`
-/// accumulates the vector of the cell `cell_of(item)` into `fe` (zeroed
-/// before the call). The vectors of a block of items are computed in
-/// parallel, then scattered in item order, so that the sum does not depend
-/// on the thread count. An error of an element stops the sum and is returned
-/// (`rhs` is then partly summed).
+/// Adds the element load vectors of `items` to `rhs`: `element(group, fes)`
+/// accumulates the vector of the cell `cell_of(group[k])` into `fes[k]`
+/// (zeroed before the call), for groups of up to [`LOAD_GROUP`] consecutive
+/// items. The vectors of a block of items are computed in parallel, then
+/// scattered in item order, so that the sum does not depend on the thread
+/// count. An error of an element stops the sum and is returned (`rhs` is
+/// then partly summed).
 pub fn add_cell_loads<F>(
     grid: &Grid,
     dofs: &DofMap,
@@ -186,18 +219,18 @@ pub fn add_cell_loads<F>(
     element: F,
 ) -> Result<()>
 where
-    F: Fn(usize, &mut ElementLoad) -> Result<()> + Sync,
+    F: Fn(&[usize], &mut [ElementLoad]) -> Result<()> + Sync,
 {
     let npc = dofs.order.nodes_per_cell();
     let mut block = vec![[0.0; 81]; LOAD_BLOCK.min(items.len())];
     let mut nodes = [0usize; 27];
     for chunk in items.chunks(LOAD_BLOCK) {
         block[..chunk.len()]
-            .par_iter_mut()
-            .zip(chunk.par_iter())
-            .try_for_each(|(fe, &item)| {
-                *fe = [0.0; 81];
-                element(item, fe)
+            .par_chunks_mut(LOAD_GROUP)
+            .zip(chunk.par_chunks(LOAD_GROUP))
+            .try_for_each(|(fes, group)| {
+                fes.fill([0.0; 81]);
+                element(group, fes)
             })?;
         for (fe, &item) in block.iter().zip(chunk) {
             dofs.cell_active_nodes(grid, cell_of(item), &mut nodes[..npc]);
@@ -209,6 +242,15 @@ where
         }
     }
     Ok(())
+}
+
+/// The `element` of [`add_cell_loads`] that computes each item's vector
+/// with `one(item, fe)`.
+pub fn per_item<F>(one: F) -> impl Fn(&[usize], &mut [ElementLoad]) -> Result<()> + Sync
+where
+    F: Fn(usize, &mut ElementLoad) -> Result<()> + Sync,
+{
+    move |group, fes| group.iter().zip(fes).try_for_each(|(&i, fe)| one(i, fe))
 }
 
 /// Adds `N(x)ᵀ f` to the element vector `fe` of `cell` (node-major).

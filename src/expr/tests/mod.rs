@@ -1,12 +1,14 @@
 //! Tests of the expression module: parsing and evaluation, errors, exact
 //! derivatives against finite differences, the elasticity helpers, and a fuzz
-//! of the parser and the printer.
+//! of the parser and the printer, and the batched tape against the recursive
+//! evaluator.
 
 mod derivatives;
 mod elasticity;
 mod errors;
 mod fuzz;
 mod parsing;
+mod tape;
 
 use super::Expr;
 
