@@ -14,6 +14,7 @@ pub mod moment_fit;
 pub mod operator;
 pub mod problem;
 pub mod q1_forms;
+pub mod q2_stencil;
 pub mod rhs;
 pub mod rigid_resultant;
 pub mod stencil;
