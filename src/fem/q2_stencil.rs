@@ -274,3 +274,22 @@ fn store<const N: usize>(out: &[[[f64; 4]; N]; 3], y: &mut [f64], a0: usize, cou
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::element::reference::reference_stiffness;
+    use crate::element::ElementOrder;
+
+    #[test]
+    fn the_stencils_keep_the_couplings_that_do_not_vanish() {
+        let k = reference_stiffness(ElementOrder::Q2, 1000.0, 0.3) * 0.25;
+        let k: Vec<f64> = (0..81 * 81).map(|e| k[(e / 81, e % 81)]).collect();
+        let s = Q2Stencil::new(&k);
+        // Types by the number of odd coordinates: 0, 1, 2, 3.
+        let expected = [855, 481, 481, 271, 481, 271, 271, 153];
+        for (t, &e) in expected.iter().enumerate() {
+            assert_eq!(s.terms(t), e, "type {t}");
+        }
+    }
+}
