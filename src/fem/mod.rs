@@ -8,6 +8,7 @@ pub mod checks;
 pub mod component_penalty;
 pub mod cut_apply;
 pub mod fast_apply;
+mod fast_plan;
 pub mod flux_consistency;
 pub mod level;
 pub mod moment_fit;
