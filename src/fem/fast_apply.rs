@@ -68,13 +68,13 @@ pub(super) struct CellData<'a> {
 #[derive(Clone, Debug)]
 enum Interior {
     Q1 {
-        stencil: Stencil,
+        stencil: Box<Stencil>,
         runs: Vec<Run>,
         /// The whole cell's factored form.
         inside: Q1Forms,
     },
     Q2 {
-        stencil: Q2Stencil,
+        stencil: Box<Q2Stencil>,
         runs: Vec<q2_stencil::Run>,
         /// The kernel at the Gauss points and the whole cell's weights.
         kernel: CutKernel,
@@ -127,14 +127,14 @@ impl FastApply {
         }
         let interior = match order {
             ElementOrder::Q1 => Interior::Q1 {
-                stencil: Stencil::new(m.inside),
+                stencil: Box::new(Stencil::new(m.inside)),
                 runs: q1_runs(grid, m, active_to_node, &interior),
                 inside: Q1Forms::inside(basis, lame, grid.h),
             },
             ElementOrder::Q2 => {
                 let (kernel, weights) = CutKernel::gauss(lame, grid.h);
                 Interior::Q2 {
-                    stencil: Q2Stencil::new(m.inside),
+                    stencil: Box::new(Q2Stencil::new(m.inside)),
                     runs: q2_runs(grid, m, active_to_node, &interior),
                     kernel,
                     weights,
@@ -222,7 +222,7 @@ impl FastApply {
     /// The Q1 interior stencil and its runs (ascending), or `None` for Q2.
     pub fn q1(&self) -> Option<(&Stencil, &[Run])> {
         match &self.interior {
-            Interior::Q1 { stencil, runs, .. } => Some((stencil, runs)),
+            Interior::Q1 { stencil, runs, .. } => Some((&**stencil, runs)),
             Interior::Q2 { .. } => None,
         }
     }
