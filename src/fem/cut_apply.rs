@@ -19,6 +19,11 @@
 //! one axis at a time, the four inputs folded into two after `z` and one
 //! after `x`.
 //!
+//! The same kernel at the `p + 1` Gauss points per axis with the weights of
+//! the whole cell ([`CutKernel::gauss`], [`Uniform`]) multiplies inside cells
+//! by `h K_ref`: the fast apply's cells next to the boundary
+//! ([`super::fast_apply`]).
+//!
 //! # Batches
 //! [`LANES`] cells are processed together, one per SIMD lane: every
 //! operation above is then a vector operation with no shuffles. Where the CPU
@@ -29,6 +34,7 @@ use rayon::prelude::*;
 use super::moment_fit::{lagrange, lagrange_derivative, CutWeights, FitBasis};
 use super::stencil::madd;
 use crate::element::ElementOrder;
+use crate::quadrature::gauss::gauss_legendre_unit;
 
 /// Cells per batch (SIMD lanes).
 pub const LANES: usize = 4;
@@ -37,10 +43,33 @@ const BATCHES_PER_TASK: usize = 16;
 
 type V = [f64; LANES];
 
+/// Where the kernel reads a cell's stiffness and mass weights.
+pub trait CellWeights: Sync {
+    /// The stiffness and mass weights of cell `s`.
+    fn cell(&self, s: usize) -> (&[f64], &[f64]);
+}
+
+impl CellWeights for CutWeights {
+    fn cell(&self, s: usize) -> (&[f64], &[f64]) {
+        CutWeights::cell(self, s)
+    }
+}
+
+/// The weights of the first cell of a [`CutWeights`], for every cell.
+pub struct Uniform<'a>(pub &'a CutWeights);
+
+impl CellWeights for Uniform<'_> {
+    fn cell(&self, _: usize) -> (&[f64], &[f64]) {
+        self.0.cell(0)
+    }
+}
+
 /// The constants of the cut-cell kernel.
 #[derive(Clone, Debug)]
 pub struct CutKernel {
     order: ElementOrder,
+    /// Points per axis.
+    q: usize,
     /// `φ_a(t_q)` and `φ_a'(t_q)`, `[q][a]` (sized for Q2).
     interp: [[f64; 3]; 5],
     deriv: [[f64; 3]; 5],
@@ -52,17 +81,42 @@ pub struct CutKernel {
 
 impl CutKernel {
     /// The kernel of `basis` for Lamé parameters `(λ, μ)` and cell size `h`.
-    pub fn new(basis: &FitBasis, (lambda, mu): (f64, f64), h: f64) -> CutKernel {
-        let p = basis.order.degree();
+    pub fn new(basis: &FitBasis, lame: (f64, f64), h: f64) -> CutKernel {
+        CutKernel::at_points(basis.order, &basis.points, lame, h)
+    }
+
+    /// The Q2 kernel at the 3 Gauss points per axis, and the weights that
+    /// make it multiply a cell by the inside-cell matrix `h K_ref` (read
+    /// through [`Uniform`]).
+    pub fn gauss(lame: (f64, f64), h: f64) -> (CutKernel, CutWeights) {
+        let (points, w) = gauss_legendre_unit(3);
+        let mut data = vec![0.0; 2 * 27];
+        for (q, v) in data[..27].iter_mut().enumerate() {
+            *v = h * h * h * w[q % 3] * w[(q / 3) % 3] * w[q / 9];
+        }
+        let kernel = CutKernel::at_points(ElementOrder::Q2, &points, lame, h);
+        (kernel, CutWeights { nq: 27, data })
+    }
+
+    /// The kernel of `order` at the 1D points `points` (3 or 5 for Q2, 3
+    /// for Q1).
+    fn at_points(
+        order: ElementOrder,
+        points: &[f64],
+        (lambda, mu): (f64, f64),
+        h: f64,
+    ) -> CutKernel {
+        let p = order.degree();
         let nodes: Vec<f64> = (0..=p).map(|a| a as f64 / p as f64).collect();
         let mut interp = [[0.0; 3]; 5];
         let mut deriv = [[0.0; 3]; 5];
-        for (q, &t) in basis.points.iter().enumerate() {
+        for (q, &t) in points.iter().enumerate() {
             interp[q][..=p].copy_from_slice(&lagrange(&nodes, t));
             deriv[q][..=p].copy_from_slice(&lagrange_derivative(&nodes, t));
         }
         CutKernel {
-            order: basis.order,
+            order,
+            q: points.len(),
             interp,
             deriv,
             lambda,
@@ -74,8 +128,9 @@ impl CutKernel {
 
     /// `z[ne s .. ne (s+1)] = K_s x_s` for every cut cell `s` of `w`, with
     /// `gather(s, xe)` filling the cell's `ne` dofs (node-major) from `x`.
-    pub fn apply<G>(&self, w: &CutWeights, gather: G, z: &mut [f64])
+    pub fn apply<W, G>(&self, w: &W, gather: G, z: &mut [f64])
     where
+        W: CellWeights,
         G: Fn(usize, &mut [f64]) + Sync,
     {
         let ne = 3 * self.order.nodes_per_cell();
@@ -89,27 +144,27 @@ impl CutKernel {
                     unsafe { self.task_fma(w, &gather, t * per_task, zt) };
                     return;
                 }
-                self.task::<false, G>(w, &gather, t * per_task, zt);
+                self.task::<false, W, G>(w, &gather, t * per_task, zt);
             });
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn task_fma<G: Fn(usize, &mut [f64])>(
+    fn task_fma<W: CellWeights, G: Fn(usize, &mut [f64])>(
         &self,
-        w: &CutWeights,
+        w: &W,
         g: &G,
         first: usize,
         z: &mut [f64],
     ) {
-        self.task::<true, G>(w, g, first, z);
+        self.task::<true, W, G>(w, g, first, z);
     }
 
     /// The batches of one task: cells `first ..`, `z` their products.
     #[inline(always)]
-    fn task<const FMA: bool, G: Fn(usize, &mut [f64])>(
+    fn task<const FMA: bool, W: CellWeights, G: Fn(usize, &mut [f64])>(
         &self,
-        w: &CutWeights,
+        w: &W,
         gather: &G,
         first: usize,
         z: &mut [f64],
@@ -119,6 +174,12 @@ impl CutKernel {
                 for (b, zb) in z.chunks_mut(24 * LANES).enumerate() {
                     let s0 = first + b * LANES;
                     self.batch::<FMA, 2, 3, 8, 27, 12, 18, 24>(w, gather, s0, zb);
+                }
+            }
+            ElementOrder::Q2 if self.q == 3 => {
+                for (b, zb) in z.chunks_mut(81 * LANES).enumerate() {
+                    let s0 = first + b * LANES;
+                    self.batch::<FMA, 3, 3, 27, 27, 27, 27, 81>(w, gather, s0, zb);
                 }
             }
             ElementOrder::Q2 => {
@@ -146,7 +207,7 @@ impl CutKernel {
         const NE: usize,
     >(
         &self,
-        w: &CutWeights,
+        w: &impl CellWeights,
         gather: &impl Fn(usize, &mut [f64]),
         s0: usize,
         z: &mut [f64],

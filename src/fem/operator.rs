@@ -16,10 +16,10 @@
 //! displacements, `y_n = Σ_{c ∋ n} K_c[n, :] x_c`, where a cut cell's rows
 //! come from `z_c = K_c x_c`, computed first for all cut cells from their
 //! forms or weights ([`super::q1_forms`], [`super::cut_apply`]). No two threads write the same entry, so no
-//! atomics and no colouring are needed. For Q1 the apply runs the plan of
-//! [`super::fast_apply`] (the constant interior stencil along runs, the gather
-//! elsewhere); the generic gather ([`ElasticOperator::apply_gather`]) is the
-//! reference and serves Q2.
+//! atomics and no colouring are needed. The apply runs the plan of
+//! [`super::fast_apply`] (the constant interior stencils along runs, the
+//! gather elsewhere); the generic gather ([`ElasticOperator::apply_gather`])
+//! is the reference it is tested against.
 
 use std::borrow::Cow;
 
@@ -64,15 +64,15 @@ pub struct ElasticOperator {
     basis: FitBasis,
     /// The penalty of the Dirichlet points that hold only some components.
     partial: ComponentPenalty,
-    /// The fast apply's plan (Q1 only) and its reused scratch.
-    fast: Option<FastApply>,
+    /// The fast apply's plan and its reused scratch.
+    fast: FastApply,
     scratch: Scratch,
 }
 
 /// The cut cells' matrices: factored forms for Q1, the moment-fitted weights
 /// and their sum-factorised kernel otherwise.
 #[derive(Clone, Debug)]
-enum CutData {
+pub(super) enum CutData {
     Forms(Q1Forms),
     Weights {
         weights: CutWeights,
@@ -140,7 +140,15 @@ impl ElasticOperator {
                 kernel: CutKernel::new(&basis, lame, grid.h),
             },
         };
-        let mut op = ElasticOperator {
+        let data = CellData {
+            slot: &slot,
+            inside: &k_inside,
+            cut: &cut,
+            own_cells: &cells.cut,
+            node_to_active: &dofs.node_to_active,
+        };
+        let fast = FastApply::new(grid, order, &data, &dofs.active_to_node, &basis, lame);
+        ElasticOperator {
             grid: grid.clone(),
             dofs,
             ne,
@@ -151,35 +159,25 @@ impl ElasticOperator {
             lame,
             basis,
             partial,
-            fast: None,
+            fast,
             scratch: Scratch::default(),
-        };
-        if let CutData::Forms(forms) = &op.cut {
-            let inside = Q1Forms::inside(&op.basis, op.lame, grid.h);
-            op.fast = Some(FastApply::new(
-                grid,
-                &op.cell_data(forms),
-                &op.dofs.active_to_node,
-                inside,
-            ));
         }
-        op
     }
 
     /// The data the fast apply reads.
-    fn cell_data<'a>(&'a self, forms: &'a Q1Forms) -> CellData<'a> {
+    fn cell_data(&self) -> CellData<'_> {
         CellData {
             slot: &self.slot,
             inside: &self.k_inside,
-            forms,
+            cut: &self.cut,
             own_cells: &self.own_cells,
             node_to_active: &self.dofs.node_to_active,
         }
     }
 
-    /// The fast apply's plan (Q1), for reports.
-    pub fn fast_apply(&self) -> Option<&FastApply> {
-        self.fast.as_ref()
+    /// The fast apply's plan, for reports.
+    pub fn fast_apply(&self) -> &FastApply {
+        &self.fast
     }
 
     /// The matrix of a cell, row-major (a cut cell's rebuilt from its
@@ -307,7 +305,7 @@ impl ElasticOperator {
                 + self.dofs.node_to_active.len()
                 + self.dofs.active_to_node.len())
             + self.basis.bytes()
-            + self.fast.as_ref().map_or(0, FastApply::bytes)
+            + self.fast.bytes()
     }
 
     /// `z[ne s .. ne (s+1)] = K_s x_s` for every cut cell `s`.
@@ -341,16 +339,11 @@ impl ElasticOperator {
     }
 
     /// `y = A x` by the generic node-centred gather (see the module doc): the
-    /// reference the fast apply is tested against, and the Q2 apply.
+    /// reference the fast apply is tested against.
     pub fn apply_gather(&self, x: &[f64], y: &mut [f64]) {
         let mut z = vec![0.0; self.ne * self.own_cells.len()];
-        self.apply_gather_with(x, y, &mut z);
-    }
-
-    /// [`Self::apply_gather`] with the scratch `z` (`ne` per cut cell).
-    fn apply_gather_with(&self, x: &[f64], y: &mut [f64], z: &mut [f64]) {
-        self.cut_products(x, z);
-        let z = &*z;
+        self.cut_products(x, &mut z);
+        let z = &z;
         let npc = self.dofs.order.nodes_per_cell();
         let ne = self.ne;
         y.par_chunks_mut(3)
@@ -470,19 +463,14 @@ impl LinearOperator for ElasticOperator {
         self.dofs.ndofs()
     }
 
-    /// `y = A x`: the fast plan for Q1, the generic gather otherwise.
+    /// `y = A x` by the fast plan.
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         let mut local = Vec::new();
         let mut guard = self.scratch.0.try_lock();
         // A concurrent apply holds the shared scratch: use a fresh one.
         let scratch = guard.as_deref_mut().unwrap_or(&mut local);
-        let (Some(fast), CutData::Forms(forms)) = (&self.fast, &self.cut) else {
-            scratch.resize(self.ne * self.own_cells.len(), 0.0);
-            return self.apply_gather_with(x, y, scratch);
-        };
-        scratch.resize(fast.scratch_len(), 0.0);
-        let data = self.cell_data(forms);
-        fast.apply(&data, x, y, scratch);
+        scratch.resize(self.fast.scratch_len(), 0.0);
+        self.fast.apply(&self.cell_data(), x, y, scratch);
         self.partial.apply_add(&self.grid, &self.dofs, x, y);
     }
 

@@ -18,9 +18,8 @@ use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
 use crate::backend::LinearOperator;
-use crate::fem::fast_apply::FastApply;
 use crate::fem::operator::ElasticOperator;
-use crate::fem::stencil::Run;
+use crate::fem::stencil::{Run, Stencil};
 
 use super::backend::{GpuBackend, GpuVector};
 use super::kernels::{grid_2d, Kernel, Q1Params, APPLY_WG};
@@ -109,8 +108,8 @@ pub fn packed_cell_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
 
 /// The stencil values in the uniform's order (`81 · 3`, zero-padded to
 /// [`STENCIL_LEN`]).
-fn stencil_values(plan: &FastApply) -> Vec<f64> {
-    let mut v: Vec<f64> = plan.stencil().values().iter().flatten().copied().collect();
+fn stencil_values(stencil: &Stencil) -> Vec<f64> {
+    let mut v: Vec<f64> = stencil.values().iter().flatten().copied().collect();
     v.resize(STENCIL_LEN, 0.0);
     v
 }
@@ -129,12 +128,13 @@ pub struct Q1Arrays {
 }
 
 impl Q1Arrays {
-    /// The arrays of `op`'s plan, or `None` where it has none (not Q1) or
-    /// a cut-cell matrix is not symmetric.
+    /// The arrays of `op`'s plan, or `None` where it is not Q1's or a
+    /// cut-cell matrix is not symmetric.
     pub fn new(op: &ElasticOperator) -> Option<Q1Arrays> {
-        let plan = op.fast_apply()?;
-        let cell_nodes: Vec<u32> = plan.cell_nodes().flatten().copied().collect();
-        let segments = segments(plan.runs());
+        let plan = op.fast_apply();
+        let (stencil, runs) = plan.q1()?;
+        let cell_nodes = plan.cell_nodes().to_vec();
+        let segments = segments(runs);
         let params = Q1Params {
             n_segments: (segments.len() / SEGMENT_WORDS) as u32,
             n_boundary: plan.boundary().len() as u32,
@@ -144,7 +144,7 @@ impl Q1Arrays {
         };
         Some(Q1Arrays {
             params,
-            stencil: stencil_values(plan),
+            stencil: stencil_values(stencil),
             segments,
             boundary: plan.boundary().to_vec(),
             links: plan.links().iter().flatten().copied().collect(),

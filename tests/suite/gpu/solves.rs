@@ -436,7 +436,10 @@ fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64],
     let n = op.nrows();
     let gop = GpuOperator::new(be, op).unwrap();
     let Some(a) = Q1Arrays::new(op) else {
-        assert!(op.fast_apply().is_none(), "Q1 with symmetric cut cells");
+        assert!(
+            op.fast_apply().q1().is_none(),
+            "Q1 with symmetric cut cells"
+        );
         assert!(gop.q1().is_none(), "Q2 runs on the gather");
         return;
     };
