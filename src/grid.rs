@@ -110,6 +110,19 @@ impl Grid {
         self.block_box(ijk, ijk.map(|v| v + 1))
     }
 
+    /// The physical points of a reference rule (`ξ ∈ [0, 1]³`) in each of
+    /// `cells`, cell by cell.
+    pub fn rule_points(&self, cells: &[usize], rule: &[([f64; 3], f64)]) -> Vec<[f64; 3]> {
+        cells
+            .iter()
+            .flat_map(|&c| {
+                let lo = self.cell_box(c).lo;
+                rule.iter()
+                    .map(move |(xi, _)| [0, 1, 2].map(|a| lo[a] + self.h * xi[a]))
+            })
+            .collect()
+    }
+
     /// The whole grid's box.
     pub fn bounding_box(&self) -> Aabb {
         self.block_box([0; 3], self.n)

@@ -228,14 +228,7 @@ fn error_norms_of<const N: usize>(
     let inside = inside
         .par_chunks(NORM_GROUP)
         .map(|group| {
-            let xs: Vec<[f64; 3]> = group
-                .iter()
-                .flat_map(|&c| {
-                    let lo = grid.cell_box(c).lo;
-                    rule.iter()
-                        .map(move |(xi, _)| [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]))
-                })
-                .collect();
+            let xs = grid.rule_points(group, &rule);
             let (ue, ge) = exact_at(&tape, &xs);
             let mut k = 0;
             group.iter().fold(zero, |acc, &c| {

@@ -140,14 +140,7 @@ fn add_inside_body_load(
         .collect();
     let cell_of = |c: usize| c;
     add_cell_loads(grid, dofs, &inside, &cell_of, rhs, |group, fes| {
-        let xs: Vec<[f64; 3]> = group
-            .iter()
-            .flat_map(|&c| {
-                let lo = grid.cell_box(c).lo;
-                rule.iter()
-                    .map(move |(xi, _)| [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]))
-            })
-            .collect();
+        let xs = grid.rule_points(group, &rule);
         let mut loads = vec![[0.0; 3]; xs.len()];
         problem.body_loads(&xs, &mut loads);
         for (fe, loads) in fes.iter_mut().zip(loads.chunks(rule.len())) {

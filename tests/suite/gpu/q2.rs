@@ -5,6 +5,7 @@
 //! adapter each test prints "skipped: no GPU adapter" and passes, unless
 //! `CI=true` (then it fails): see `cgfem_gpu::gpu::context_or_skip`.
 
+use cgfem_gpu::backend::LinearOperator;
 use cgfem_gpu::case::physics::OuterMethod;
 use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::error_norms;
@@ -12,10 +13,9 @@ use cgfem_gpu::driver::fixed_point::FixedPointReport;
 use cgfem_gpu::driver::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::driver::setup::Setup;
 use cgfem_gpu::driver::solve::solve_with;
+use cgfem_gpu::fem::operator::ElasticOperator;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{context_or_skip, PrecisionChoice};
-use cgfem_gpu::backend::LinearOperator;
-use cgfem_gpu::fem::operator::ElasticOperator;
 use cgfem_gpu::solver::{KrylovOptions, KrylovStats};
 
 fn sphere_q2(level: u32) -> (Case, Setup) {
