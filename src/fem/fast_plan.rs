@@ -47,6 +47,29 @@ pub(super) fn is_interior(
     around.iter().all(|&(c, _)| slot[c] == INSIDE)
 }
 
+/// The runs of consecutive grid nodes among the interior nodes `interior`
+/// (active indices, ascending): `open(a, node)` starts a run at active
+/// index `a`, grid node `node`; `len(run)` is the run's length, which each
+/// following node of the run increments.
+fn runs_of<R>(
+    active_to_node: &[u32],
+    interior: &[u32],
+    mut open: impl FnMut(u32, usize) -> R,
+    len: impl Fn(&mut R) -> &mut u32,
+) -> Vec<R> {
+    let mut runs: Vec<R> = Vec::new();
+    let mut last = usize::MAX;
+    for &a in interior {
+        let nd = active_to_node[a as usize] as usize;
+        match runs.last_mut() {
+            Some(r) if last.wrapping_add(1) == nd => *len(r) += 1,
+            _ => runs.push(open(a, nd)),
+        }
+        last = nd;
+    }
+    runs
+}
+
 /// The Q1 runs of the interior nodes `interior` (active indices, ascending).
 pub(super) fn q1_runs(
     grid: &Grid,
@@ -56,28 +79,19 @@ pub(super) fn q1_runs(
 ) -> Vec<Run> {
     let nn = [grid.n[0] + 1, grid.n[1] + 1];
     let node = |i: usize, j: usize, k: usize| i + nn[0] * (j + nn[1] * k);
-    let mut runs: Vec<Run> = Vec::new();
-    let mut last = usize::MAX;
-    for &a in interior {
-        let nd = active_to_node[a as usize] as usize;
-        match runs.last_mut() {
-            Some(r) if last.wrapping_add(1) == nd => r.len += 1,
-            _ => {
-                let [i, j, k] = [nd % nn[0], (nd / nn[0]) % nn[1], nd / (nn[0] * nn[1])];
-                let bases = std::array::from_fn(|r| {
-                    let (dj, dk) = (r % 3, r / 3);
-                    m.node_to_active[node(i - 1, j + dj - 1, k + dk - 1)]
-                });
-                runs.push(Run {
-                    start: a,
-                    len: 1,
-                    bases,
-                });
-            }
+    let open = |a, nd: usize| {
+        let [i, j, k] = [nd % nn[0], (nd / nn[0]) % nn[1], nd / (nn[0] * nn[1])];
+        let bases = std::array::from_fn(|r| {
+            let (dj, dk) = (r % 3, r / 3);
+            m.node_to_active[node(i - 1, j + dj - 1, k + dk - 1)]
+        });
+        Run {
+            start: a,
+            len: 1,
+            bases,
         }
-        last = nd;
-    }
-    runs
+    };
+    runs_of(active_to_node, interior, open, |r| &mut r.len)
 }
 
 /// The Q2 runs of the interior nodes `interior` (active indices, ascending).
@@ -88,34 +102,24 @@ pub(super) fn q2_runs(
     interior: &[u32],
 ) -> Vec<q2_stencil::Run> {
     let nn = grid.nodes_per_axis(ElementOrder::Q2);
-    let mut runs: Vec<q2_stencil::Run> = Vec::new();
-    let mut last = usize::MAX;
-    for &a in interior {
-        let nd = active_to_node[a as usize] as usize;
-        match runs.last_mut() {
-            Some(r) if last.wrapping_add(1) == nd => r.len += 1,
-            _ => {
-                let [i, j, k] = [nd % nn[0], (nd / nn[0]) % nn[1], nd / (nn[0] * nn[1])];
-                let bases = std::array::from_fn(|r| {
-                    let (jj, kk) = ((j + r % 5).wrapping_sub(2), (k + r / 5).wrapping_sub(2));
-                    if jj < nn[1] && kk < nn[2] {
-                        m.node_to_active[i + nn[0] * (jj + nn[1] * kk)]
-                    } else {
-                        u32::MAX
-                    }
-                });
-                let parity = (i % 2 + 2 * (j % 2) + 4 * (k % 2)) as u32;
-                runs.push(q2_stencil::Run {
-                    start: a,
-                    len: 1,
-                    parity,
-                    bases,
-                });
+    let open = |a, nd: usize| {
+        let [i, j, k] = [nd % nn[0], (nd / nn[0]) % nn[1], nd / (nn[0] * nn[1])];
+        let bases = std::array::from_fn(|r| {
+            let (jj, kk) = ((j + r % 5).wrapping_sub(2), (k + r / 5).wrapping_sub(2));
+            if jj < nn[1] && kk < nn[2] {
+                m.node_to_active[i + nn[0] * (jj + nn[1] * kk)]
+            } else {
+                u32::MAX
             }
+        });
+        q2_stencil::Run {
+            start: a,
+            len: 1,
+            parity: (i % 2 + 2 * (j % 2) + 4 * (k % 2)) as u32,
+            bases,
         }
-        last = nd;
-    }
-    runs
+    };
+    runs_of(active_to_node, interior, open, |r| &mut r.len)
 }
 
 /// The links of the boundary nodes to their cells' products, as (product
