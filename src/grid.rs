@@ -154,6 +154,19 @@ impl Grid {
         }
     }
 
+    /// The Q1 vertex node at the place of `node` (a node of `order`), when
+    /// that node is a cell vertex.
+    pub fn vertex_of(&self, order: ElementOrder, node: usize) -> Option<usize> {
+        let p = order.degree();
+        let m = self.nodes_per_axis(order);
+        let ijk = [node % m[0], (node / m[0]) % m[1], node / (m[0] * m[1])];
+        if ijk.iter().any(|i| i % p != 0) {
+            return None;
+        }
+        let v = self.nodes_per_axis(ElementOrder::Q1);
+        Some(ijk[0] / p + v[0] * (ijk[1] / p + v[1] * (ijk[2] / p)))
+    }
+
     /// Position of a node.
     pub fn node_position(&self, order: ElementOrder, node: usize) -> [f64; 3] {
         let p = order.degree() as f64;

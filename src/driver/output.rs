@@ -135,6 +135,45 @@ pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> Bod
     }
 }
 
+/// The recovered stress `sigma` at the points of `mesh` (at `points`): a
+/// vertex's own value, else the blend of the point's cell, prepared once per
+/// run of points in one cell.
+fn nodal_stress(
+    grid: &Grid,
+    order: ElementOrder,
+    mesh: &BodyMesh,
+    points: &[[f64; 3]],
+    sigma: &Recovered<6>,
+) -> Result<Vec<[f64; 6]>> {
+    let runs: Vec<(usize, usize)> = mesh
+        .node_cell
+        .chunk_by(|a, b| a == b)
+        .scan(0, |start, run| {
+            let range = (*start, *start + run.len());
+            *start = range.1;
+            Some(range)
+        })
+        .collect();
+    let per_run: Vec<Vec<[f64; 6]>> = runs
+        .par_iter()
+        .map(|&(start, end)| {
+            let mut blend = None;
+            (start..end)
+                .map(|i| match grid.vertex_of(order, mesh.nodes[i]) {
+                    Some(v) => sigma.at_vertex(v),
+                    None => {
+                        if blend.is_none() {
+                            blend = Some(sigma.cell_blend(mesh.node_cell[i])?);
+                        }
+                        Ok(blend.as_ref().expect("made above").eval(points[i]))
+                    }
+                })
+                .collect()
+        })
+        .collect::<Result<_>>()?;
+    Ok(per_run.concat())
+}
+
 /// The contents of a `.vtu` file: the mesh and its point and cell data.
 struct VtuFile {
     mesh: VtuMesh,
@@ -187,12 +226,7 @@ fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFi
         })
         .collect();
     let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &body), None)?;
-    let stress: Vec<[f64; 6]> = mesh
-        .node_cell
-        .par_iter()
-        .zip(&points)
-        .map(|(&c, &x)| sigma.eval(c, x))
-        .collect::<Result<_>>()?;
+    let stress = nodal_stress(grid, dofs.order, &mesh, &points, &sigma)?;
     let mises: Vec<f64> = stress.par_iter().map(von_mises).collect();
     let mut point_data = vec![
         DataArray::vectors("displacement", &displacement),

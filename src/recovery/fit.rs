@@ -172,6 +172,7 @@ pub fn fit_and_factor<const NC: usize>(
 /// recovers a new field on the same patches at every iteration; with the
 /// factor it skips the acceptance check and the factorisation and solves
 /// from the moments of the values ([`FitFactor::fit_moments`]).
+#[derive(Clone)]
 pub struct FitFactor {
     /// The condition number of the equilibrated normal matrix.
     pub(super) condition: f64,

@@ -50,6 +50,7 @@ pub(super) fn values_matrix<const NC: usize>(samples: &[Sample<NC>]) -> DMatrix<
 /// LU, which matters when the fits are kept ([`super::fit::FitFactor`]); the iterative
 /// refinement on the samples' residual makes up for the Schur complement's
 /// weaker conditioning.
+#[derive(Clone)]
 pub(super) struct Kkt {
     pub(super) s: Vec<f64>,
     /// Constraints in the equilibrated unknowns, rows normalised: `C (I ⊗ S)`.

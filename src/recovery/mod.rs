@@ -37,6 +37,7 @@ mod mirror_tests;
 mod moments;
 mod plan;
 mod recovered;
+mod regular;
 mod sample_cache;
 mod spr;
 #[cfg(test)]

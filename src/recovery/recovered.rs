@@ -89,6 +89,16 @@ impl<const NC: usize> Recovered<NC> {
         ))
     }
 
+    /// The CPE blend at the vertex `node` itself: there its own hat function
+    /// is 1 and the others 0, so `σ̂ = σ*_node(x_node)`, the polynomial's
+    /// constant term. Error [`Error::Recovery`] when `node` was not
+    /// recovered.
+    pub fn at_vertex(&self, node: usize) -> Result<[f64; NC]> {
+        let a = self.coefficients(node)?;
+        let nb = self.basis.len();
+        Ok(std::array::from_fn(|c| a[c * nb]))
+    }
+
     /// The CPE blend `σ̂(x) = Σ_i N_i^lin(x) σ*_i(x)` over the 8 vertices `i` of
     /// `cell`, for `x` in the cell's box (also outside Ω). Error
     /// [`Error::Recovery`] when a vertex of the cell was not recovered.

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use super::fit::{fit_and_factor, FitFactor, FitFailure, FitOptions, LinearConstraints};
 use super::mirror::{reflect_sample, ring_cells, Mirror};
 use super::recovered::Recovered;
+use super::regular::{is_regular, RegularFit};
 use super::sample_cache::SampleCache;
 use super::{Monomials, Sample};
 use crate::cells::CellKind;
@@ -185,7 +186,7 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     let basis = Monomials::new(degree);
     // Patches continue across the mirror faces only for a field that reflects.
     let reflects = (0..3).all(|a| samples.reflected(a, [0.0; NC]).is_some());
-    let ctx = Context {
+    let mut ctx = Context {
         grid,
         kinds,
         basis: &basis,
@@ -197,7 +198,10 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
             Mirror::none()
         },
         keep,
+        regular: None,
     };
+    let regular = ctx.regular_fit(&nodes);
+    ctx.regular = regular.as_ref();
     let fits: Vec<Result<NodeFit>> = nodes
         .par_iter()
         .map_init(
@@ -253,9 +257,54 @@ struct Context<'a, S> {
     mirror: Mirror,
     /// Whether each fit returns its [`NodePlan`] ([`Planning::SearchAndKeep`]).
     keep: bool,
+    /// The fit of the regular patches, when the recovery has one.
+    regular: Option<&'a RegularFit>,
 }
 
 impl<S> Context<'_, S> {
+    /// The template of the regular patches ([`super::regular`]), from the
+    /// lowest of `nodes` (ascending) whose first ring is regular; `None`
+    /// when no node's is, or when that fit is constrained or not fit to
+    /// serve the others.
+    fn regular_fit<const NC: usize>(&self, nodes: &[usize]) -> Option<RegularFit>
+    where
+        S: PatchSamples<NC>,
+    {
+        let mut ring = Vec::new();
+        let node = nodes.iter().copied().find(|&node| {
+            ring.clear();
+            ring_cells(
+                self.grid,
+                self.kinds,
+                &self.mirror,
+                node_ijk(self.grid, node),
+                1,
+                &mut ring,
+            );
+            is_regular(self.kinds, &ring)
+        })?;
+        let center = self.grid.node_position(ElementOrder::Q1, node);
+        let mut samples = Vec::new();
+        for &(c, _) in &ring {
+            self.samples.samples(c, &mut samples);
+        }
+        for (x, _) in samples.iter_mut() {
+            *x = scaled(center, self.grid.h, *x);
+        }
+        let cells: Vec<usize> = ring.iter().map(|&(c, _)| c).collect();
+        let patch = Patch {
+            node,
+            center,
+            h: self.grid.h,
+            ring: 1,
+            cells: &cells,
+        };
+        if self.samples.constraints(&patch, self.basis).is_some() {
+            return None;
+        }
+        RegularFit::new(self.basis, &samples, &self.opts.fit)
+    }
+
     /// Fits `node`'s patch ring by ring up to the ring limit; `buf` is
     /// scratch, `cache` the worker's memo of cell samples.
     fn fit_node<const NC: usize>(
@@ -308,6 +357,26 @@ impl<S> Context<'_, S> {
                 cells: &cells,
             };
             let constraints = self.samples.constraints(&patch, self.basis);
+            if let Some(regular) = self.regular.filter(|_| {
+                ring == 1 && constraints.is_none() && is_regular(self.kinds, &patch_cells)
+            }) {
+                if let Some(coefficients) = regular.fit(self.basis, buf) {
+                    let info = PatchInfo {
+                        ring,
+                        cells: patch_cells.len(),
+                        samples: buf.len(),
+                    };
+                    return Ok(NodeFit {
+                        coefficients,
+                        info,
+                        plan: self.keep.then(|| NodePlan {
+                            cells: patch_cells,
+                            info,
+                            factor: regular.factor.clone(),
+                        }),
+                    });
+                }
+            }
             match fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit) {
                 Ok((coefficients, factor)) => {
                     let info = PatchInfo {

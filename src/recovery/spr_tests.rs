@@ -286,6 +286,34 @@ fn fit_plans_reproduce_the_recovery_to_round_off() {
     }
 }
 
+#[test]
+fn regular_patches_share_one_factor_and_equal_their_own_fits() {
+    for (p, gauss) in [(1, 2), (2, 3)] {
+        let (grid, cells) = sphere(4, 1.0, 0.9, ElementOrder::Q1);
+        let nodes = vertices(&grid, &cells, |k| k != CellKind::Outside);
+        let field = analytic(&grid, &cells, gauss, smooth);
+        let opts = SprOptions::default();
+        let rec = recover(&grid, &cells.kinds, &nodes, p, &field, &opts).unwrap();
+        let mut regular = 0;
+        for &node in rec.nodes() {
+            let ring = ring1_cells(&grid, node);
+            if ring.len() < 8 || ring.iter().any(|&c| cells.kinds[c] != CellKind::Inside) {
+                continue;
+            }
+            regular += 1;
+            let centre = grid.node_position(ElementOrder::Q1, node);
+            let mut samples = Vec::new();
+            ring.iter().for_each(|&c| field(c, &mut samples));
+            for (x, _) in samples.iter_mut() {
+                *x = [0, 1, 2].map(|k| (x[k] - centre[k]) / grid.h);
+            }
+            let own = fit_polynomial(&Monomials::new(p), &samples, None, &opts.fit).unwrap();
+            assert_close(&own, rec.coefficients(node).unwrap());
+        }
+        assert!(regular > 100, "{regular} regular patches");
+    }
+}
+
 /// `got` equals `want` to 1e-12 of the largest coefficient.
 fn assert_close(want: &[f64], got: &[f64]) {
     let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
