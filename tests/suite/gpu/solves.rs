@@ -348,9 +348,18 @@ fn sphere(level: u32) -> (Case, Setup) {
     sphere_with(level, &[])
 }
 
-/// `cases/sphere.toml` with `--set` overrides.
+/// `cases/sphere.toml` on the paper's settings (CGS with Jacobi, no S-term;
+/// `cgfem-gpu reproduce`'s), with `--set` overrides after them.
 fn sphere_with(level: u32, set: &[&str]) -> (Case, Setup) {
-    case_with("sphere", level, set)
+    let mut paper = vec![
+        "solver.method=cgs",
+        "solver.preconditioner=jacobi",
+        "solver.max_fixed_point=50",
+        "stabilisation.k2=0",
+        "stabilisation.A=0.01",
+    ];
+    paper.extend_from_slice(set);
+    case_with("sphere", level, &paper)
 }
 
 /// `cases/<name>.toml` with `--set` overrides.
