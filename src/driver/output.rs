@@ -268,8 +268,11 @@ fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFi
 /// Writes the ParaView files of `paraview` for the solution `u` of `setup`
 /// (whose solid is `geometry`) through `written`: `solution.vtu`,
 /// `surface.vtp`, and `solution.pvd` listing those written as the parts of
-/// one time step. Returns the boundary surface and its fields when they were
-/// computed: for `surface.vtp`, or when `want_surface`.
+/// one time step. Everything that can fail to compute (the stress
+/// recovery: [`crate::Error::Recovery`] on a grid too coarse for the body)
+/// is computed before the first file is written, so that a failed output
+/// leaves none of them. Returns the boundary surface and its fields when
+/// they were computed: for `surface.vtp`, or when `want_surface`.
 pub fn write_paraview(
     setup: &Setup,
     geometry: &Geometry,
@@ -279,18 +282,20 @@ pub fn write_paraview(
     written: &mut Written,
 ) -> Result<Option<(BoundaryMesh, SurfaceFields)>> {
     let (encoding, first) = (paraview.encoding, written.files.len());
-    let mut recovered = None;
-    if paraview.files.volume() {
-        let (file, sigma) = solution_file(setup, geometry, u)?;
-        written.write("solution.vtu", |path| file.write(path, encoding))?;
-        recovered = Some(sigma);
-    }
-    // The surface's host cells are cells of the body: its stress is the
-    // volume's, when that was recovered.
-    let surface = match paraview.files.surface() || want_surface {
-        true => Some(surface_fields(setup, geometry, u, recovered.as_ref())?),
+    let volume = match paraview.files.volume() {
+        true => Some(solution_file(setup, geometry, u)?),
         false => None,
     };
+    // The surface's host cells are cells of the body: its stress is the
+    // volume's, when that was recovered.
+    let recovered = volume.as_ref().map(|(_, sigma)| sigma);
+    let surface = match paraview.files.surface() || want_surface {
+        true => Some(surface_fields(setup, geometry, u, recovered)?),
+        false => None,
+    };
+    if let Some((file, _)) = &volume {
+        written.write("solution.vtu", |path| file.write(path, encoding))?;
+    }
     if let (true, Some((mesh, fields))) = (paraview.files.surface(), &surface) {
         written.write("surface.vtp", |path| {
             write_surface(path, mesh, fields, encoding)

@@ -1,6 +1,7 @@
 //! Case text shared by the end-to-end tests of the binary: the paper's sphere
 //! (Problem 1) split into its geometry and its physics, so that tests can
-//! edit one part or insert a `[grid]` table between them.
+//! edit one part or insert a `[grid]` table between them; running the binary
+//! on such text ([`cli`]).
 
 /// The unit sphere at the origin, as the `[geometry]` table.
 pub const SPHERE: &str = "[geometry]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n";
@@ -25,6 +26,7 @@ pub fn with_physics(text: &str) -> String {
     format!("{text}{PHYSICS}")
 }
 
+pub mod cli;
 pub mod patch_check;
 #[cfg(unix)]
 pub mod sigint;

@@ -1,44 +1,12 @@
 //! End-to-end runs of the binary: a good case writes its report; each class of
 //! bad input exits with code 2, names the file, key and reason, and leaves no
-//! output behind.
+//! output behind (solver failures, exit code 3: [`super::failures`]).
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 use crate::common;
+use common::cli::run_case;
 use common::{with_physics, SPHERE};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("cgfem-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Runs `run` on `text`; returns (exit code, stderr, output folder).
-fn run_case(name: &str, text: &str, extra: &[&str]) -> (i32, String, PathBuf) {
-    let dir = scratch(name);
-    let case = dir.join(format!("{name}.toml"));
-    std::fs::write(&case, text).unwrap();
-    let out = dir.join("out");
-    let o = bin()
-        .arg("run")
-        .arg(&case)
-        .arg("--out")
-        .arg(&out)
-        .args(extra)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-        out,
-    )
-}
 
 fn assert_no_output(out: &Path) {
     assert!(
@@ -107,22 +75,6 @@ fn set_overrides_any_key() {
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["krylov"]["method"], "cgs");
     assert_eq!(report["stabilisation"]["k1"], 50.0);
-}
-
-#[test]
-fn solver_failure_exits_3_with_a_failed_report() {
-    let (code, err, out) = run_case(
-        "stuck",
-        &with_physics(SPHERE),
-        &["--level", "3", "--set", "solver.max_iterations=3"],
-    );
-    assert_eq!(code, 3, "{err}");
-    assert!(err.contains("did not converge"), "{err}");
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(report["status"], "failed");
-    assert!(report["failure"].as_str().unwrap().contains("3 iterations"));
-    assert!(!out.join("solution.vtu").exists());
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! Whole runs through the command line: cases, bad input, progress and Ctrl-C, reports, the README, the paper's tables, fuzzed cases.
+//! Whole runs through the command line: cases, bad input, solver failures, progress and Ctrl-C, reports, the README, the paper's tables, fuzzed cases.
 
 mod bad_inputs;
 mod case_model;
@@ -7,6 +7,7 @@ mod cli;
 mod cli_progress;
 mod diagnostics;
 mod examples;
+mod failures;
 mod fuzz_case;
 mod output_modes;
 mod readme_reference;
