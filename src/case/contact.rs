@@ -73,15 +73,6 @@ impl Case {
         for (i, c) in self.spec.contact.iter().enumerate() {
             let slave = self.resolve(&format!("contact[{i}].slave"), &c.slave)?;
             let master = self.resolve(&format!("contact[{i}].master"), &c.master)?;
-            if self.bodies[master.body].geometry.mesh_carries(master.tag) {
-                return Err(self.bad(
-                    &format!("contact[{i}].master"),
-                    format!(
-                        "'{}' lies on an STL surface, and master surfaces are meshed from analytic parts only; make the STL part the slave (its cut-cell boundary points carry the contact)",
-                        c.master
-                    ),
-                ));
-            }
             if slave.body == master.body {
                 return Err(self.bad(
                     &format!("contact[{i}]"),

@@ -3,8 +3,9 @@
 //!
 //! - [`surface`]: a body's boundary as a triangle mesh in the reference
 //!   configuration, extracted from its level set on its Cartesian grid by
-//!   marching tetrahedra ([`crate::discrete::marching`]), and mapped to the current configuration
-//!   `x = X + u(X)`.
+//!   marching tetrahedra ([`crate::discrete::marching`]) or, on an STL part,
+//!   from the part's own triangles split on the grid, and mapped to the
+//!   current configuration `x = X + u(X)`.
 //! - the bounding-volume hierarchy over the current triangles, with
 //!   nearest-hit line queries, is [`crate::spatial::Bvh`].
 //! - [`patch`]: the curved (PN) master patches on those triangles, from the
@@ -29,6 +30,7 @@ pub mod patch;
 pub mod report;
 pub mod search;
 pub mod surface;
+mod surface_mesh;
 
 pub use enforce::{
     contact_residual, contact_residual_and_tangent, slave_points, ContactBody, ContactPairData,

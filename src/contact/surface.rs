@@ -2,7 +2,10 @@
 //! reference configuration, and its image in the current configuration.
 //!
 //! **Extraction, part by part.** The boundary parts are the CSG leaves,
-//! each a smooth level set ψ with its tag. For every leaf whose
+//! each a smooth level set ψ with its tag, or a triangle mesh (an STL part)
+//! with a tag per triangle. A mesh leaf's part is its own triangles, split
+//! on the grid and clipped to the body ([`super::surface_mesh`]). For every
+//! analytic leaf whose
 //! tag is requested, the zero set of ψ is meshed by marching tetrahedra (see
 //! the crate-private `marching` module): vertices lie on ψ = 0 to round-off, on
 //! edges of the grid's Freudenthal tetrahedra, shared between neighbouring
@@ -119,6 +122,9 @@ impl Surface {
             if tags.contains(&leaf.tag) {
                 surface.add_leaf(&lattice, &cell_of, geometry, i);
             }
+        }
+        for mesh in geometry.meshes() {
+            surface.add_mesh(&lattice, &cell_of, geometry, mesh, tags);
         }
         surface.index_vertex_triangles();
         surface.normals = surface.vertex_normals(&surface.vertices);

@@ -50,13 +50,6 @@ impl Geometry {
         out
     }
 
-    /// True when some triangle of a mesh leaf carries the tag `tag`.
-    pub fn mesh_carries(&self, tag: u16) -> bool {
-        self.meshes()
-            .iter()
-            .any(|m| (0..m.num_triangles()).any(|t| m.tag(t) == tag))
-    }
-
     /// True when some leaf of the tree is a mesh.
     pub fn has_mesh(&self) -> bool {
         super::local::has_mesh(&self.root)

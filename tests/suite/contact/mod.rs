@@ -1,4 +1,4 @@
-//! Contact: the search, the enforcement and its tangent, Newton on contact, grids that fall anywhere, friction, Hertz and Cattaneo–Mindlin, Q2 bodies.
+//! Contact: the search, the enforcement and its tangent, Newton on contact, grids that fall anywhere, friction, Hertz and Cattaneo–Mindlin, Q2 bodies, masters on STL parts.
 
 mod enforce;
 mod friction;
@@ -9,3 +9,4 @@ mod multigrid;
 mod newton;
 mod q2;
 mod search;
+mod stl_master;
