@@ -7,6 +7,8 @@
 //! caller for those cells' samples once each, and the result stores one
 //! polynomial per requested node.
 
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
 use super::fit::{fit_and_factor, FitFactor, FitFailure, FitOptions, LinearConstraints};
@@ -357,10 +359,19 @@ impl<S> Context<'_, S> {
                 cells: &cells,
             };
             let constraints = self.samples.constraints(&patch, self.basis);
-            if let Some(regular) = self.regular.filter(|_| {
+            // A regular patch is fitted with the recovery's shared factor,
+            // any other with its own.
+            let regular = self.regular.filter(|_| {
                 ring == 1 && constraints.is_none() && is_regular(self.kinds, &patch_cells)
-            }) {
-                if let Some(coefficients) = regular.fit(self.basis, buf) {
+            });
+            let shared = regular.and_then(|r| Some((r.fit(self.basis, buf)?, &r.factor)));
+            let fitted = match shared {
+                Some((coefficients, factor)) => Ok((coefficients, Cow::Borrowed(factor))),
+                None => fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit)
+                    .map(|(a, factor)| (a, Cow::Owned(factor))),
+            };
+            match fitted {
+                Ok((coefficients, factor)) => {
                     let info = PatchInfo {
                         ring,
                         cells: patch_cells.len(),
@@ -372,25 +383,7 @@ impl<S> Context<'_, S> {
                         plan: self.keep.then(|| NodePlan {
                             cells: patch_cells,
                             info,
-                            factor: regular.factor.clone(),
-                        }),
-                    });
-                }
-            }
-            match fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit) {
-                Ok((coefficients, factor)) => {
-                    let info = PatchInfo {
-                        ring,
-                        cells: patch_cells.len(),
-                        samples: buf.len(),
-                    };
-                    return Ok(NodeFit {
-                        coefficients,
-                        info,
-                        plan: self.keep.then_some(NodePlan {
-                            cells: patch_cells,
-                            info,
-                            factor,
+                            factor: factor.into_owned(),
                         }),
                     });
                 }
