@@ -22,6 +22,7 @@ use serde::Serialize;
 
 use super::{median, run_sphere, write_outputs, RunConfig, Runs};
 use crate::case::Case;
+use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::plot::{Chart, Series};
 use crate::progress::Progress;
@@ -46,21 +47,20 @@ pub struct CutSweepOptions {
 }
 
 impl CutSweepOptions {
-    /// The S-term and Krylov method of `case` where the case turns the S-term
-    /// on (the Q2 sphere: k2 = 0.01, A = 20%, CG); else these options as
-    /// they are (the Q1 sphere runs without it and sweeps the paper's k2 =
-    /// 0.01, A = 1% with CGS).
+    /// The Q2 sphere's own S-term (`case`'s k2 and Q2 threshold: the
+    /// defaults, k2 = 0.01 and A = 20%) and CG (CGS diverges on Q2); for
+    /// Q1 these options as they are (the paper's k2 = 0.01, A = 1% with
+    /// CGS).
     pub fn with_case_stabilisation(self, case: &Case) -> Self {
         let st = &case.spec.stabilisation;
-        if st.k2 > 0.0 {
-            CutSweepOptions {
+        match case.body().spec.element {
+            ElementOrder::Q2 => CutSweepOptions {
                 k2: st.k2,
-                a: st.threshold(case.body().spec.element),
-                method: case.spec.solver.method,
+                a: st.threshold(ElementOrder::Q2),
+                method: KrylovMethod::Cg,
                 ..self
-            }
-        } else {
-            self
+            },
+            ElementOrder::Q1 => self,
         }
     }
 }

@@ -110,8 +110,11 @@ fn cut_sweep_writes_a_row_per_level_and_stabilisation() {
     let rows = json["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 2);
     assert_eq!(json["runs"].as_array().unwrap().len(), 4);
-    for (r, stabilised) in rows.iter().zip([false, true]) {
+    // The paper's S-term (k2 = 0.01, A = 1%), whatever the case file says.
+    for (r, stabilised, k2) in [(&rows[0], false, 0.0), (&rows[1], true, 0.01)] {
         assert_eq!(r["stabilised"], stabilised);
+        assert_eq!(r["k2"], k2);
+        assert_eq!(r["A"], 0.01);
         assert_eq!(r["offsets"], 2);
         assert!(r["kappa_max"].as_f64().unwrap() >= r["kappa_median"].as_f64().unwrap());
         assert!(r["first_solve_jacobi_max"].as_u64().unwrap() > 0);
