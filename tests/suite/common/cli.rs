@@ -2,7 +2,7 @@
 //! written into it, `run` with `--out` there, and what came back.
 
 use std::path::PathBuf;
-use std::process::Command;
+use std::process::{Command, Output};
 
 /// The `cgfem-gpu` binary under test.
 pub fn bin() -> Command {
@@ -17,8 +17,9 @@ pub fn scratch(name: &str) -> PathBuf {
     d
 }
 
-/// Runs `run` on `text`; returns (exit code, stderr, output folder).
-pub fn run_case(name: &str, text: &str, extra: &[&str]) -> (i32, String, PathBuf) {
+/// Runs `run` on `text` (written into the scratch folder `name`) with the
+/// `extra` arguments; returns what the process gave and the output folder.
+pub fn run_output(name: &str, text: &str, extra: &[&str]) -> (Output, PathBuf) {
     let dir = scratch(name);
     let case = dir.join(format!("{name}.toml"));
     std::fs::write(&case, text).unwrap();
@@ -31,6 +32,12 @@ pub fn run_case(name: &str, text: &str, extra: &[&str]) -> (i32, String, PathBuf
         .args(extra)
         .output()
         .unwrap();
+    (o, out)
+}
+
+/// Runs `run` on `text`; returns (exit code, stderr, output folder).
+pub fn run_case(name: &str, text: &str, extra: &[&str]) -> (i32, String, PathBuf) {
+    let (o, out) = run_output(name, text, extra);
     (
         o.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&o.stderr).into_owned(),

@@ -9,7 +9,7 @@
 //!   ball's surface the master. Every load step converges, the contact force
 //!   is positive and balances the reactions on the two loaded faces.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use cgfem_gpu::bodies::run::run;
 use cgfem_gpu::case::Case;
@@ -19,12 +19,7 @@ use cgfem_gpu::mesh::{box_triangles, tessellated_sphere};
 use cgfem_gpu::progress::Silent;
 use cgfem_gpu::report::Report;
 
-/// A scratch folder for the STL files of `name`.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cgfem-stl-master-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use crate::common::cli::scratch;
 
 /// The cuboid `lo..hi` as an STL file in `dir`; its `stl` geometry node with
 /// the parts `xmin`, `ymin`, `zmin`, `zmax` (by facet normal).
@@ -80,7 +75,7 @@ fn radius(row: &ContactRow) -> f64 {
 fn hertz_on_an_stl_block_matches_the_analytic_block() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/hertz.toml");
     let analytic = std::fs::read_to_string(path).unwrap();
-    let dir = scratch("hertz");
+    let dir = scratch("stl-master-hertz");
     let block = r#"geometry = { type = "cuboid", min = [0, 0, -1], max = [1, 1, 0] }"#;
     assert!(analytic.contains(block), "hertz.toml's block");
     assert!(
@@ -124,7 +119,7 @@ fn hertz_on_an_stl_block_matches_the_analytic_block() {
 /// STL surface the master; the block's top the slave.
 #[test]
 fn two_stl_parts_pressed_together_converge_and_balance() {
-    let dir = scratch("two");
+    let dir = scratch("stl-master-two");
     let sphere = dir.join("sphere.stl");
     write_binary_stl(&sphere, &tessellated_sphere([0.0, 0.0, 1.0], 1.0, 4)).unwrap();
     let block = stl_cuboid(&dir, [0.0, 0.0, -1.0], [1.0, 1.0, 0.0]);

@@ -5,9 +5,6 @@
 //! the interpolant's error is `null`, with the reason, where the exact field
 //! is singular at an active node outside the body.
 
-use std::path::PathBuf;
-use std::process::Command;
-
 use cgfem_gpu::backend::{CpuBackend, LinearOperator};
 use cgfem_gpu::solver::{
     floor_diagonal, solve, KrylovMethod, KrylovOptions, Preconditioner, DIAGONAL_FLOOR,
@@ -16,25 +13,14 @@ use cgfem_gpu::Error;
 use serde_json::Value;
 
 use crate::common;
+use common::cli::run_output;
 use common::{with_physics, SPHERE};
 
-/// Runs `cgfem-gpu run` on `text` with `extra` arguments; returns the exit
-/// code, stdout, stderr and the report.
+/// Runs `cgfem-gpu run` on `text` with `extra` arguments on the CPU,
+/// quietly; returns the exit code, stdout, stderr and the report.
 fn run(name: &str, text: &str, extra: &[&str]) -> (i32, String, String, Value) {
-    let dir = std::env::temp_dir().join(format!("cgfem-diag-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let case = dir.join(format!("{name}.toml"));
-    std::fs::write(&case, text).unwrap();
-    let out: PathBuf = dir.join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .args(["run", "--backend", "cpu", "--quiet"])
-        .arg(&case)
-        .arg("--out")
-        .arg(&out)
-        .args(extra)
-        .output()
-        .unwrap();
+    let args = [&["--backend", "cpu", "--quiet"], extra].concat();
+    let (o, out) = run_output(&format!("diag-{name}"), text, &args);
     let report = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     (
         o.status.code().unwrap_or(-1),
