@@ -36,6 +36,8 @@
 //! three agree to 1e-14.
 
 use std::sync::Mutex;
+
+use rayon::prelude::*;
 use std::time::Instant;
 
 use super::setup::{BodiesSetup, BodySetup};
@@ -193,10 +195,18 @@ impl BodiesVCycles<'_> {
         for ((f, &v), &h) in free.iter_mut().zip(r).zip(self.held) {
             *f = if h { 0.0 } else { v };
         }
-        for (b, cycle) in self.cycles.iter().enumerate() {
-            let range = self.offsets[b]..self.offsets[b + 1];
-            cycle.apply(&free[range.clone()], &mut z[range]);
+        // The bodies' V-cycles side by side: each one's serial parts (its
+        // coarsest solve) overlap the others' work.
+        let mut blocks = Vec::with_capacity(self.cycles.len());
+        let mut rest = &mut z[..];
+        for b in 0..self.cycles.len() {
+            let (block, tail) = rest.split_at_mut(self.offsets[b + 1] - self.offsets[b]);
+            blocks.push((b, block));
+            rest = tail;
         }
+        blocks.into_par_iter().for_each(|(b, block)| {
+            self.cycles[b].apply(&free[self.offsets[b]..self.offsets[b + 1]], block);
+        });
         for ((zi, &ri), &h) in z.iter_mut().zip(r).zip(self.held) {
             if h {
                 *zi = ri;

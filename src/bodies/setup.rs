@@ -201,6 +201,7 @@ pub fn newton_options(case: &Case) -> NewtonOptions {
         fixed_point_tol: s.newton.fixed_point_tol,
         max_fixed_point: s.newton.max_fixed_point,
         recovery: s.newton.recovery,
+        forcing: s.newton.forcing,
         krylov: KrylovOptions {
             method: s.solver.method,
             preconditioner: s.solver.preconditioner,

@@ -58,6 +58,7 @@
 //! fixed_point_tol = 1e-6       # recovered terms (T̂_N, S): ‖u_k − u_{k−1}‖/‖u_k‖ between passes
 //! max_fixed_point = 30         # Newton passes per step with recovered terms
 //! recovery = "passes"          # or "embedded" (after every Newton update), "step" (once per step)
+//! forcing = "adaptive"         # or "fixed": every linear solve to solver.rel_tol
 //! ```
 //! Boundary parts named in neither table are traction free.
 
@@ -293,6 +294,8 @@ pub struct NewtonSpec {
     /// With recovered terms: `"passes"` (between Newton solves),
     /// `"embedded"` (after every Newton update) or `"step"` (once per step).
     pub recovery: RecoveryMode,
+    /// How tightly each Newton iteration's linear solve is converged.
+    pub forcing: Forcing,
 }
 
 impl Default for NewtonSpec {
@@ -306,8 +309,26 @@ impl Default for NewtonSpec {
             fixed_point_tol: 1e-6,
             max_fixed_point: 30,
             recovery: RecoveryMode::Passes,
+            forcing: Forcing::Adaptive,
         }
     }
+}
+
+/// How tightly the linear solve of a Newton iteration is converged
+/// (`crate::hyper::newton`'s module doc, *Inexact solves*).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Forcing {
+    /// The Krylov tolerance follows the residual, `η_k = ‖R_k‖/‖R_0‖`
+    /// between `solver.rel_tol` and 1e-2 (1e-2 first where the residual
+    /// already passes `newton.rel_tol` and the solve may only check the
+    /// energy). Newton stays quadratic; the
+    /// first iterations of a step cost a few Krylov iterations instead of a
+    /// full solve.
+    #[default]
+    Adaptive,
+    /// Every linear solve to `solver.rel_tol`.
+    Fixed,
 }
 
 /// When the recovered terms are re-evaluated (`crate::hyper::newton`'s module doc, *Recovered terms*).

@@ -93,10 +93,13 @@ pub(super) fn cell_shape(
     (dofs, n, dn)
 }
 
+/// The slave cell's dofs with the shape values and physical gradients at
+/// a slave point.
+type SlaveShape = (Vec<usize>, Vec<f64>, Vec<[f64; 3]>);
+
 /// Columns of `A` for the slave dofs: `x1_i` and `F_ij` depend on `u_{a,i}`
 /// through `N_a(X)` and `∂N_a/∂X_j`.
-fn slave_jacobian(body: &ContactBody, p: &SlaveQuadraturePoint) -> Jacobian {
-    let (dofs, n, dn) = cell_shape(body, p.cell, p.x);
+fn slave_jacobian((dofs, n, dn): SlaveShape) -> Jacobian {
     let columns = (0..dofs.len())
         .map(|d| {
             let (a, i) = (d / 3, d % 3);
@@ -107,6 +110,20 @@ fn slave_jacobian(body: &ContactBody, p: &SlaveQuadraturePoint) -> Jacobian {
         })
         .collect();
     Jacobian { dofs, columns }
+}
+
+/// `y0 + A u_local` over the slave columns alone (`x1` and `F`; the
+/// other variables at their reference values), without forming them: the
+/// same sums in the same order as [`Jacobian::state`], whose other terms
+/// are zeros.
+fn slave_state((dofs, n, dn): &SlaveShape, y0: [f64; NVAR], u: &[f64]) -> [f64; NVAR] {
+    let mut y = y0;
+    for (d, &dof) in dofs.iter().enumerate() {
+        let (a, i) = (d / 3, d % 3);
+        y[X1 + i] += n[a] * u[dof];
+        (0..3).for_each(|j| y[F + 3 * i + j] += dn[a][j] * u[dof]);
+    }
+    y
 }
 
 /// Adds the columns of the master `cell`'s dofs for the master points
@@ -155,8 +172,9 @@ pub fn point_contact(
     history: &PointHistory,
     tangent: bool,
 ) -> (PointState, Option<Local>) {
-    let mut jac = slave_jacobian(&pair.slave, p);
-    let y_slave = jac.state(reference_state(p.x, &[[0.0; 3]; 3], [0.0; 3]), u);
+    // Most points are clearly apart: their state needs no columns.
+    let shape = cell_shape(&pair.slave, p.cell, p.x);
+    let y_slave = slave_state(&shape, reference_state(p.x, &[[0.0; 3]; 3], [0.0; 3]), u);
     let f = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y_slave[F + 3 * i + j]));
     let normal = current_normal(&f, p.normal);
     let mut state = PointState {
@@ -185,6 +203,7 @@ pub fn point_contact(
     if history.recovered + pair.stiffness() * hit.gap > 0.0 {
         return (state, None);
     }
+    let mut jac = slave_jacobian(shape);
     let corners = pair.master_surface.reference_corners(hit.triangle);
     let anchor = history.anchor.filter(|_| pair.friction > 0.0);
     let mut in_hit_cell: Vec<(usize, [f64; 3])> = (0..3).map(|k| (P + 3 * k, corners[k])).collect();

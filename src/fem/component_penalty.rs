@@ -10,7 +10,9 @@
 //! [`super::q1_forms`]); a partial mask is not a scalar mass, so its points are
 //! kept here as three dense `npc × npc` masses per cell (one per component)
 //! and added to the cell's product after the main apply. Only the cells a
-//! partial Dirichlet part crosses have one: a handful of boundary cells.
+//! partial Dirichlet part crosses have one: the boundary cells along
+//! rollers and symmetry planes (hundreds on a contact case's faces, so the
+//! apply runs over them in parallel and touches only the held components).
 
 use std::collections::HashMap;
 
@@ -18,7 +20,7 @@ use rayon::prelude::*;
 
 use crate::cells::Cells;
 use crate::discrete::dofs::DofMap;
-use crate::element::{shape_values, ElementOrder};
+use crate::element::shape_values;
 use crate::grid::Grid;
 
 /// The components held at a boundary point `(tag, x)`; `None` where no
@@ -32,6 +34,11 @@ pub struct ComponentPenalty {
     npc: usize,
     /// Per cell with a mass: its grid cell.
     cells: Vec<usize>,
+    /// Per cell: its nodes' active indices (`npc` each).
+    nodes: Vec<u32>,
+    /// Per cell: the components some point of it holds (the others' masses
+    /// are zero).
+    held: Vec<[bool; 3]>,
     /// Per cell: three `npc × npc` masses (component 0, 1, 2), row-major.
     masses: Vec<f64>,
     /// The position in `cells` of a cut-cell slot.
@@ -45,17 +52,19 @@ impl ComponentPenalty {
     pub fn new(
         grid: &Grid,
         cells: &Cells,
-        order: ElementOrder,
+        dofs: &DofMap,
         beta: f64,
         held: &HeldComponents<'_>,
     ) -> ComponentPenalty {
+        let order = dofs.order;
         let npc = order.nodes_per_cell();
-        let per_cell: Vec<(usize, Vec<f64>)> = (0..cells.cut.len())
+        let per_cell: Vec<(usize, [bool; 3], Vec<f64>)> = (0..cells.cut.len())
             .into_par_iter()
             .filter_map(|s| {
                 let cell = cells.cut[s];
                 let lo = grid.cell_box(cell).lo;
                 let mut masses: Option<Vec<f64>> = None;
+                let mut any = [false; 3];
                 let mut n = vec![0.0; npc];
                 for q in cells.surface_points(s) {
                     let Some(mask) = held(q.tag, q.x).filter(|m| *m != [true; 3]) else {
@@ -69,6 +78,7 @@ impl ComponentPenalty {
                         if !held {
                             continue;
                         }
+                        any[i] = true;
                         let mi = &mut m[i * npc * npc..(i + 1) * npc * npc];
                         for a in 0..npc {
                             for b in 0..npc {
@@ -77,16 +87,20 @@ impl ComponentPenalty {
                         }
                     }
                 }
-                masses.map(|m| (s, m))
+                masses.map(|m| (s, any, m))
             })
             .collect();
         let mut out = ComponentPenalty {
             npc,
             ..ComponentPenalty::default()
         };
-        for (s, m) in per_cell {
+        let mut nodes = vec![0usize; npc];
+        for (s, any, m) in per_cell {
             out.by_slot.insert(s, out.cells.len());
             out.cells.push(cells.cut[s]);
+            dofs.cell_active_nodes(grid, cells.cut[s], &mut nodes);
+            out.nodes.extend(nodes.iter().map(|&a| a as u32));
+            out.held.push(any);
             out.masses.extend(m);
         }
         out
@@ -98,22 +112,31 @@ impl ComponentPenalty {
         &self.masses[(3 * k + i) * n2..(3 * k + i + 1) * n2]
     }
 
-    /// `y += K_p,c x` (serial: few cells).
-    pub fn apply_add(&self, grid: &Grid, dofs: &DofMap, x: &[f64], y: &mut [f64]) {
+    /// `y += K_p,c x`: each cell's product in parallel, then added in.
+    pub fn apply_add(&self, x: &[f64], y: &mut [f64]) {
         let npc = self.npc;
-        let mut nodes = vec![0usize; npc];
-        for (k, &cell) in self.cells.iter().enumerate() {
-            dofs.cell_active_nodes(grid, cell, &mut nodes);
-            for i in 0..3 {
-                let m = self.mass(k, i);
-                for (a, &na) in nodes.iter().enumerate() {
-                    let row = &m[a * npc..(a + 1) * npc];
-                    let sum: f64 = row
-                        .iter()
-                        .zip(&nodes)
-                        .map(|(v, &nb)| v * x[3 * nb + i])
-                        .sum();
-                    y[3 * na + i] += sum;
+        let mut products = vec![[0.0; 3]; npc * self.cells.len()];
+        products
+            .par_chunks_mut(npc)
+            .enumerate()
+            .for_each(|(k, out)| {
+                let nodes = &self.nodes[k * npc..(k + 1) * npc];
+                for i in (0..3).filter(|&i| self.held[k][i]) {
+                    let m = self.mass(k, i);
+                    for (o, row) in out.iter_mut().zip(m.chunks_exact(npc)) {
+                        o[i] = row
+                            .iter()
+                            .zip(nodes)
+                            .map(|(v, &nb)| v * x[3 * nb as usize + i])
+                            .sum();
+                    }
+                }
+            });
+        for (nodes, product) in self.nodes.chunks_exact(npc).zip(products.chunks_exact(npc)) {
+            for (&na, p) in nodes.iter().zip(product) {
+                let a = 3 * na as usize;
+                for i in 0..3 {
+                    y[a + i] += p[i];
                 }
             }
         }
@@ -152,6 +175,6 @@ impl ComponentPenalty {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        8 * (self.masses.len() + 2 * self.cells.len())
+        8 * (self.masses.len() + 2 * self.cells.len()) + 4 * self.nodes.len() + 3 * self.held.len()
     }
 }

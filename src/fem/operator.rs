@@ -132,7 +132,7 @@ impl ElasticOperator {
             data,
         };
         let lame = lame(p.young, p.poisson);
-        let partial = ComponentPenalty::new(grid, cells, order, p.beta, p.dirichlet);
+        let partial = ComponentPenalty::new(grid, cells, &dofs, p.beta, p.dirichlet);
         let cut = match order {
             ElementOrder::Q1 => CutData::Forms(Q1Forms::new(&basis, &weights, lame, grid.h)),
             ElementOrder::Q2 => CutData::Weights {
@@ -380,7 +380,7 @@ impl ElasticOperator {
                     }
                 },
             );
-        self.partial.apply_add(&self.grid, &self.dofs, x, y);
+        self.partial.apply_add(x, y);
     }
 
     /// Calls `f(cell, local, matrix)` for the non-outside cells around an
@@ -471,7 +471,7 @@ impl LinearOperator for ElasticOperator {
         let scratch = guard.as_deref_mut().unwrap_or(&mut local);
         scratch.resize(self.fast.scratch_len(), 0.0);
         self.fast.apply(&self.cell_data(), x, y, scratch);
-        self.partial.apply_add(&self.grid, &self.dofs, x, y);
+        self.partial.apply_add(x, y);
     }
 
     fn diagonal(&self) -> Vec<f64> {

@@ -23,6 +23,7 @@ use super::problem::{CellBuffer, HyperProblem, PenaltyPoint, QuadPoint, MAX_NODE
 
 /// `Σ_a v_a ⊗ ∇N_a`, the gradient of the cell's field `v` (one row per
 /// node) at a point.
+#[inline(always)]
 pub fn field_gradient(ve: &[[f64; 3]], q: &QuadPoint) -> Matrix3<f64> {
     let mut g = Matrix3::zeros();
     for (v, grad) in ve.iter().zip(q.grads) {
@@ -41,6 +42,7 @@ pub fn deformation_gradient(ue: &[[f64; 3]], q: &QuadPoint) -> Matrix3<f64> {
 }
 
 /// `out_a += w P ∇N_a` (the point's `w Bᵀ P`).
+#[inline(always)]
 pub fn add_bt_stress(p: &Matrix3<f64>, q: &QuadPoint, out: &mut [[f64; 3]]) {
     for (o, grad) in out.iter_mut().zip(q.grads) {
         for i in 0..3 {

@@ -17,6 +17,7 @@ use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 use super::material::PointState;
+use super::points::QuadPoint;
 use super::problem::{CellBuffer, HyperProblem, MAX_NODES};
 use super::residual::{add_bt_stress, add_penalty, deformation_gradient, field_gradient};
 use crate::backend::LinearOperator;
@@ -32,26 +33,25 @@ pub struct TangentOperator<'p> {
 impl<'p> TangentOperator<'p> {
     /// The tangent at `u`, or `None` if some point has `det F ≤ 0`.
     pub fn new(problem: &'p HyperProblem, u: &[f64]) -> Option<TangentOperator<'p>> {
-        let per_cell: Option<Vec<Vec<PointState>>> = (0..problem.cells.len())
+        let n = problem.cells.len();
+        let states: Option<Vec<PointState>> = (0..n)
             .into_par_iter()
-            .map(|k| {
+            .flat_map_iter(|k| {
                 let mut buffer: CellBuffer = [[0.0; 3]; MAX_NODES];
-                let ue = problem.gather(k, u, &mut buffer);
+                let npc = problem.gather(k, u, &mut buffer).len();
                 problem
                     .points(k)
-                    .map(|q| PointState::new(deformation_gradient(ue, &q)))
-                    .collect()
+                    .map(move |q| PointState::new(deformation_gradient(&buffer[..npc], &q)))
             })
             .collect();
-        let per_cell = per_cell?;
-        let mut state_start = Vec::with_capacity(per_cell.len() + 1);
+        let mut state_start = Vec::with_capacity(n + 1);
         state_start.push(0);
-        for s in &per_cell {
-            state_start.push(state_start.last().copied().unwrap_or(0) + s.len());
+        for k in 0..n {
+            state_start.push(state_start[k] + problem.points(k).len());
         }
         Some(TangentOperator {
             problem,
-            states: per_cell.into_iter().flatten().collect(),
+            states: states?,
             state_start,
         })
     }
@@ -64,13 +64,34 @@ impl<'p> TangentOperator<'p> {
     /// `out += K_c v_c`: the cell's tangent applied to its nodal values.
     pub fn cell_apply(&self, k: usize, ve: &[[f64; 3]], out: &mut [[f64; 3]]) {
         let p = self.problem;
-        for (q, s) in p.points(k).zip(self.cell_states(k)) {
-            let dp = p.material.tangent_action(s, &field_gradient(ve, &q));
-            add_bt_stress(&dp, &q, out);
+        // The point loop with the element's node count known to the
+        // compiler (its gradient and scatter loops unrolled), else as is.
+        match (ve.try_into(), out.try_into()) {
+            (Ok(ve), Ok(out)) => self.points_apply::<8>(k, ve, out),
+            _ => match (ve.try_into(), out.try_into()) {
+                (Ok(ve), Ok(out)) => self.points_apply::<27>(k, ve, out),
+                _ => {
+                    for (q, s) in p.points(k).zip(self.cell_states(k)) {
+                        let dp = p.material.tangent_action(s, &field_gradient(ve, &q));
+                        add_bt_stress(&dp, &q, out);
+                    }
+                }
+            },
         }
         add_penalty(p.penalty_points(k), ve, 0.0, out);
         if let Some(s) = &p.s_term {
             s.add_cell_tangent(k, ve, out);
+        }
+    }
+
+    /// The volume points' part of [`Self::cell_apply`] for `N` nodes.
+    fn points_apply<const N: usize>(&self, k: usize, ve: &[[f64; 3]; N], out: &mut [[f64; 3]; N]) {
+        let p = self.problem;
+        for (q, s) in p.points(k).zip(self.cell_states(k)) {
+            let grads: &[[f64; 3]; N] = q.grads.try_into().expect("N gradients a point");
+            let q = QuadPoint { grads, w: q.w };
+            let dp = p.material.tangent_action(s, &field_gradient(ve, &q));
+            add_bt_stress(&dp, &q, out);
         }
     }
 

@@ -1,7 +1,8 @@
-//! The settings of the nonlinear solve ([`NewtonOptions`]) and when its
-//! recovered terms are re-evaluated ([`RecoveryMode`]).
+//! The settings of the nonlinear solve ([`NewtonOptions`]), when its
+//! recovered terms are re-evaluated ([`RecoveryMode`]) and how tightly its
+//! linear solves are converged ([`Forcing`], [`NewtonOptions::krylov_tol`]).
 
-use crate::case::physics::RecoveryMode;
+use crate::case::physics::{Forcing, RecoveryMode};
 use crate::error::{Error, Result};
 use crate::solver::{KrylovMethod, KrylovOptions, Preconditioner};
 
@@ -31,7 +32,12 @@ pub struct NewtonOptions {
     pub max_fixed_point: usize,
     /// How recovered terms are brought up to date (module doc).
     pub recovery: RecoveryMode,
+    /// How tightly each iteration's linear solve is converged.
+    pub forcing: Forcing,
 }
+
+/// The loosest relative tolerance of an adaptive linear solve.
+pub const LOOSEST_FORCING: f64 = 1e-2;
 
 impl Default for NewtonOptions {
     fn default() -> Self {
@@ -52,11 +58,35 @@ impl Default for NewtonOptions {
             fixed_point_tol: 1e-6,
             max_fixed_point: 30,
             recovery: RecoveryMode::Passes,
+            forcing: Forcing::Fixed,
         }
     }
 }
 
 impl NewtonOptions {
+    /// The relative tolerance of the linear solve whose `Δu` updates an
+    /// iterate whose residual is `relative_residual` of the step's
+    /// reference: [`Forcing::Adaptive`], `η = ‖R_k‖/‖R_0‖` held between
+    /// `krylov.rel_tol` and [`LOOSEST_FORCING`], which keeps Newton
+    /// quadratic (the solve's error is of the order of the
+    /// linearisation's); [`Forcing::Fixed`], `krylov.rel_tol`.
+    pub fn krylov_tol(&self, relative_residual: f64) -> f64 {
+        let floor = self.krylov.rel_tol;
+        match self.forcing {
+            Forcing::Fixed => floor,
+            Forcing::Adaptive => relative_residual.min(LOOSEST_FORCING).max(floor),
+        }
+    }
+
+    /// [`Forcing::Adaptive`] at an iterate whose residual already passes
+    /// `residual_tol`: the tolerance of a first solve that only feeds the
+    /// energy test, which needs `Δu` to a few digits ([`LOOSEST_FORCING`]);
+    /// `None` otherwise.
+    pub fn check_tol(&self, relative_residual: f64) -> Option<f64> {
+        (self.forcing == Forcing::Adaptive && relative_residual <= self.residual_tol)
+            .then(|| LOOSEST_FORCING.max(self.krylov.rel_tol))
+    }
+
     /// Checks the ranges (a step count of zero is bad input).
     pub fn validate(&self) -> Result<()> {
         let bad = |what: &str, reason: String| {
@@ -84,5 +114,39 @@ impl NewtonOptions {
             }
         }
         self.krylov.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Adaptive: the relative residual, held in `[rel_tol, 1e-2]`, with a
+    /// 1e-2 check once the residual passes `residual_tol`; fixed: `rel_tol`
+    /// always, and no check.
+    #[test]
+    fn the_krylov_tolerance_follows_the_residual() {
+        let mut opts = NewtonOptions {
+            forcing: Forcing::Adaptive,
+            residual_tol: 1e-8,
+            ..NewtonOptions::default()
+        };
+        opts.krylov.rel_tol = 1e-9;
+        assert_eq!(opts.krylov_tol(1.0), 1e-2);
+        assert_eq!(opts.krylov_tol(3e-4), 3e-4);
+        assert_eq!(opts.krylov_tol(2e-8), 2e-8);
+        assert_eq!(opts.krylov_tol(1e-13), 1e-9);
+        assert_eq!(opts.check_tol(2e-8), None);
+        assert_eq!(opts.check_tol(1e-8), Some(1e-2));
+        assert_eq!(opts.check_tol(1e-13), Some(1e-2));
+        opts.krylov.rel_tol = 0.5;
+        assert_eq!(opts.krylov_tol(3e-4), 0.5);
+        assert_eq!(opts.check_tol(1e-13), Some(0.5));
+        opts.forcing = Forcing::Fixed;
+        opts.krylov.rel_tol = 1e-9;
+        for r in [1.0, 3e-4, 1e-13] {
+            assert_eq!(opts.krylov_tol(r), 1e-9);
+            assert_eq!(opts.check_tol(r), None);
+        }
     }
 }

@@ -94,3 +94,39 @@ fn on_the_curved_master_too() {
     // quadratic constant growing from 14 to 71 (docs/verification.md).
     converges_quadratically_with_an_exact_tangent(true, 1.7);
 }
+
+/// The adaptive forcing (the default) ends each load step where converging
+/// every linear solve to `solver.rel_tol` does, with fewer Krylov
+/// iterations: the contact forces of every step agree to 1e-8 relative.
+#[test]
+fn adaptive_linear_tolerances_give_the_same_forces_with_fewer_krylov_iterations() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/annuli_contact.toml");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let run_with = |forcing: &str| {
+        let set = [format!("newton.forcing=\"{forcing}\"")];
+        let case = Case::from_str_with(file.to_str().unwrap(), &text, &set).unwrap();
+        let out = run(&case, Some(3), None, &Silent).unwrap();
+        out.result.as_ref().unwrap();
+        out.report
+    };
+    let (adaptive, fixed) = (run_with("adaptive"), run_with("fixed"));
+    let krylov = |r: &cgfem_gpu::report::Report| -> usize {
+        let load = r.load.as_ref().unwrap();
+        load.load_steps
+            .iter()
+            .map(|s| s.krylov_iterations.iter().sum::<usize>())
+            .sum()
+    };
+    let (ka, kf) = (krylov(&adaptive), krylov(&fixed));
+    println!("Krylov iterations: adaptive {ka}, fixed {kf}");
+    assert!(ka < kf, "adaptive {ka}, fixed {kf}");
+    assert_eq!(adaptive.contact.len(), fixed.contact.len());
+    for (a, f) in adaptive.contact.iter().zip(&fixed.contact) {
+        let rel = (a.normal_force - f.normal_force).abs() / f.normal_force.abs();
+        println!(
+            "step {}: normal force {} / {} ({rel:.1e})",
+            a.step, a.normal_force, f.normal_force
+        );
+        assert!(rel <= 1e-8, "step {}: {rel:e}", a.step);
+    }
+}
