@@ -58,7 +58,7 @@
 //! fixed_point_tol = 1e-6       # recovered terms (T̂_N, S): ‖u_k − u_{k−1}‖/‖u_k‖ between passes
 //! max_fixed_point = 30         # Newton passes per step with recovered terms
 //! recovery = "passes"          # or "embedded" (after every Newton update), "step" (once per step)
-//! forcing = "adaptive"         # or "fixed": every linear solve to solver.rel_tol
+//! forcing = "adaptive"         # Krylov tolerance ‖R_k‖/‖R_0‖ in [solver.rel_tol, 1e-4]; "fixed": solver.rel_tol
 //! ```
 //! Boundary parts named in neither table are traction free.
 
@@ -320,11 +320,10 @@ impl Default for NewtonSpec {
 #[serde(rename_all = "snake_case")]
 pub enum Forcing {
     /// The Krylov tolerance follows the residual, `η_k = ‖R_k‖/‖R_0‖`
-    /// between `solver.rel_tol` and 1e-2 (1e-2 first where the residual
+    /// between `solver.rel_tol` and 1e-4 (1e-2 first where the residual
     /// already passes `newton.rel_tol` and the solve may only check the
-    /// energy). Newton stays quadratic; the
-    /// first iterations of a step cost a few Krylov iterations instead of a
-    /// full solve.
+    /// energy). Newton stays quadratic; the first iterations of a step cost
+    /// fewer Krylov iterations than a full solve.
     #[default]
     Adaptive,
     /// Every linear solve to `solver.rel_tol`.

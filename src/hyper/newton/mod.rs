@@ -32,7 +32,7 @@
 //! # Inexact solves
 //! With [`Forcing::Adaptive`](crate::case::physics::Forcing::Adaptive) (the
 //! default) the linear solve at `u_k` is converged to
-//! `η_k = ‖R(u_k)‖/‖R(u_0)‖` relative, within `[krylov.rel_tol, 10⁻²]`
+//! `η_k = ‖R(u_k)‖/‖R(u_0)‖` relative, within `[krylov.rel_tol, 10⁻⁴]`
 //! ([`NewtonOptions::krylov_tol`]). The residual after the update is then
 //! `O(‖R_k‖²)` as with an exact solve (an inexact Newton method whose forcing
 //! term is proportional to the residual), so the rate stays quadratic while

@@ -36,8 +36,16 @@ pub struct NewtonOptions {
     pub forcing: Forcing,
 }
 
-/// The loosest relative tolerance of an adaptive linear solve.
-pub const LOOSEST_FORCING: f64 = 1e-2;
+/// The loosest relative tolerance of an adaptive linear solve whose `Δu`
+/// updates the iterate. Looser (1e-2) moved the partial-slip steps of
+/// `cases/mindlin.toml` by 0.3 % and a step of the annuli on a curved master
+/// by 7e-4: where the contact state depends on the path, the first
+/// iterations must follow the exact Newton path closely enough.
+pub const LOOSEST_FORCING: f64 = 1e-4;
+
+/// The tolerance of a solve at a state that already passes `residual_tol`,
+/// whose `Δu` first only decides the energy test.
+pub const CHECK_FORCING: f64 = 1e-2;
 
 impl Default for NewtonOptions {
     fn default() -> Self {
@@ -80,11 +88,11 @@ impl NewtonOptions {
 
     /// [`Forcing::Adaptive`] at an iterate whose residual already passes
     /// `residual_tol`: the tolerance of a first solve that only feeds the
-    /// energy test, which needs `Δu` to a few digits ([`LOOSEST_FORCING`]);
+    /// energy test, which needs `Δu` to a few digits ([`CHECK_FORCING`]);
     /// `None` otherwise.
     pub fn check_tol(&self, relative_residual: f64) -> Option<f64> {
         (self.forcing == Forcing::Adaptive && relative_residual <= self.residual_tol)
-            .then(|| LOOSEST_FORCING.max(self.krylov.rel_tol))
+            .then(|| CHECK_FORCING.max(self.krylov.rel_tol))
     }
 
     /// Checks the ranges (a step count of zero is bad input).
@@ -121,7 +129,7 @@ impl NewtonOptions {
 mod tests {
     use super::*;
 
-    /// Adaptive: the relative residual, held in `[rel_tol, 1e-2]`, with a
+    /// Adaptive: the relative residual, held in `[rel_tol, 1e-4]`, with a
     /// 1e-2 check once the residual passes `residual_tol`; fixed: `rel_tol`
     /// always, and no check.
     #[test]
@@ -132,15 +140,15 @@ mod tests {
             ..NewtonOptions::default()
         };
         opts.krylov.rel_tol = 1e-9;
-        assert_eq!(opts.krylov_tol(1.0), 1e-2);
-        assert_eq!(opts.krylov_tol(3e-4), 3e-4);
+        assert_eq!(opts.krylov_tol(1.0), 1e-4);
+        assert_eq!(opts.krylov_tol(3e-5), 3e-5);
         assert_eq!(opts.krylov_tol(2e-8), 2e-8);
         assert_eq!(opts.krylov_tol(1e-13), 1e-9);
         assert_eq!(opts.check_tol(2e-8), None);
         assert_eq!(opts.check_tol(1e-8), Some(1e-2));
         assert_eq!(opts.check_tol(1e-13), Some(1e-2));
         opts.krylov.rel_tol = 0.5;
-        assert_eq!(opts.krylov_tol(3e-4), 0.5);
+        assert_eq!(opts.krylov_tol(3e-5), 0.5);
         assert_eq!(opts.check_tol(1e-13), Some(0.5));
         opts.forcing = Forcing::Fixed;
         opts.krylov.rel_tol = 1e-9;
