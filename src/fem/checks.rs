@@ -255,8 +255,11 @@ mod tests {
 
     #[test]
     fn names_the_key_of_an_overflow() {
-        let k1 = format!("{CLAMP}[stabilisation]\nk1 = 1e306\n");
-        assert_eq!(setup_key(STEEL, &k1), "stabilisation.k1");
+        let k1 = format!("{CLAMP}[stabilisation]\nk1 = 1e3\n");
+        assert_eq!(
+            setup_key("young = 1e306\npoisson = 0.3", &k1),
+            "stabilisation.k1"
+        );
         let k2 = format!("{CLAMP}[stabilisation]\nk2 = 1e306\n");
         assert_eq!(setup_key(STEEL, &k2), "stabilisation.k2");
         // λ = E ν / ((1 + ν)(1 − 2ν)) overflows.

@@ -128,6 +128,7 @@ fn physics_errors_name_the_key() {
         ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"w\",\"0\",\"0\"]\n", "dirichlet.surface.value[0]"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[solver]\nmethod = \"gmres\"\n", "solver.method"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[stabilisation]\nk1 = 0\n", "stabilisation.k1"),
+        ("[material]\nyoung = 1\npoisson = 0.3\n[stabilisation]\nk1 = 1.5e3\n", "stabilisation.k1"),
         ("[materail]\nyoung = 1\npoisson = 0.3\n", "materail"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"free\",\"free\",\"free\"]\n", "dirichlet.surface.value"),
         ("[material]\nyoung = 1\npoisson = 0.3\n[dirichlet.surface]\nvalue = [\"0\",\"free\",\"exact\"]\n", "dirichlet.surface.value"),
