@@ -44,7 +44,7 @@ impl Case {
             ("solver.rel_tol", so.rel_tol),
             ("solver.min_rel_tol", so.min_rel_tol),
             ("solver.fixed_point_tol", so.fixed_point_tol()),
-            ("solver.inner_rel_tol", so.inner_rel_tol),
+            ("solver.inner_rel_tol", so.inner_rel_tol()),
         ] {
             if !(v.is_finite() && v > 0.0 && v < 1.0) {
                 return Err(self.bad(key, format!("must lie in (0, 1), got {v}")));

@@ -40,7 +40,7 @@ pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
         min_rel_tol: spec.min_rel_tol,
         tol: spec.fixed_point_tol(),
         max_iterations: spec.max_fixed_point,
-        inner_rel_tol: spec.inner_rel_tol,
+        inner_rel_tol: spec.inner_rel_tol(),
     }
 }
 

@@ -1,9 +1,11 @@
 //! The fixed-point loop's answers do not depend on the preconditioner:
 //! the paper's sphere with Q1 (`cases/sphere.toml`, level 4) and
 //! with Q2 (`cases/sphere_q2.toml`, level 3), each run to convergence with the
-//! case's Jacobi and with multigrid (default outer FGMRES): the energy and L2
-//! errors agree to 1e-8 relative, the displacements to 1e-7 of the largest.
-//! Only the Krylov iterations differ.
+//! case's Jacobi and with multigrid (default outer FGMRES), both with inner
+//! solves to 1e-3 (the defaults differ with the preconditioner, and the
+//! preconditioner is what is compared): the energy and L2 errors agree to
+//! 1e-8 relative, the displacements to 1e-7 of the largest. Only the Krylov
+//! iterations differ.
 
 use std::path::Path;
 
@@ -19,7 +21,10 @@ fn run(file: &str, level: u32, preconditioner: &str) -> (Vec<f64>, ErrorNorms, F
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("cases")
         .join(file);
-    let set = [format!("solver.preconditioner=\"{preconditioner}\"")];
+    let set = [
+        format!("solver.preconditioner=\"{preconditioner}\""),
+        "solver.inner_rel_tol=1e-3".to_string(),
+    ];
     let case = Case::from_file_with(&path, &set).unwrap();
     let setup = Setup::new(&case, Some(level)).unwrap();
     let mut report = FixedPointReport::default();
