@@ -36,9 +36,9 @@
 //! three agree to 1e-14.
 
 use std::sync::Mutex;
+use std::time::Instant;
 
 use rayon::prelude::*;
-use std::time::Instant;
 
 use super::setup::{BodiesSetup, BodySetup};
 use crate::backend::CpuBackend;

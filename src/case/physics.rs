@@ -244,9 +244,7 @@ impl SolverSpec {
             OuterMethod::Picard => 1e-8,
         })
     }
-}
 
-impl SolverSpec {
     /// The inner solves' tolerance: as given, else 1e-2 with the multigrid
     /// preconditioner (`auto` included) and 1e-3 with Jacobi or none. An
     /// outer iteration costs a recovery, an inner iteration a V-cycle or a

@@ -32,9 +32,7 @@ pub type HeldComponents<'a> = dyn Fn(u16, [f64; 3]) -> Option<[bool; 3]> + Sync 
 pub struct ComponentPenalty {
     /// Nodes per cell.
     npc: usize,
-    /// Per cell with a mass: its grid cell.
-    cells: Vec<usize>,
-    /// Per cell: its nodes' active indices (`npc` each).
+    /// Per cell with a mass: its nodes' active indices (`npc` each).
     nodes: Vec<u32>,
     /// Per cell: the components some point of it holds (the others' masses
     /// are zero).
@@ -96,8 +94,7 @@ impl ComponentPenalty {
         };
         let mut nodes = vec![0usize; npc];
         for (s, any, m) in per_cell {
-            out.by_slot.insert(s, out.cells.len());
-            out.cells.push(cells.cut[s]);
+            out.by_slot.insert(s, out.held.len());
             dofs.cell_active_nodes(grid, cells.cut[s], &mut nodes);
             out.nodes.extend(nodes.iter().map(|&a| a as u32));
             out.held.push(any);
@@ -114,8 +111,11 @@ impl ComponentPenalty {
 
     /// `y += K_p,c x`: each cell's product in parallel, then added in.
     pub fn apply_add(&self, x: &[f64], y: &mut [f64]) {
+        if self.held.is_empty() {
+            return;
+        }
         let npc = self.npc;
-        let mut products = vec![[0.0; 3]; npc * self.cells.len()];
+        let mut products = vec![[0.0; 3]; npc * self.held.len()];
         products
             .par_chunks_mut(npc)
             .enumerate()
@@ -175,6 +175,6 @@ impl ComponentPenalty {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        8 * (self.masses.len() + 2 * self.cells.len()) + 4 * self.nodes.len() + 3 * self.held.len()
+        8 * (self.masses.len() + self.held.len()) + 4 * self.nodes.len() + 3 * self.held.len()
     }
 }

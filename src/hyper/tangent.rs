@@ -21,6 +21,7 @@ use super::points::QuadPoint;
 use super::problem::{CellBuffer, HyperProblem, MAX_NODES};
 use super::residual::{add_bt_stress, add_penalty, deformation_gradient, field_gradient};
 use crate::backend::LinearOperator;
+use crate::element::ElementOrder;
 
 /// `K_T(u)` of a problem at one displacement.
 pub struct TangentOperator<'p> {
@@ -65,18 +66,17 @@ impl<'p> TangentOperator<'p> {
     pub fn cell_apply(&self, k: usize, ve: &[[f64; 3]], out: &mut [[f64; 3]]) {
         let p = self.problem;
         // The point loop with the element's node count known to the
-        // compiler (its gradient and scatter loops unrolled), else as is.
-        match (ve.try_into(), out.try_into()) {
-            (Ok(ve), Ok(out)) => self.points_apply::<8>(k, ve, out),
-            _ => match (ve.try_into(), out.try_into()) {
-                (Ok(ve), Ok(out)) => self.points_apply::<27>(k, ve, out),
-                _ => {
-                    for (q, s) in p.points(k).zip(self.cell_states(k)) {
-                        let dp = p.material.tangent_action(s, &field_gradient(ve, &q));
-                        add_bt_stress(&dp, &q, out);
-                    }
-                }
-            },
+        // compiler (its gradient and scatter loops unrolled).
+        let rows = "a cell's nodes";
+        match p.order() {
+            ElementOrder::Q1 => {
+                let (ve, out) = (ve.try_into().expect(rows), out.try_into().expect(rows));
+                self.points_apply::<8>(k, ve, out)
+            }
+            ElementOrder::Q2 => {
+                let (ve, out) = (ve.try_into().expect(rows), out.try_into().expect(rows));
+                self.points_apply::<27>(k, ve, out)
+            }
         }
         add_penalty(p.penalty_points(k), ve, 0.0, out);
         if let Some(s) = &p.s_term {

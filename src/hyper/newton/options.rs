@@ -47,6 +47,10 @@ pub const LOOSEST_FORCING: f64 = 1e-4;
 /// whose `Δu` first only decides the energy test.
 pub const CHECK_FORCING: f64 = 1e-2;
 
+/// The library's defaults, which the unit tests build on: Jacobi, exact
+/// solves to 1e-10 ([`Forcing::Fixed`]). A case file's `[newton]` and
+/// `[solver]` have their own defaults (`crate::case::physics`: multigrid,
+/// adaptive forcing).
 impl Default for NewtonOptions {
     fn default() -> Self {
         NewtonOptions {
