@@ -325,6 +325,7 @@ pub fn run(
             &setup,
             geometry,
             u,
+            Some(&solution.stress),
             outputs.paraview,
             outputs.plots,
             written,

@@ -63,6 +63,12 @@ impl CellField {
         self.at(&Shapes::at(self.order, xi, self.h))
     }
 
+    /// `u_h` and `∇u_h` at point `q` of the rule that `table` tabulates,
+    /// in this cell.
+    pub fn at_tabulated(&self, table: &ShapeTable, q: usize) -> ([f64; 3], [[f64; 3]; 3]) {
+        self.at(&table.0[q])
+    }
+
     /// `u_h` and `∇u_h` at the point whose shape functions are `s`.
     fn at(&self, s: &Shapes) -> ([f64; 3], [[f64; 3]; 3]) {
         let mut val = [0.0; 3];
@@ -77,6 +83,21 @@ impl CellField {
             }
         }
         (val, grad)
+    }
+}
+
+/// The shape functions of an element order at the points of a rule
+/// (reference coordinates in `[0, 1]³`) of every cell of size `h`, for
+/// [`CellField::at_tabulated`].
+pub struct ShapeTable(Vec<Shapes>);
+
+impl ShapeTable {
+    pub fn new(order: ElementOrder, rule: &[([f64; 3], f64)], h: f64) -> ShapeTable {
+        ShapeTable(
+            rule.iter()
+                .map(|(xi, _)| Shapes::at(order, *xi, h))
+                .collect(),
+        )
     }
 }
 
@@ -191,10 +212,7 @@ fn error_norms_of<const N: usize>(
     mu: f64,
 ) -> [ErrorNorms; N] {
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
-    let shapes: Vec<Shapes> = rule
-        .iter()
-        .map(|(xi, _)| Shapes::at(dofs.order, *xi, grid.h))
-        .collect();
+    let shapes = ShapeTable::new(dofs.order, &rule, grid.h).0;
     let tape = exact.tape();
     let vol = grid.h.powi(3);
     // Per field: [energy of e, energy of u, L2 of e, L2 of u], weighted.

@@ -17,7 +17,7 @@ use std::str::FromStr;
 
 use rayon::prelude::*;
 
-use super::recovery::{recover_stress, vertex_nodes_of};
+use super::recovery::{recover_stress_around, vertex_nodes_of};
 use super::setup::Setup;
 use super::surface_output::{surface_fields, write_surface, SurfaceFields};
 use crate::cells::CellKind;
@@ -197,14 +197,20 @@ impl VtuFile {
 /// in inline base64, a text file; a run writes it through
 /// [`write_paraview`] in the encoding of its [`ParaView`].
 pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path) -> Result<()> {
-    solution_file(setup, geometry, u)?
+    solution_file(setup, geometry, u, None)?
         .0
         .write(path, VtuEncoding::Binary)
 }
 
 /// `solution.vtu` of the solution `u` of `setup`, whose solid is `geometry`,
-/// and the stress recovered at the vertices of its cells.
-fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFile, Recovered<6>)> {
+/// and the stress recovered at the vertices of its cells (taking the fits
+/// that `known` holds from it).
+fn solution_file(
+    setup: &Setup,
+    geometry: &Geometry,
+    u: &[f64],
+    known: Option<&Recovered<6>>,
+) -> Result<(VtuFile, Recovered<6>)> {
     let grid = &setup.grid;
     let dofs = &setup.op.dofs;
     let body: Vec<usize> = (0..grid.num_cells())
@@ -225,7 +231,7 @@ fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFi
             [u[3 * a], u[3 * a + 1], u[3 * a + 2]]
         })
         .collect();
-    let sigma = recover_stress(setup, u, &vertex_nodes_of(setup, &body), None)?;
+    let sigma = recover_stress_around(setup, u, &vertex_nodes_of(setup, &body), known)?;
     let stress = nodal_stress(grid, dofs.order, &mesh, &points, &sigma)?;
     let mises: Vec<f64> = stress.par_iter().map(von_mises).collect();
     let mut point_data = vec![
@@ -266,7 +272,8 @@ fn solution_file(setup: &Setup, geometry: &Geometry, u: &[f64]) -> Result<(VtuFi
 }
 
 /// Writes the ParaView files of `paraview` for the solution `u` of `setup`
-/// (whose solid is `geometry`) through `written`: `solution.vtu`,
+/// (whose solid is `geometry`, and whose stress `known` was recovered on
+/// some patches already) through `written`: `solution.vtu`,
 /// `surface.vtp`, and `solution.pvd` listing those written as the parts of
 /// one time step. Everything that can fail to compute (the stress
 /// recovery: [`crate::Error::Recovery`] on a grid too coarse for the body)
@@ -277,18 +284,19 @@ pub fn write_paraview(
     setup: &Setup,
     geometry: &Geometry,
     u: &[f64],
+    known: Option<&Recovered<6>>,
     paraview: ParaView,
     want_surface: bool,
     written: &mut Written,
 ) -> Result<Option<(BoundaryMesh, SurfaceFields)>> {
     let (encoding, first) = (paraview.encoding, written.files.len());
     let volume = match paraview.files.volume() {
-        true => Some(solution_file(setup, geometry, u)?),
+        true => Some(solution_file(setup, geometry, u, known)?),
         false => None,
     };
     // The surface's host cells are cells of the body: its stress is the
     // volume's, when that was recovered.
-    let recovered = volume.as_ref().map(|(_, sigma)| sigma);
+    let recovered = volume.as_ref().map(|(_, sigma)| sigma).or(known);
     let surface = match paraview.files.surface() || want_surface {
         true => Some(surface_fields(setup, geometry, u, recovered)?),
         false => None,

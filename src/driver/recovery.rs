@@ -11,11 +11,11 @@ use rayon::prelude::*;
 
 use super::setup::Setup;
 use crate::cells::CellKind;
-use crate::discrete::field::{stress_voigt, value_and_gradient, CellField};
+use crate::discrete::field::{stress_voigt, value_and_gradient, CellField, ShapeTable};
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::fem::rhs::DirichletPoint;
-use crate::recovery::{recover_planned, FitPlans, Recovered, SprOptions};
+use crate::recovery::{recover_around, recover_planned, FitPlans, Recovered, Sample, SprOptions};
 
 /// The Q1 vertex nodes of the cells holding Dirichlet points and of the cells
 /// whose flux correction uses the recovered stress (the patches the traction
@@ -30,15 +30,25 @@ pub fn traction_patch_nodes(setup: &Setup) -> Vec<usize> {
 
 /// The Q1 vertex nodes of the given cells, ascending and distinct.
 pub fn vertex_nodes_of(setup: &Setup, cells: &[usize]) -> Vec<usize> {
-    let mut nodes = Vec::with_capacity(8 * cells.len());
+    let grid = &setup.grid;
     let mut v = [0usize; 8];
-    for &c in cells {
-        setup.grid.cell_nodes(ElementOrder::Q1, c, &mut v);
-        nodes.extend_from_slice(&v);
+    // Few cells: sort their nodes; many: mark them on the lattice.
+    if 8 * cells.len() < grid.num_nodes(ElementOrder::Q1) / 8 {
+        let mut nodes = Vec::with_capacity(8 * cells.len());
+        for &c in cells {
+            grid.cell_nodes(ElementOrder::Q1, c, &mut v);
+            nodes.extend_from_slice(&v);
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        return nodes;
     }
-    nodes.sort_unstable();
-    nodes.dedup();
-    nodes
+    let mut marked = vec![false; grid.num_nodes(ElementOrder::Q1)];
+    for &c in cells {
+        grid.cell_nodes(ElementOrder::Q1, c, &mut v);
+        v.iter().for_each(|&n| marked[n] = true);
+    }
+    (0..marked.len()).filter(|&n| marked[n]).collect()
 }
 
 /// The SPR sample points of a cell (stress and displacement recovery alike):
@@ -80,31 +90,71 @@ pub fn recover_stress(
     nodes: &[usize],
     plans: Option<&OnceLock<FitPlans>>,
 ) -> Result<Recovered<6>> {
-    let grid = &setup.grid;
-    let dofs = &setup.op.dofs;
-    let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
-    let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis());
-    let samples = |cell: usize, out: &mut Vec<([f64; 3], [f64; 6])>| {
-        let mut xs = Vec::new();
-        sample_positions(setup, cell, &rule, &mut xs);
-        let field = CellField::new(grid, dofs, u, cell);
-        out.extend(xs.into_iter().map(|x| {
-            let (_, g) = field.value_and_gradient(x);
-            (x, stress_voigt(&g, lambda, mu))
-        }));
-    };
     recover_planned(
-        grid,
+        &setup.grid,
         &setup.cells.kinds,
         nodes,
-        dofs.order.degree(),
-        &samples,
-        &SprOptions {
-            pieces: Some(&setup.pieces.of_cell),
-            ..SprOptions::default()
-        },
+        setup.op.dofs.order.degree(),
+        &stress_samples(setup, u),
+        &stress_options(setup),
         plans,
     )
+}
+
+/// [`recover_stress`] on `nodes` without plans, taking the fits of the
+/// nodes that `known` (a stress recovery of the same `u`) holds from it.
+pub fn recover_stress_around(
+    setup: &Setup,
+    u: &[f64],
+    nodes: &[usize],
+    known: Option<&Recovered<6>>,
+) -> Result<Recovered<6>> {
+    let Some(known) = known else {
+        return recover_stress(setup, u, nodes, None);
+    };
+    recover_around(
+        &setup.grid,
+        &setup.cells.kinds,
+        nodes,
+        setup.op.dofs.order.degree(),
+        &stress_samples(setup, u),
+        &stress_options(setup),
+        known,
+    )
+}
+
+/// The stress of `u` at the [`sample_positions`] of a cell.
+fn stress_samples<'a>(
+    setup: &'a Setup,
+    u: &'a [f64],
+) -> impl Fn(usize, &mut Vec<Sample<6>>) + Sync + 'a {
+    let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
+    let order = setup.op.dofs.order;
+    let rule = tensor_gauss_rule(order.gauss_points_per_axis());
+    // An inside cell's samples are the rule's points: their shape functions
+    // are the same in every inside cell.
+    let table = ShapeTable::new(order, &rule, setup.grid.h);
+    move |cell: usize, out: &mut Vec<Sample<6>>| {
+        let mut xs = Vec::new();
+        sample_positions(setup, cell, &rule, &mut xs);
+        let field = CellField::new(&setup.grid, &setup.op.dofs, u, cell);
+        let inside = setup.cells.kinds[cell] == CellKind::Inside;
+        out.extend(xs.into_iter().enumerate().map(|(q, x)| {
+            let (_, g) = match inside {
+                true => field.at_tabulated(&table, q),
+                false => field.value_and_gradient(x),
+            };
+            (x, stress_voigt(&g, lambda, mu))
+        }));
+    }
+}
+
+/// The stress recovery's options: patches keep to their node's piece.
+fn stress_options(setup: &Setup) -> SprOptions<'_> {
+    SprOptions {
+        pieces: Some(&setup.pieces.of_cell),
+        ..SprOptions::default()
+    }
 }
 
 /// `t̂ = M σ̂ n` at the Dirichlet points (`M` the mask of the held components),

@@ -15,7 +15,7 @@ use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
 use crate::fem::rhs::traction_rhs;
 use crate::progress::{Event, Phase, Progress, Silent};
-use crate::recovery::FitPlans;
+use crate::recovery::{FitPlans, Recovered};
 use crate::solver::KrylovOptions;
 
 /// A converged solution.
@@ -26,6 +26,9 @@ pub struct Solution {
     pub t_hat: Vec<[f64; 3]>,
     /// Reaction `λ_q` at each Dirichlet point.
     pub reactions: Vec<[f64; 3]>,
+    /// The stress recovered from `u` on the traction's patches, which the
+    /// output's recovery of every vertex takes over.
+    pub stress: Recovered<6>,
 }
 
 /// The loop settings of a case's `[solver]` table.
@@ -114,7 +117,7 @@ pub fn solve_with_progress(
                 &sigma,
                 &setup.dirichlet,
             )?;
-            Ok((t_hat, extra))
+            Ok((t_hat, extra, sigma))
         });
     progress.event(&Event::Finish {
         phase: Phase::Recovery,
@@ -122,7 +125,7 @@ pub fn solve_with_progress(
     report.recovery_seconds += t.elapsed().as_secs_f64();
     report.recoveries += 1;
     report.v_cycles = solver.v_cycles();
-    let (t_hat, extra) = recovered?;
+    let (t_hat, extra, stress) = recovered?;
     let mut reactions = reactions(setup, &u, &t_hat);
     for (r, e) in reactions.iter_mut().zip(&extra) {
         for k in 0..3 {
@@ -137,6 +140,7 @@ pub fn solve_with_progress(
         u,
         t_hat,
         reactions,
+        stress,
     })
 }
 

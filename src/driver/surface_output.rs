@@ -25,7 +25,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::output::von_mises;
-use super::recovery::{recover_stress, vertex_nodes_of};
+use super::recovery::{recover_stress_around, vertex_nodes_of};
 use super::setup::Setup;
 use crate::discrete::boundary_mesh::BoundaryMesh;
 use crate::discrete::field::value_and_gradient;
@@ -49,27 +49,20 @@ pub struct SurfaceFields {
 
 impl SurfaceFields {
     /// The fields of the solution `u` of `setup` at the vertices of `mesh`,
-    /// with the stress recovered at the vertices of the host cells, or taken
-    /// from `recovered` when given (it must hold those vertices: the volume
-    /// output's recovery over every cell of the body does).
+    /// with the stress recovered at the vertices of the host cells, taking
+    /// the fits that `known` holds (a stress recovery of `u`: the volume
+    /// output's, which holds them all, or the loop's last) from it.
     pub fn new(
         setup: &Setup,
         u: &[f64],
         mesh: &BoundaryMesh,
-        recovered: Option<&Recovered<6>>,
+        known: Option<&Recovered<6>>,
     ) -> Result<SurfaceFields> {
         let (grid, dofs) = (&setup.grid, &setup.op.dofs);
-        let own;
-        let sigma = match recovered {
-            Some(sigma) => sigma,
-            None => {
-                let mut hosts = mesh.host.clone();
-                hosts.sort_unstable();
-                hosts.dedup();
-                own = recover_stress(setup, u, &vertex_nodes_of(setup, &hosts), None)?;
-                &own
-            }
-        };
+        let mut hosts = mesh.host.clone();
+        hosts.sort_unstable();
+        hosts.dedup();
+        let sigma = &recover_stress_around(setup, u, &vertex_nodes_of(setup, &hosts), known)?;
         let displacement = mesh
             .points
             .par_iter()
@@ -112,16 +105,16 @@ impl SurfaceFields {
 }
 
 /// The boundary of `geometry` as triangles, and the fields of the solution
-/// `u` of `setup` at its vertices (the stress from `recovered` when given,
-/// see [`SurfaceFields::new`]).
+/// `u` of `setup` at its vertices (the stress fits that `known` holds taken
+/// from it, see [`SurfaceFields::new`]).
 pub fn surface_fields(
     setup: &Setup,
     geometry: &Geometry,
     u: &[f64],
-    recovered: Option<&Recovered<6>>,
+    known: Option<&Recovered<6>>,
 ) -> Result<(BoundaryMesh, SurfaceFields)> {
     let mesh = BoundaryMesh::new(&setup.grid, &setup.cells.kinds, geometry);
-    let fields = SurfaceFields::new(setup, u, &mesh, recovered)?;
+    let fields = SurfaceFields::new(setup, u, &mesh, known)?;
     Ok((mesh, fields))
 }
 

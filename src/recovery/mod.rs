@@ -51,7 +51,7 @@ pub use fit::{fit_polynomial, FitFactor, FitFailure, FitOptions, LinearConstrain
 pub use mirror::Mirror;
 pub use plan::{recover_planned, FitPlans};
 pub use recovered::{CellBlend, Recovered};
-pub use spr::{recover, Patch, PatchInfo, PatchSamples, RecoveryStats, SprOptions};
+pub use spr::{recover, recover_around, Patch, PatchInfo, PatchSamples, RecoveryStats, SprOptions};
 
 /// A sample: a point (physical, or scaled for [`fit_polynomial`]) and the `NC`
 /// field components there.

@@ -26,6 +26,7 @@ use rayon::prelude::*;
 
 use super::mirror::{reflect_point, reflect_sample, reflect_value, reflected_axes};
 use super::plan::FitPlans;
+use super::regular::cell_centre;
 use super::spr::{scaled, PatchSamples};
 use super::{Monomials, Recovered, Sample};
 use crate::element::ElementOrder;
@@ -170,10 +171,4 @@ fn reflect_moments<const NC: usize, S: PatchSamples<NC>>(
         let v: [f64; NC] = std::array::from_fn(|c| sign * row[c]);
         o.copy_from_slice(&reflect_value(samples, mask, v));
     }
-}
-
-/// The centre of a cell.
-fn cell_centre(grid: &Grid, cell: usize) -> [f64; 3] {
-    let lo = grid.cell_box(cell).lo;
-    lo.map(|v| v + 0.5 * grid.h)
 }

@@ -97,7 +97,7 @@ pub fn recover_planned<const NC: usize, S: PatchSamples<NC>>(
         };
     }
     let keep = Planning::SearchAndKeep;
-    let (rec, kept) = recover_with(grid, kinds, nodes, degree, samples, opts, keep)?;
+    let (rec, kept) = recover_with(grid, kinds, nodes, degree, samples, opts, keep, None)?;
     // Another thread may have planned the same recovery meanwhile: its plans
     // are the same, so either is kept.
     let _ = plans.set(FitPlans::new(degree, NC, kept));

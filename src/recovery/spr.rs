@@ -7,12 +7,10 @@
 //! caller for those cells' samples once each, and the result stores one
 //! polynomial per requested node.
 
-use std::borrow::Cow;
-
 use rayon::prelude::*;
 
 use super::fit::{fit_and_factor, FitFactor, FitFailure, FitOptions, LinearConstraints};
-use super::mirror::{reflect_sample, ring_cells, Mirror};
+use super::mirror::{reflect_sample, ring_cells, Mirror, PatchCell};
 use super::recovered::Recovered;
 use super::regular::{is_regular, RegularFit};
 use super::sample_cache::SampleCache;
@@ -106,7 +104,7 @@ impl Default for SprOptions<'_> {
 }
 
 /// What one node's accepted patch was.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PatchInfo {
     /// Ring of the accepted fit (1: the cells sharing the vertex).
     pub ring: usize,
@@ -148,7 +146,42 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     samples: &S,
     opts: &SprOptions,
 ) -> Result<Recovered<NC>> {
-    recover_with(grid, kinds, nodes, degree, samples, opts, Planning::Search).map(|(r, _)| r)
+    let planning = Planning::Search;
+    recover_with(grid, kinds, nodes, degree, samples, opts, planning, None).map(|(r, _)| r)
+}
+
+/// [`recover`], taking the fit of every node that `known` holds from it (a
+/// recovery of the same field with the same samples and options on some of
+/// the nodes, e.g. the last one of a loop).
+///
+/// # Panics
+/// As [`recover`]; and when `known` has another degree.
+pub fn recover_around<const NC: usize, S: PatchSamples<NC>>(
+    grid: &Grid,
+    kinds: &[CellKind],
+    nodes: &[usize],
+    degree: usize,
+    samples: &S,
+    opts: &SprOptions,
+    known: &Recovered<NC>,
+) -> Result<Recovered<NC>> {
+    assert_eq!(
+        known.basis.degree(),
+        degree,
+        "a known recovery of another degree"
+    );
+    let planning = Planning::Search;
+    recover_with(
+        grid,
+        kinds,
+        nodes,
+        degree,
+        samples,
+        opts,
+        planning,
+        Some(known),
+    )
+    .map(|(r, _)| r)
 }
 
 /// Whether [`recover_with`] returns each accepted fit's plan.
@@ -161,9 +194,11 @@ pub(super) enum Planning {
     SearchAndKeep,
 }
 
-/// The recovery of [`recover`] and [`super::recover_planned`], each node's
-/// fit as `planning` says; returns the kept plans (empty unless
-/// [`Planning::SearchAndKeep`]).
+/// The recovery of [`recover`], [`recover_around`] and
+/// [`super::recover_planned`], each node's fit as `planning` says (the
+/// nodes that `known` holds taken from it); returns the kept plans (empty
+/// unless [`Planning::SearchAndKeep`]).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     grid: &Grid,
     kinds: &[CellKind],
@@ -172,6 +207,7 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     samples: &S,
     opts: &SprOptions,
     planning: Planning,
+    known: Option<&Recovered<NC>>,
 ) -> Result<(Recovered<NC>, Vec<NodePlan>)> {
     assert_eq!(kinds.len(), grid.num_cells(), "one kind per cell");
     let mut nodes = nodes.to_vec();
@@ -188,7 +224,7 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     let basis = Monomials::new(degree);
     // Patches continue across the mirror faces only for a field that reflects.
     let reflects = (0..3).all(|a| samples.reflected(a, [0.0; NC]).is_some());
-    let mut ctx = Context {
+    let ctx = Context {
         grid,
         kinds,
         basis: &basis,
@@ -200,26 +236,74 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
             Mirror::none()
         },
         keep,
-        regular: None,
     };
-    let regular = ctx.regular_fit(&nodes);
-    ctx.regular = regular.as_ref();
-    let fits: Vec<Result<NodeFit>> = nodes
-        .par_iter()
+    // The regular patches from their cells' moments (not for kept plans,
+    // whose patches are at the boundary), every other patch on its own.
+    let stride = NC * basis.len();
+    let mut coeffs = vec![0.0; nodes.len() * stride];
+    let mut info = vec![PatchInfo::default(); nodes.len()];
+    // Which nodes are fitted: those that `known` holds, then the regular
+    // patches from their cells' moments (not for kept plans, whose patches
+    // are at the boundary), then every other patch on its own.
+    let mut fitted = vec![false; nodes.len()];
+    if let Some(k) = known {
+        (coeffs
+            .par_chunks_mut(stride)
+            .zip(&mut info)
+            .zip(&mut fitted))
+        .zip(&nodes)
+        .for_each(|(((c, i), f), &node)| {
+            if let Ok(s) = k.nodes.binary_search(&node) {
+                c.copy_from_slice(&k.coeffs[s * stride..(s + 1) * stride]);
+                (*i, *f) = (k.info[s], true);
+            }
+        });
+    }
+    if let Some(r) = (!keep).then(|| ctx.regular_fit(&nodes)).flatten() {
+        let mut candidates = ctx.regular_nodes(&nodes);
+        for (c, f) in candidates.iter_mut().zip(&fitted) {
+            *c &= !f;
+        }
+        r.fit_into(
+            grid,
+            &basis,
+            samples,
+            &nodes,
+            &candidates,
+            &mut coeffs,
+            &mut fitted,
+        );
+        let ring_one = PatchInfo {
+            ring: 1,
+            cells: 8,
+            samples: r.samples,
+        };
+        for ((i, &c), &f) in info.iter_mut().zip(&candidates).zip(&fitted) {
+            if c && f {
+                *i = ring_one;
+            }
+        }
+    }
+    // The searched fits' plans, or the first (lowest node's) failure.
+    let searched: Vec<Result<NodePlan>> = (coeffs.par_chunks_mut(stride).zip(&mut info))
+        .zip(&nodes)
+        .zip(&fitted)
+        .filter(|(_, &f)| !f)
         .map_init(
             || (Vec::new(), SampleCache::new()),
-            |(buf, cache), &node| ctx.fit_node(node, buf, cache),
+            |(buf, cache), (((c, i), &node), _)| {
+                let fit = ctx.fit_node(node, buf, cache);
+                fit.map(|fit| {
+                    c.copy_from_slice(&fit.coefficients);
+                    *i = fit.info;
+                    fit.plan
+                })
+                .transpose()
+            },
         )
+        .flatten()
         .collect();
-    let mut coeffs = Vec::with_capacity(nodes.len() * NC * basis.len());
-    let mut info = Vec::with_capacity(nodes.len());
-    let mut kept = Vec::with_capacity(if keep { nodes.len() } else { 0 });
-    for fit in fits {
-        let fit = fit?;
-        coeffs.extend(fit.coefficients);
-        info.push(fit.info);
-        kept.extend(fit.plan);
-    }
+    let kept = searched.into_iter().collect::<Result<Vec<_>>>()?;
     let recovered = Recovered {
         grid: grid.clone(),
         basis,
@@ -259,8 +343,6 @@ struct Context<'a, S> {
     mirror: Mirror,
     /// Whether each fit returns its [`NodePlan`] ([`Planning::SearchAndKeep`]).
     keep: bool,
-    /// The fit of the regular patches, when the recovery has one.
-    regular: Option<&'a RegularFit>,
 }
 
 impl<S> Context<'_, S> {
@@ -273,38 +355,70 @@ impl<S> Context<'_, S> {
         S: PatchSamples<NC>,
     {
         let mut ring = Vec::new();
-        let node = nodes.iter().copied().find(|&node| {
-            ring.clear();
-            ring_cells(
-                self.grid,
-                self.kinds,
-                &self.mirror,
-                node_ijk(self.grid, node),
-                1,
-                &mut ring,
-            );
-            is_regular(self.kinds, &ring)
-        })?;
+        let node = nodes
+            .iter()
+            .copied()
+            .find(|&node| self.ring_one_is_regular(node, &mut ring))?;
         let center = self.grid.node_position(ElementOrder::Q1, node);
-        let mut samples = Vec::new();
-        for &(c, _) in &ring {
-            self.samples.samples(c, &mut samples);
-        }
-        for (x, _) in samples.iter_mut() {
-            *x = scaled(center, self.grid.h, *x);
-        }
         let cells: Vec<usize> = ring.iter().map(|&(c, _)| c).collect();
-        let patch = Patch {
-            node,
-            center,
-            h: self.grid.h,
-            ring: 1,
-            cells: &cells,
-        };
-        if self.samples.constraints(&patch, self.basis).is_some() {
+        let per_cell: Vec<Vec<Sample<NC>>> = cells
+            .iter()
+            .map(|&c| {
+                let mut samples = Vec::new();
+                self.samples.samples(c, &mut samples);
+                samples
+            })
+            .collect();
+        if self.constrained(node, &cells) {
             return None;
         }
-        RegularFit::new(self.basis, &samples, &self.opts.fit)
+        RegularFit::new(
+            self.grid,
+            self.basis,
+            center,
+            &cells,
+            &per_cell,
+            &self.opts.fit,
+        )
+    }
+
+    /// Whether each of `nodes` has a regular first ring and no constraints.
+    fn regular_nodes<const NC: usize>(&self, nodes: &[usize]) -> Vec<bool>
+    where
+        S: PatchSamples<NC>,
+    {
+        nodes
+            .par_iter()
+            .map_init(Vec::new, |ring, &node| {
+                self.ring_one_is_regular(node, ring) && {
+                    let cells: Vec<usize> = ring.iter().map(|&(c, _)| c).collect();
+                    !self.constrained(node, &cells)
+                }
+            })
+            .collect()
+    }
+
+    /// Whether `node`'s first ring (left in `ring`) is regular.
+    fn ring_one_is_regular(&self, node: usize, ring: &mut Vec<PatchCell>) -> bool {
+        ring.clear();
+        let vertex = node_ijk(self.grid, node);
+        ring_cells(self.grid, self.kinds, &self.mirror, vertex, 1, ring);
+        is_regular(self.kinds, ring)
+    }
+
+    /// Whether the caller constrains the first-ring fit of `node` on `cells`.
+    fn constrained<const NC: usize>(&self, node: usize, cells: &[usize]) -> bool
+    where
+        S: PatchSamples<NC>,
+    {
+        let patch = Patch {
+            node,
+            center: self.grid.node_position(ElementOrder::Q1, node),
+            h: self.grid.h,
+            ring: 1,
+            cells,
+        };
+        self.samples.constraints(&patch, self.basis).is_some()
     }
 
     /// Fits `node`'s patch ring by ring up to the ring limit; `buf` is
@@ -359,17 +473,7 @@ impl<S> Context<'_, S> {
                 cells: &cells,
             };
             let constraints = self.samples.constraints(&patch, self.basis);
-            // A regular patch is fitted with the recovery's shared factor,
-            // any other with its own.
-            let regular = self.regular.filter(|_| {
-                ring == 1 && constraints.is_none() && is_regular(self.kinds, &patch_cells)
-            });
-            let shared = regular.and_then(|r| Some((r.fit(self.basis, buf)?, &r.factor)));
-            let fitted = match shared {
-                Some((coefficients, factor)) => Ok((coefficients, Cow::Borrowed(factor))),
-                None => fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit)
-                    .map(|(a, factor)| (a, Cow::Owned(factor))),
-            };
+            let fitted = fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit);
             match fitted {
                 Ok((coefficients, factor)) => {
                     let info = PatchInfo {
@@ -380,10 +484,10 @@ impl<S> Context<'_, S> {
                     return Ok(NodeFit {
                         coefficients,
                         info,
-                        plan: self.keep.then(|| NodePlan {
+                        plan: self.keep.then_some(NodePlan {
                             cells: patch_cells,
                             info,
-                            factor: factor.into_owned(),
+                            factor,
                         }),
                     });
                 }
@@ -401,7 +505,7 @@ impl<S> Context<'_, S> {
 }
 
 /// Lattice indices of a Q1 node.
-fn node_ijk(grid: &Grid, node: usize) -> [usize; 3] {
+pub(super) fn node_ijk(grid: &Grid, node: usize) -> [usize; 3] {
     let m = grid.nodes_per_axis(ElementOrder::Q1);
     [node % m[0], (node / m[0]) % m[1], node / (m[0] * m[1])]
 }

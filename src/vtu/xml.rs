@@ -153,13 +153,16 @@ pub(super) struct CellArrays {
 
 impl CellArrays {
     pub(super) fn new(mesh: &VtuMesh) -> CellArrays {
-        let mut connectivity = Vec::new();
-        let mut offsets = Vec::with_capacity(mesh.cells.len());
-        for cell in &mesh.cells {
-            connectivity.extend(cell.nodes().iter().map(|&n| n as i64));
-            offsets.push(connectivity.len() as i64);
-        }
-        let types = mesh.cells.iter().map(|c| c.vtk_type()).collect();
+        let connectivity = (mesh.cells.par_iter())
+            .flat_map_iter(|cell| cell.nodes().iter().map(|&n| n as i64))
+            .collect();
+        let offsets = (mesh.cells.iter())
+            .scan(0i64, |end, cell| {
+                *end += cell.nodes().len() as i64;
+                Some(*end)
+            })
+            .collect();
+        let types = mesh.cells.par_iter().map(|c| c.vtk_type()).collect();
         CellArrays {
             connectivity,
             offsets,
