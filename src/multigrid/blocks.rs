@@ -106,17 +106,28 @@ impl BlockJacobi {
                 zc[i] = self.point[base + i] * r[base + i];
             }
         });
-        let solved: Vec<f64> = (0..self.starts.len() - 1)
+        // Each block's values, gathered once, through its inverse into its
+        // slice of `solved`.
+        let mut solved = vec![0.0; self.dofs.len()];
+        let mut parts = Vec::with_capacity(self.starts.len() - 1);
+        let mut rest = solved.as_mut_slice();
+        for w in self.starts.windows(2) {
+            let (part, tail) = rest.split_at_mut(w[1] - w[0]);
+            parts.push(part);
+            rest = tail;
+        }
+        parts
             .into_par_iter()
-            .flat_map_iter(|k| {
+            .enumerate()
+            .for_each_init(Vec::new, |local, (k, out)| {
                 let (dofs, inverse) = self.block(k);
-                let m = dofs.len();
-                (0..m).map(move |i| {
-                    let row = &inverse[i * m..(i + 1) * m];
-                    row.iter().zip(dofs).map(|(a, &j)| a * r[j]).sum::<f64>()
-                })
-            })
-            .collect();
+                local.clear();
+                local.extend(dofs.iter().map(|&j| r[j]));
+                // In the order of the device's kernel and its mirror.
+                for (o, row) in out.iter_mut().zip(inverse.chunks_exact(dofs.len())) {
+                    *o = row.iter().zip(local.iter()).map(|(a, b)| a * b).sum();
+                }
+            });
         for (&i, x) in self.dofs.iter().zip(solved) {
             z[i] = x;
         }
