@@ -62,8 +62,9 @@ pub enum VtuCell {
     /// `VTK_HEXAHEDRON` (12): 8 corners.
     Hexahedron([usize; 8]),
     /// `VTK_TRIQUADRATIC_HEXAHEDRON` (29): 8 corners, 12 edge midpoints,
-    /// 6 face centres, the body centre.
-    TriQuadraticHexahedron([usize; 27]),
+    /// 6 face centres, the body centre (boxed, so that a cell of the other
+    /// kinds, as a Q1 body's millions of hexahedra, stays 72 bytes).
+    TriQuadraticHexahedron(Box<[usize; 27]>),
 }
 
 impl VtuCell {
@@ -75,7 +76,7 @@ impl VtuCell {
     /// A triquadratic hexahedron from node indices in lexicographic order
     /// `a + 3b + 9c`.
     pub fn hex27_from_lexicographic(lex: [usize; 27]) -> Self {
-        VtuCell::TriQuadraticHexahedron(hex27_vtk_order_from_lexicographic(lex))
+        VtuCell::TriQuadraticHexahedron(Box::new(hex27_vtk_order_from_lexicographic(lex)))
     }
 
     /// The VTK cell type id.
@@ -94,7 +95,7 @@ impl VtuCell {
             VtuCell::Vertex(n) => std::slice::from_ref(n),
             VtuCell::Triangle(n) => n,
             VtuCell::Hexahedron(n) => n,
-            VtuCell::TriQuadraticHexahedron(n) => n,
+            VtuCell::TriQuadraticHexahedron(n) => n.as_slice(),
         }
     }
 }

@@ -135,6 +135,9 @@ pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> Bod
     }
 }
 
+/// Nodes per parallel task of [`nodal_stress`].
+const NODE_CHUNK: usize = 4096;
+
 /// The recovered stress `sigma` at the points of `mesh` (at `points`): a
 /// vertex's own value, else the blend of the point's cell, prepared once per
 /// run of points in one cell.
@@ -145,33 +148,28 @@ fn nodal_stress(
     points: &[[f64; 3]],
     sigma: &Recovered<6>,
 ) -> Result<Vec<[f64; 6]>> {
-    let runs: Vec<(usize, usize)> = mesh
-        .node_cell
-        .chunk_by(|a, b| a == b)
-        .scan(0, |start, run| {
-            let range = (*start, *start + run.len());
-            *start = range.1;
-            Some(range)
-        })
-        .collect();
-    let per_run: Vec<Vec<[f64; 6]>> = runs
-        .par_iter()
-        .map(|&(start, end)| {
+    let mut stress = vec![[0.0; 6]; mesh.nodes.len()];
+    stress
+        .par_chunks_mut(NODE_CHUNK)
+        .enumerate()
+        .try_for_each(|(t, out)| -> Result<()> {
             let mut blend = None;
-            (start..end)
-                .map(|i| match grid.vertex_of(order, mesh.nodes[i]) {
-                    Some(v) => sigma.at_vertex(v),
+            for (k, s) in out.iter_mut().enumerate() {
+                let i = t * NODE_CHUNK + k;
+                *s = match grid.vertex_of(order, mesh.nodes[i]) {
+                    Some(v) => sigma.at_vertex(v)?,
                     None => {
-                        if blend.is_none() {
-                            blend = Some(sigma.cell_blend(mesh.node_cell[i])?);
+                        let cell = mesh.node_cell[i];
+                        if !matches!(&blend, Some((c, _)) if *c == cell) {
+                            blend = Some((cell, sigma.cell_blend(cell)?));
                         }
-                        Ok(blend.as_ref().expect("made above").eval(points[i]))
+                        blend.as_ref().expect("made above").1.eval(points[i])
                     }
-                })
-                .collect()
-        })
-        .collect::<Result<_>>()?;
-    Ok(per_run.concat())
+                };
+            }
+            Ok(())
+        })?;
+    Ok(stress)
 }
 
 /// The contents of a `.vtu` file: the mesh and its point and cell data.
