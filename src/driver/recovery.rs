@@ -109,9 +109,6 @@ pub fn recover_stress_around(
     nodes: &[usize],
     known: Option<&Recovered<6>>,
 ) -> Result<Recovered<6>> {
-    let Some(known) = known else {
-        return recover_stress(setup, u, nodes, None);
-    };
     recover_around(
         &setup.grid,
         &setup.cells.kinds,

@@ -146,13 +146,12 @@ pub fn recover<const NC: usize, S: PatchSamples<NC>>(
     samples: &S,
     opts: &SprOptions,
 ) -> Result<Recovered<NC>> {
-    let planning = Planning::Search;
-    recover_with(grid, kinds, nodes, degree, samples, opts, planning, None).map(|(r, _)| r)
+    recover_around(grid, kinds, nodes, degree, samples, opts, None)
 }
 
 /// [`recover`], taking the fit of every node that `known` holds from it (a
 /// recovery of the same field with the same samples and options on some of
-/// the nodes, e.g. the last one of a loop).
+/// the nodes, e.g. the last one of a loop); `None`: [`recover`].
 ///
 /// # Panics
 /// As [`recover`]; and when `known` has another degree.
@@ -163,25 +162,17 @@ pub fn recover_around<const NC: usize, S: PatchSamples<NC>>(
     degree: usize,
     samples: &S,
     opts: &SprOptions,
-    known: &Recovered<NC>,
+    known: Option<&Recovered<NC>>,
 ) -> Result<Recovered<NC>> {
-    assert_eq!(
-        known.basis.degree(),
-        degree,
-        "a known recovery of another degree"
-    );
+    if let Some(k) = known {
+        assert_eq!(
+            k.basis.degree(),
+            degree,
+            "a known recovery of another degree"
+        );
+    }
     let planning = Planning::Search;
-    recover_with(
-        grid,
-        kinds,
-        nodes,
-        degree,
-        samples,
-        opts,
-        planning,
-        Some(known),
-    )
-    .map(|(r, _)| r)
+    recover_with(grid, kinds, nodes, degree, samples, opts, planning, known).map(|(r, _)| r)
 }
 
 /// Whether [`recover_with`] returns each accepted fit's plan.
@@ -237,8 +228,6 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
         },
         keep,
     };
-    // The regular patches from their cells' moments (not for kept plans,
-    // whose patches are at the boundary), every other patch on its own.
     let stride = NC * basis.len();
     let mut coeffs = vec![0.0; nodes.len() * stride];
     let mut info = vec![PatchInfo::default(); nodes.len()];
@@ -246,18 +235,15 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     // patches from their cells' moments (not for kept plans, whose patches
     // are at the boundary), then every other patch on its own.
     let mut fitted = vec![false; nodes.len()];
+    // `known` holds few of the nodes (the boundary's): each is looked up.
     if let Some(k) = known {
-        (coeffs
-            .par_chunks_mut(stride)
-            .zip(&mut info)
-            .zip(&mut fitted))
-        .zip(&nodes)
-        .for_each(|(((c, i), f), &node)| {
-            if let Ok(s) = k.nodes.binary_search(&node) {
-                c.copy_from_slice(&k.coeffs[s * stride..(s + 1) * stride]);
-                (*i, *f) = (k.info[s], true);
+        for (s, node) in k.nodes.iter().enumerate() {
+            if let Ok(i) = nodes.binary_search(node) {
+                coeffs[i * stride..(i + 1) * stride]
+                    .copy_from_slice(&k.coeffs[s * stride..(s + 1) * stride]);
+                (info[i], fitted[i]) = (k.info[s], true);
             }
-        });
+        }
     }
     if let Some(r) = (!keep).then(|| ctx.regular_fit(&nodes)).flatten() {
         let mut candidates = ctx.regular_nodes(&nodes);
