@@ -19,6 +19,7 @@
 mod faces;
 mod flood;
 mod merge;
+pub mod glued;
 pub mod pieces;
 
 pub use faces::{face_box, face_neighbour, face_rule};

@@ -233,6 +233,8 @@ fn geometry(args: &CaseArgs, progress: &Terminal) -> anyhow::Result<()> {
         for (tag, area) in &r.domain.boundary_area_by_tag {
             println!("  boundary part '{tag}': area {area:.6e}");
         }
+        cli_run::repaired_note(r);
+        cli_run::glued_note(r);
     }
     let files = match case.bodies.len() {
         1 => "cells.vtu, boundary.vtp".to_string(),

@@ -180,6 +180,7 @@ pub fn run(
             case.file, setup.grid.level, report.dofs, b.cells.inside, b.cells.cut
         );
         super::repaired_note(b);
+        super::glued_note(b);
 
         if condition {
             let t = Instant::now();

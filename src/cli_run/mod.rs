@@ -157,7 +157,7 @@ pub fn mesh_notes(case: &Case) {
 
 /// How many cut cells of body `b` took the repaired rule, and where, on
 /// stderr.
-fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
+pub(crate) fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
     if let Some([lo, hi]) = b.cells.repaired_box {
         let f = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
         eprintln!(
@@ -167,6 +167,24 @@ fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
             b.cells.repaired,
             f(lo),
             f(hi)
+        );
+    }
+}
+
+/// Where body `b`'s walls share grid vertices (a slot, gap or hole narrower
+/// than about two cells), on stderr.
+pub(crate) fn glued_note(b: &cgfem_gpu::report::BodyReport) {
+    if let Some([lo, hi]) = b.cells.glued_box {
+        let f = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+        eprintln!(
+            "warning: body '{}': {} grid vertices in {}..{} join parts of the body that do not \
+             meet inside their cells (a slot, gap or hole narrower than about two cells, h = {:.4}): one unknown \
+             moves both walls, so the part is stiffer there than it is; a finer level resolves it",
+            b.name,
+            b.cells.glued_nodes,
+            f(lo),
+            f(hi),
+            b.h
         );
     }
 }

@@ -69,6 +69,7 @@ pub fn run(
     let report = &outcome.report;
     for b in &report.bodies {
         super::repaired_note(b);
+        super::glued_note(b);
         println!(
             "body {}: level {}, {} dofs; {} inside, {} cut cells{}",
             b.name,

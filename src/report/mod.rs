@@ -12,6 +12,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::cells::glued::{glued_nodes, nodes_box};
 use crate::cells::{CellKind, Cells};
 use crate::element::ElementOrder;
 use crate::geometry::Geometry;
@@ -35,6 +36,14 @@ pub struct CellCounts {
     /// The box of the repaired cells, `[min, max]`, when there are some.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub repaired_box: Option<[[f64; 3]; 2]>,
+    /// Grid vertices whose cells hold parts of the body that do not meet
+    /// inside them (a slot, gap or hole narrower than about two cells): the vertex's one
+    /// unknown glues those parts together ([`crate::cells::glued`]).
+    pub glued_nodes: usize,
+    /// The box of the glued vertices' cells, `[min, max]`, when there are
+    /// some.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glued_box: Option<[[f64; 3]; 2]>,
 }
 
 /// Measures of the domain by the cut-cell quadrature.
@@ -249,6 +258,7 @@ impl BodyReport {
             *by_tag.get_mut(geometry.tag_name(p.tag)).expect("known tag") += p.w;
         }
         let (_, active) = cells.active_nodes(grid, order);
+        let glued = glued_nodes(grid, cells, geometry);
         BodyReport {
             name: name.into(),
             model,
@@ -274,6 +284,8 @@ impl BodyReport {
                         });
                     [b.lo, b.hi]
                 }),
+                glued_nodes: glued.len(),
+                glued_box: nodes_box(grid, &glued).map(|b| [b.lo, b.hi]),
             },
             domain: Domain {
                 volume: cells.volume(grid),

@@ -119,3 +119,82 @@ fn each_held_piece_carries_its_own_weight() {
         }
     }
 }
+
+/// A 4 × 1 × 1 bar with a slot `width` wide across it at x = 2, down to a
+/// ligament 0.2 thick: clamped at one end, pulled at the other.
+fn slotted_bar(width: f64) -> String {
+    let (lo, hi) = (2.0 - width / 2.0, 2.0 + width / 2.0);
+    format!(
+        r#"name = "slotted_bar"
+[geometry]
+type = "difference"
+of = [
+  {{ type = "retag", from = "xmin", to = "clamp", of = {{ type = "retag", from = "xmax", to = "pull", of = {{ type = "cuboid", min = [0, 0, 0], max = [4, 1, 1] }} }} }},
+  {{ type = "cuboid", min = [{lo}, -1, 0.2], max = [{hi}, 2, 2] }},
+]
+[grid]
+level = 4
+offset = [0.3, 0.6, 0.45]
+[material]
+young = 1000.0
+poisson = 0.3
+[dirichlet.clamp]
+value = ["0", "0", "0"]
+[dirichlet.pull]
+value = ["0.01", "free", "free"]
+"#
+    )
+}
+
+/// The glued vertices `report.json` counts for `text` at `level`, and
+/// stderr, from the `geometry` command.
+fn glued(name: &str, text: &str, level: u32) -> (u64, String) {
+    let dir = std::env::temp_dir().join(format!("cgfem-glued-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = dir.join("case.toml");
+    std::fs::write(&case, text).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
+        .args([
+            "geometry",
+            case.to_str().unwrap(),
+            "--level",
+            &level.to_string(),
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).unwrap()).unwrap();
+    let cells = &report["bodies"][0]["cells"];
+    (
+        cells["glued_nodes"].as_u64().unwrap(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_slot_narrower_than_the_cells_is_reported_where_it_is_glued() {
+    // h = 0.25, 0.125, 0.0625 at levels 4, 5, 6: the 0.1 slot is glued
+    // until level 6, the 0.6 slot (2.4 cells at level 4) never.
+    for (width, level, expect) in [
+        (0.1, 4, true),
+        (0.1, 5, true),
+        (0.1, 6, false),
+        (0.6, 4, false),
+    ] {
+        let (nodes, stderr) = glued(&format!("{width}-{level}"), &slotted_bar(width), level);
+        assert_eq!(
+            nodes > 0,
+            expect,
+            "slot {width} at level {level}: {nodes} nodes"
+        );
+        assert_eq!(
+            stderr.contains("join parts of the body that do not meet"),
+            expect,
+            "{stderr}"
+        );
+    }
+}
