@@ -19,17 +19,20 @@ of = [
   {{ type = "retag", from = "xmin", to = "clamp_a", of = {{ type = "cuboid", min = [0, 0, 0], max = [1, 1, 1] }} }},
   {{ type = "retag", from = "xmax", to = "clamp_b", of = {{ type = "cuboid", min = [{lo}, 0, 0], max = [{hi}, 1, 1] }} }},
 ]
-[grid]
+{GRID_AND_MATERIAL}{held}
+{load}
+"#
+    )
+}
+
+/// The grid and the material of every case here.
+const GRID_AND_MATERIAL: &str = "[grid]
 level = 4
 offset = [0.3, 0.6, 0.45]
 [material]
 young = 1000.0
 poisson = 0.3
-{held}
-{load}
-"#
-    )
-}
+";
 
 /// Unit weight density along −z.
 const WEIGHT: &str = "[body_load]\nvalue = [\"0\", \"0\", \"-1\"]\n";
@@ -132,13 +135,7 @@ of = [
   {{ type = "retag", from = "xmin", to = "clamp", of = {{ type = "retag", from = "xmax", to = "pull", of = {{ type = "cuboid", min = [0, 0, 0], max = [4, 1, 1] }} }} }},
   {{ type = "cuboid", min = [{lo}, -1, 0.2], max = [{hi}, 2, 2] }},
 ]
-[grid]
-level = 4
-offset = [0.3, 0.6, 0.45]
-[material]
-young = 1000.0
-poisson = 0.3
-[dirichlet.clamp]
+{GRID_AND_MATERIAL}[dirichlet.clamp]
 value = ["0", "0", "0"]
 [dirichlet.pull]
 value = ["0.01", "free", "free"]
