@@ -4,7 +4,9 @@
 //!
 //! Every scalar of an iteration is a function of the dot products of that
 //! iteration, and dot products are batched with [`Backend::dot2`] where two are
-//! needed of the same vector, so a GPU backend can keep them on the device.
+//! needed of the same vector at the same point, so a GPU backend can keep them
+//! on the device. CG takes `‖r‖²` before its preconditioner and `r·M⁻¹r`
+//! after it, so that the converged iteration applies no preconditioner.
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
@@ -90,7 +92,9 @@ impl<B: Backend> Problem<'_, '_, B> {
 ///     q = A p;  σ = p·q                (σ ≤ 0: A not SPD)
 ///     α = ρ / σ
 ///     x = x + α p;  r = r − α q
-///     z = M⁻¹ r;  (ρ', ‖r‖²) = (r·z, r·r) (stop on ‖r‖; ρ' ≤ 0: M not SPD)
+///     stop on ‖r‖ (before the preconditioner, whose last `M⁻¹ r` the loop
+///     would not use)
+///     z = M⁻¹ r;  ρ' = r·z                (ρ' ≤ 0: M not SPD)
 ///     β = ρ' / ρ;  ρ = ρ'
 ///     p = z + β p
 /// ```
@@ -118,11 +122,13 @@ pub(super) fn cg<B: Backend>(
         alphas.push(alpha);
         be.axpy(alpha, &p, x);
         be.axpy(-alpha, &q, r);
-        let zr = pb.pre.apply(be, r, &mut z);
-        let (rho_next, rr) = be.dot2(r, zr, r);
-        if pb.step(stats, rr)? {
+        // Stop before the preconditioner: the last iteration's `M⁻¹ r` (a
+        // V-cycle with multigrid) would not be used.
+        if pb.step(stats, be.dot(r, r))? {
             break;
         }
+        let zr = pb.pre.apply(be, r, &mut z);
+        let rho_next = be.dot(r, zr);
         let rho_next = pb.positive(rho_next, stats.iterations, "r·M⁻¹r", pre_spd)?;
         let beta = rho_next / rho;
         betas.push(beta);
