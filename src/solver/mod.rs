@@ -328,7 +328,8 @@ pub(crate) fn drive<B: Backend, C: Cycles<B>>(
     })
 }
 
-/// `r = b − A x`; returns `‖r‖₂ / ‖b‖₂`.
+/// `r = b − A x`; returns `‖r‖₂ / ‖b‖₂`. From `x = 0` (every solve of the
+/// outer iteration starts there) `r` is `b` without a product with `A`.
 #[allow(clippy::too_many_arguments)]
 fn true_residual<B: Backend>(
     backend: &B,
@@ -340,8 +341,12 @@ fn true_residual<B: Backend>(
     b_norm: f64,
     iterations: usize,
 ) -> Result<f64> {
-    backend.apply(op, x, r);
-    backend.xpay(b, -1.0, r);
+    if backend.dot(x, x) == 0.0 {
+        backend.copy(b, r);
+    } else {
+        backend.apply(op, x, r);
+        backend.xpay(b, -1.0, r);
+    }
     let rr = backend.dot(r, r);
     if !rr.is_finite() {
         let what = format!("‖b − A x‖² of the true residual is not finite ({rr})");
