@@ -20,6 +20,7 @@ use rayon::prelude::*;
 use super::{CellKind, Cells};
 use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::spatial::vec3::{dot, sub};
 use crate::spatial::Aabb;
 
 /// Sub-cells per axis of a sampled cell.
@@ -173,7 +174,7 @@ impl Wall {
     /// (the two faces of a thin body are opposed too, but each lies behind
     /// the other).
     fn faces(&self, other: &Wall) -> bool {
-        let d = [0, 1, 2].map(|a| other.x[a] - self.x[a]);
+        let d = sub(other.x, self.x);
         dot(self.n, other.n) < FACING && dot(d, self.n) > 0.0 && dot(d, other.n) < 0.0
     }
 }
@@ -314,10 +315,6 @@ fn components(around: &[Option<&[u8]>; 8]) -> usize {
 /// without labels.
 fn pieces(labels: &[u8]) -> std::ops::RangeInclusive<usize> {
     1..=labels.iter().copied().max().unwrap_or(1) as usize
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]
