@@ -155,18 +155,22 @@ pub fn mesh_notes(case: &Case) {
     }
 }
 
+/// A position as the notes print it.
+fn point(v: [f64; 3]) -> String {
+    format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2])
+}
+
 /// How many cut cells of body `b` took the repaired rule, and where, on
 /// stderr.
 pub(crate) fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
     if let Some([lo, hi]) = b.cells.repaired_box {
-        let f = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
         eprintln!(
             "note: body '{}': {} cut cells in {}..{} took the first-order repaired rule: the \
              mesh does not bound a solid there (open, overlapping or crossing facets)",
             b.name,
             b.cells.repaired,
-            f(lo),
-            f(hi)
+            point(lo),
+            point(hi)
         );
     }
 }
@@ -175,15 +179,14 @@ pub(crate) fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
 /// than about two cells), on stderr.
 pub(crate) fn glued_note(b: &cgfem_gpu::report::BodyReport) {
     if let Some([lo, hi]) = b.cells.glued_box {
-        let f = |v: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
         eprintln!(
             "warning: body '{}': {} grid vertices in {}..{} join parts of the body that do not \
              meet inside their cells (a slot, gap or hole narrower than about two cells, h = {:.4}): one unknown \
              moves both walls, so the part is stiffer there than it is; a finer level resolves it",
             b.name,
             b.cells.glued_nodes,
-            f(lo),
-            f(hi),
+            point(lo),
+            point(hi),
             b.h
         );
     }
