@@ -20,6 +20,7 @@ mod faces;
 mod flood;
 mod merge;
 pub mod glued;
+pub mod split;
 pub mod pieces;
 
 pub use faces::{face_box, face_neighbour, face_rule};

@@ -45,6 +45,7 @@ use crate::backend::CpuBackend;
 use crate::case::physics::StabilisationSpec;
 use crate::case::{Case, PLANE_STRAIN_CAP};
 use crate::cells::{cut_rule_points, Cells};
+use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::fem::level::pathological_cells;
@@ -173,7 +174,7 @@ fn body_operator(
         k2,
         ..case.spec.stabilisation.clone()
     };
-    LevelOperator::with_params(grid, cells, order, &params, &st).op
+    LevelOperator::with_params(grid, cells, DofMap::new(grid, cells, order), &params, &st).op
 }
 
 /// The block-diagonal preconditioner of the module doc.

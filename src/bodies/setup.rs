@@ -182,7 +182,15 @@ fn check_held(
         key: &case.body_key(i, "dirichlet"),
         body: &spec.name,
     };
-    match held_pieces(grid, cells, solid, held, &contact, &naming) {
+    match held_pieces(
+        grid,
+        cells,
+        &Default::default(),
+        solid,
+        held,
+        &contact,
+        &naming,
+    ) {
         (_, Some(e)) => Err(e),
         (_, None) => Ok(()),
     }

@@ -32,7 +32,7 @@ const FACING: f64 = -0.5;
 /// The piece (1, 2, …) of each sub-cell of a cell, 0 where the sub-cell's
 /// centre is outside the body; sub-cell `(a, b, c)` is entry `a + SUB (b +
 /// SUB c)`.
-type Labels = Vec<u8>;
+pub(super) type Labels = Vec<u8>;
 
 /// The nodes of `grid`'s vertex lattice (`(n + 1)³`, lattice order) whose
 /// cells hold parts of the body that do not meet inside them, ascending.
@@ -82,12 +82,12 @@ pub fn nodes_box(grid: &Grid, nodes: &[usize]) -> Option<Aabb> {
 }
 
 /// Every sub-cell of an inside cell is in its one piece.
-static INSIDE: [u8; SUB * SUB * SUB] = [1; SUB * SUB * SUB];
+pub(super) static INSIDE: [u8; SUB * SUB * SUB] = [1; SUB * SUB * SUB];
 
 /// The eight cells around vertex-lattice node `v`, `None` beyond the grid;
 /// entry `d = dx + 2 dy + 4 dz` is the cell on the high side of the node
 /// along each axis where `d`'s bit is set.
-fn node_cells(grid: &Grid, v: usize) -> [Option<usize>; 8] {
+pub(super) fn node_cells(grid: &Grid, v: usize) -> [Option<usize>; 8] {
     let m = grid.n.map(|n| n + 1);
     let ijk = [v % m[0], (v / m[0]) % m[1], v / (m[0] * m[1])];
     std::array::from_fn(|d| {
@@ -107,7 +107,7 @@ fn node_cells(grid: &Grid, v: usize) -> [Option<usize>; 8] {
 /// for each pair of cut cells that share nodes (a cell with itself
 /// included), their shared nodes when some normal of one faces some normal
 /// of the other.
-fn candidate_nodes(grid: &Grid, cells: &Cells) -> Vec<usize> {
+pub(super) fn candidate_nodes(grid: &Grid, cells: &Cells) -> Vec<usize> {
     // A few directions per cut cell stand for all of its normals.
     let directions: Vec<Vec<Wall>> = (0..cells.cut.len())
         .into_par_iter()
@@ -184,7 +184,7 @@ impl Wall {
 /// component. A box with no inside centre (a part thinner than a sub-cell)
 /// gets no labels: it is one piece that meets every piece of its
 /// neighbours.
-fn cell_labels(geometry: &Geometry, b: &Aabb) -> Labels {
+pub(super) fn cell_labels(geometry: &Geometry, b: &Aabb) -> Labels {
     let s = [0, 1, 2].map(|a| (b.hi[a] - b.lo[a]) / SUB as f64);
     let mut labels: Labels = (0..SUB * SUB * SUB)
         .map(|e| {
@@ -238,9 +238,21 @@ fn offset(ijk: [usize; 3], step: [usize; 3]) -> Option<[usize; 3]> {
 }
 
 /// The number of components of the pieces of the eight cells around a node
-/// (entries as [`node_cells`]), pieces of face-adjacent cells joined where
-/// their inside sub-cells touch across the face.
+/// (entries as [`node_cells`]).
 fn components(around: &[Option<&[u8]>; 8]) -> usize {
+    let roots = piece_roots(around);
+    let mut distinct: Vec<u16> = roots.iter().map(|r| r.2).collect();
+    distinct.sort_unstable();
+    distinct.dedup();
+    distinct.len()
+}
+
+/// The component of each piece of the eight cells around a node (entries
+/// as [`node_cells`]), as `(cell entry, piece label, root)` in entry and
+/// label order: pieces of face-adjacent cells are joined where their inside
+/// sub-cells touch across the face; two pieces are in one component when
+/// their roots are equal.
+pub(super) fn piece_roots(around: &[Option<&[u8]>; 8]) -> Vec<(usize, usize, u16)> {
     // Piece `l` of cell `d` is element `256 d + l` of the union-find.
     let mut parent: Vec<u16> = (0..8 * 256).collect();
     let find = |parent: &mut Vec<u16>, mut a: u16| {
@@ -299,21 +311,19 @@ fn components(around: &[Option<&[u8]>; 8]) -> usize {
             }
         }
     }
-    let mut roots: Vec<u16> = Vec::new();
+    let mut roots = Vec::new();
     for (d, labels) in around.iter().enumerate() {
         let Some(labels) = labels else { continue };
         for l in pieces(labels) {
-            roots.push(find(&mut parent, (256 * d + l) as u16));
+            roots.push((d, l, find(&mut parent, (256 * d + l) as u16)));
         }
     }
-    roots.sort_unstable();
-    roots.dedup();
-    roots.len()
+    roots
 }
 
 /// The piece labels of a cell: `1..=max`, or the one piece of a cell
 /// without labels.
-fn pieces(labels: &[u8]) -> std::ops::RangeInclusive<usize> {
+pub(super) fn pieces(labels: &[u8]) -> std::ops::RangeInclusive<usize> {
     1..=labels.iter().copied().max().unwrap_or(1) as usize
 }
 

@@ -12,7 +12,9 @@
 
 use nalgebra::{DMatrix, Matrix6, SymmetricEigen};
 
+use super::split::{Split, SplitCell, PRIMARY};
 use super::{CellKind, Cells};
+use crate::element::ElementOrder;
 use crate::error::Error;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
@@ -29,6 +31,9 @@ pub struct Pieces {
     pub of_cell: Vec<u32>,
     /// Number of pieces.
     pub count: usize,
+    /// The split cells ([`crate::cells::split`]), ascending, with the piece
+    /// of each of their parts (`of_cell` holds the first's).
+    pub split: Vec<(SplitCell, Vec<u32>)>,
 }
 
 /// What a piece is, for a message that lets the user find it.
@@ -52,57 +57,87 @@ fn find(parent: &mut [u32], mut a: u32) -> u32 {
 }
 
 impl Pieces {
-    /// Labels the cells of `cells` that meet the body by union-find over
-    /// node-sharing neighbours (one pass over the cells, 13 forward
-    /// neighbours each).
+    /// The pieces of the cells of `cells` that meet the body.
     pub fn new(grid: &Grid, cells: &Cells) -> Pieces {
-        let n = grid.n;
-        let active = |c: usize| cells.kinds[c] != CellKind::Outside;
-        let mut parent: Vec<u32> = (0..grid.num_cells() as u32).collect();
-        for c in (0..grid.num_cells()).filter(|&c| active(c)) {
-            let [i, j, k] = grid.cell_ijk(c);
-            for dk in 0..=1i64 {
-                for dj in -1..=1i64 {
-                    for di in -1..=1i64 {
-                        // The 13 forward neighbours: each pair is seen once.
-                        if (dk, dj, di) <= (0, 0, 0) {
-                            continue;
-                        }
-                        let (a, b, d) = (i as i64 + di, j as i64 + dj, k as i64 + dk);
-                        let inside = |v: i64, m: usize| (0..m as i64).contains(&v);
-                        if !(inside(a, n[0]) && inside(b, n[1]) && inside(d, n[2])) {
-                            continue;
-                        }
-                        let e = grid.cell_index([a as usize, b as usize, d as usize]);
-                        if active(e) {
-                            let (ra, rb) =
-                                (find(&mut parent, c as u32), find(&mut parent, e as u32));
-                            if ra != rb {
-                                parent[ra.max(rb) as usize] = ra.min(rb);
-                            }
-                        }
+        Pieces::with_split(grid, cells, &Split::default())
+    }
+
+    /// The pieces where the cells of `split` are split: union-find over the
+    /// unknowns' nodes (grid vertices, then the copies), each cell or piece
+    /// of a split cell joining its eight.
+    pub fn with_split(grid: &Grid, cells: &Cells, split: &Split) -> Pieces {
+        let vertices = grid.num_nodes(ElementOrder::Q1);
+        let total = vertices + split.extra_nodes.len();
+        let mut parent: Vec<u32> = (0..total as u32).collect();
+        let mut local = [0usize; 8];
+        let join = |parent: &mut Vec<u32>, nodes: &[usize]| {
+            let r0 = find(parent, nodes[0] as u32);
+            for &n in &nodes[1..] {
+                let r = find(parent, n as u32);
+                if r != r0 {
+                    let (lo, hi) = (r.min(r0), r.max(r0));
+                    parent[hi as usize] = lo;
+                }
+            }
+        };
+        let node_of = |local: &[usize; 8], copies: &[u32; 8]| -> [usize; 8] {
+            std::array::from_fn(|l| match copies[l] {
+                PRIMARY => local[l],
+                copy => vertices + copy as usize,
+            })
+        };
+        for c in (0..grid.num_cells()).filter(|&c| cells.kinds[c] != CellKind::Outside) {
+            grid.cell_nodes(ElementOrder::Q1, c, &mut local);
+            match split.cell(c) {
+                None => join(&mut parent, &local),
+                Some(s) => {
+                    for copies in &s.pieces {
+                        join(&mut parent, &node_of(&local, copies));
                     }
                 }
             }
         }
-        let mut of_cell = vec![NO_PIECE; grid.num_cells()];
+        // Pieces numbered by their first cell in lattice order.
+        let mut number = vec![NO_PIECE; total];
         let mut count = 0u32;
-        for c in 0..grid.num_cells() {
-            if !active(c) {
-                continue;
-            }
-            let root = find(&mut parent, c as u32) as usize;
-            // Roots are the smallest cell of their piece, so they come first.
-            if root == c {
-                of_cell[c] = count;
+        let mut piece_of = |parent: &mut Vec<u32>, node: usize| {
+            let root = find(parent, node as u32) as usize;
+            if number[root] == NO_PIECE {
+                number[root] = count;
                 count += 1;
-            } else {
-                of_cell[c] = of_cell[root];
+            }
+            number[root]
+        };
+        let mut of_cell = vec![NO_PIECE; grid.num_cells()];
+        let mut split_cells = Vec::new();
+        for c in (0..grid.num_cells()).filter(|&c| cells.kinds[c] != CellKind::Outside) {
+            grid.cell_nodes(ElementOrder::Q1, c, &mut local);
+            match split.cell(c) {
+                None => of_cell[c] = piece_of(&mut parent, local[0]),
+                Some(s) => {
+                    let per_piece: Vec<u32> = s
+                        .pieces
+                        .iter()
+                        .map(|copies| piece_of(&mut parent, node_of(&local, copies)[0]))
+                        .collect();
+                    of_cell[c] = per_piece[0];
+                    split_cells.push((s.clone(), per_piece));
+                }
             }
         }
         Pieces {
             of_cell,
             count: count as usize,
+            split: split_cells,
+        }
+    }
+
+    /// The piece of a point `x` of `cell`: the cell's, or in a split cell
+    /// that of the part `x` lies in.
+    pub fn of_point(&self, cell: usize, x: [f64; 3]) -> u32 {
+        match self.split.binary_search_by_key(&cell, |s| s.0.cell) {
+            Ok(k) => self.split[k].1[self.split[k].0.piece_of(x)],
+            Err(_) => self.of_cell[cell],
         }
     }
 
@@ -128,9 +163,11 @@ impl Pieces {
             }
         }
         for (i, &c) in cells.cut.iter().enumerate() {
-            let s = &mut out[self.of_cell[c] as usize];
-            s.volume += cells.fraction[i] * cell_volume;
+            for q in cells.volume_points(i) {
+                out[self.of_point(c, q.x) as usize].volume += q.w;
+            }
             for q in cells.surface_points(i) {
+                let s = &mut out[self.of_point(c, q.x) as usize];
                 if let Err(at) = s.tags.binary_search(&q.tag) {
                     s.tags.insert(at, q.tag);
                 }
@@ -229,7 +266,7 @@ pub fn free_motions(
     };
     let mut m = vec![Matrix6::<f64>::zeros(); pieces.count];
     for p in held {
-        let piece = pieces.of_cell[p.cell];
+        let piece = pieces.of_point(p.cell, p.x);
         if piece == NO_PIECE {
             continue;
         }
@@ -324,12 +361,13 @@ pub struct Naming<'a> {
 pub fn held_pieces(
     grid: &Grid,
     cells: &Cells,
+    split: &Split,
     geometry: &Geometry,
     held: impl IntoIterator<Item = HeldPoint>,
     exempt: &[u16],
     naming: &Naming,
 ) -> (Pieces, Option<Error>) {
-    let pieces = Pieces::new(grid, cells);
+    let pieces = Pieces::with_split(grid, cells, split);
     let summaries = pieces.summaries(grid, cells);
     let free = free_motions(&pieces, &summaries, held);
     for (p, (s, motions)) in summaries.iter().zip(&free).enumerate() {

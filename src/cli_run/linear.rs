@@ -172,6 +172,8 @@ pub fn run(
             false,
         );
         row.cells.pathological = Some(setup.omega_star.len());
+        row.cells.record_split(&setup.grid, &setup.op.dofs);
+        row.dofs = setup.op.dofs.ndofs();
         report.push_body(row);
         report.timings.extend(setup.timings.iter().cloned());
         let b = &report.bodies[0];
@@ -181,6 +183,7 @@ pub fn run(
         );
         super::repaired_note(b);
         super::glued_note(b);
+        super::split_note(b);
 
         if condition {
             let t = Instant::now();
@@ -202,17 +205,35 @@ pub fn run(
 
         let t = Instant::now();
         let (mut cpu_solver, mut gpu_solver);
-        let gpu = match gpu {
-            Some(ctx) => match ctx.check_vector_len(setup.op.dofs.ndofs()) {
-                Ok(()) => Some(ctx),
-                Err(e) if BackendChoice::resolve(device.backend)? == BackendChoice::Auto => {
-                    println!("note: {e}; solving on the CPU");
-                    None
+        let gpu =
+            match gpu {
+                Some(_) if setup.op.dofs.has_copies() => {
+                    match BackendChoice::resolve(device.backend)? {
+                        BackendChoice::Auto => {
+                            println!(
+                                "note: the GPU kernels do not take split cells; solving on the CPU"
+                            );
+                            None
+                        }
+                        _ => return Err(cgfem_gpu::Error::UnsupportedOnBackend {
+                            backend: "gpu".into(),
+                            what: "cells split into pieces at walls thinner than a cell".into(),
+                            hint: "use --backend cpu (or auto), or a level that resolves the walls"
+                                .into(),
+                        }
+                        .into()),
+                    }
                 }
-                Err(e) => return Err(e.into()),
-            },
-            None => None,
-        };
+                Some(ctx) => match ctx.check_vector_len(setup.op.dofs.ndofs()) {
+                    Ok(()) => Some(ctx),
+                    Err(e) if BackendChoice::resolve(device.backend)? == BackendChoice::Auto => {
+                        println!("note: {e}; solving on the CPU");
+                        None
+                    }
+                    Err(e) => return Err(e.into()),
+                },
+                None => None,
+            };
         let solver: &mut dyn LinearSolver = match &gpu {
             Some(ctx) => {
                 let be = GpuBackend::new(ctx.clone());

@@ -192,6 +192,22 @@ pub(crate) fn glued_note(b: &cgfem_gpu::report::BodyReport) {
     }
 }
 
+/// Says where the walls of a body were taken apart (one set of unknowns per
+/// part of the body at the vertices between them).
+pub(crate) fn split_note(b: &cgfem_gpu::report::BodyReport) {
+    if let Some([lo, hi]) = b.cells.split_box {
+        println!(
+            "  note: body '{}': {} grid vertices in {}..{} get one set of unknowns per part of the \
+             body around them (walls of a slot or gap thinner than a cell, h = {:.4})",
+            b.name,
+            b.cells.split_nodes,
+            point(lo),
+            point(hi),
+            b.h
+        );
+    }
+}
+
 /// The report as written: its keys, then `outputs`.
 #[derive(Serialize)]
 struct ReportFile<'a> {

@@ -1,8 +1,14 @@
 //! Degrees of freedom: the active nodes (nodes of cells with positive volume)
 //! numbered in lattice order, three displacement components each
 //! (`dof = 3 · active + component`), and the node ↔ cell incidences that the
-//! node-centred operator uses.
+//! node-centred operator uses. Where the body's parts around a node do not
+//! meet ([`crate::cells::split`]), the node's extra copies follow the
+//! lattice's active nodes, and the pieces of the split cells take their
+//! nodes from them.
 
+use std::sync::Arc;
+
+use crate::cells::split::{Split, SplitCell, PRIMARY};
 use crate::cells::Cells;
 use crate::element::ElementOrder;
 use crate::grid::Grid;
@@ -13,8 +19,13 @@ pub struct DofMap {
     pub order: ElementOrder,
     /// Lattice node → active index (`u32::MAX` when inactive).
     pub node_to_active: Vec<u32>,
-    /// Active index → lattice node.
+    /// Active index → lattice node (a copy → the node it copies).
     pub active_to_node: Vec<u32>,
+    /// The lattice's active nodes, `active_to_node[..lattice]`; the copies
+    /// follow.
+    pub lattice: usize,
+    /// The copies and the split cells (none by default).
+    pub split: Arc<Split>,
 }
 
 impl DofMap {
@@ -28,8 +39,57 @@ impl DofMap {
         }
         DofMap {
             order,
+            lattice: active_to_node.len(),
             node_to_active,
             active_to_node,
+            split: Arc::default(),
+        }
+    }
+
+    /// [`DofMap::new`] for Q1 elements with the copies and split cells of
+    /// `split` (its copies are of active nodes: nodes of cut cells).
+    pub fn with_split(grid: &Grid, cells: &Cells, split: Split) -> DofMap {
+        let mut dofs = DofMap::new(grid, cells, ElementOrder::Q1);
+        dofs.active_to_node
+            .extend(split.extra_nodes.iter().map(|&n| n as u32));
+        dofs.split = Arc::new(split);
+        dofs
+    }
+
+    /// Whether some nodes have copies.
+    pub fn has_copies(&self) -> bool {
+        self.active_to_node.len() > self.lattice
+    }
+
+    /// The copies as (active index, the lattice node they copy).
+    pub fn copies(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (self.lattice..self.active_to_node.len()).map(|a| (a, self.active_to_node[a] as usize))
+    }
+
+    /// Active indices of the nodes of piece `piece` of a split cell, in
+    /// local order.
+    pub fn piece_active_nodes(
+        &self,
+        grid: &Grid,
+        cell: &SplitCell,
+        piece: usize,
+        out: &mut [usize],
+    ) {
+        self.cell_active_nodes(grid, cell.cell, out);
+        for (a, &copy) in out.iter_mut().zip(&cell.pieces[piece]) {
+            if copy != PRIMARY {
+                *a = self.lattice + copy as usize;
+            }
+        }
+    }
+
+    /// Active indices of the nodes whose shape functions are those of
+    /// `cell` at its point `x`: the cell's, or in a split cell those of the
+    /// piece `x` lies in.
+    pub fn point_active_nodes(&self, grid: &Grid, cell: usize, x: [f64; 3], out: &mut [usize]) {
+        match self.split.cell(cell) {
+            Some(s) => self.piece_active_nodes(grid, s, s.piece_of(x), out),
+            None => self.cell_active_nodes(grid, cell, out),
         }
     }
 

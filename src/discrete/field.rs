@@ -12,6 +12,7 @@
 use rayon::prelude::*;
 
 use super::dofs::DofMap;
+use crate::cells::split::SplitCell;
 use crate::cells::{CellKind, Cells};
 use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
 use crate::expr::{VectorExpr, VectorTape};
@@ -30,13 +31,28 @@ pub fn value_and_gradient(
 
 /// `u_h` on one cell: its nodal values and box gathered once, for callers
 /// that evaluate many points of the cell ([`value_and_gradient`] is one
-/// point).
+/// point). A split cell ([`crate::cells::split`]) gathers the values of
+/// each of its pieces and evaluates a point with those of its piece.
 pub struct CellField {
     order: ElementOrder,
     lo: [f64; 3],
     h: f64,
     nodes_per_cell: usize,
     values: [[f64; 3]; 27],
+    /// A split cell and the nodal values of each of its pieces.
+    pieces: Option<Box<PieceValues>>,
+}
+
+/// A split cell and the nodal values of each of its pieces.
+type PieceValues = (SplitCell, Vec<[[f64; 3]; 27]>);
+
+/// The values of `u` at the active nodes `nodes`.
+fn gather(u: &[f64], nodes: &[usize]) -> [[f64; 3]; 27] {
+    let mut values = [[0.0; 3]; 27];
+    for (v, &node) in values.iter_mut().zip(nodes) {
+        *v = [0, 1, 2].map(|i| u[3 * node + i]);
+    }
+    values
 }
 
 impl CellField {
@@ -44,38 +60,50 @@ impl CellField {
         let npc = dofs.order.nodes_per_cell();
         let mut nodes = [0usize; 27];
         dofs.cell_active_nodes(grid, cell, &mut nodes[..npc]);
-        let mut values = [[0.0; 3]; 27];
-        for (v, &node) in values.iter_mut().zip(&nodes[..npc]) {
-            *v = [0, 1, 2].map(|i| u[3 * node + i]);
-        }
+        let pieces = dofs.split.cell(cell).map(|s| {
+            let values = (0..s.pieces.len())
+                .map(|p| {
+                    dofs.piece_active_nodes(grid, s, p, &mut nodes[..npc]);
+                    gather(u, &nodes[..npc])
+                })
+                .collect();
+            Box::new((s.clone(), values))
+        });
         CellField {
             order: dofs.order,
             lo: grid.cell_box(cell).lo,
             h: grid.h,
             nodes_per_cell: npc,
-            values,
+            values: gather(u, &nodes[..npc]),
+            pieces,
         }
     }
 
     /// `u_h(x)` and `∇u_h(x)` at a point `x` of the cell.
     pub fn value_and_gradient(&self, x: [f64; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
         let xi = [0, 1, 2].map(|a| (x[a] - self.lo[a]) / self.h);
-        self.at(&Shapes::at(self.order, xi, self.h))
+        let values = match &self.pieces {
+            Some(p) => &p.1[p.0.piece_of(x)],
+            None => &self.values,
+        };
+        self.at(values, &Shapes::at(self.order, xi, self.h))
     }
 
     /// `u_h` and `∇u_h` at point `q` of the rule that `table` tabulates,
-    /// in this cell.
+    /// in this cell (not a split one: the rule's points are not known).
     pub fn at_tabulated(&self, table: &ShapeTable, q: usize) -> ([f64; 3], [[f64; 3]; 3]) {
-        self.at(&table.0[q])
+        debug_assert!(self.pieces.is_none(), "a tabulated point of a split cell");
+        self.at(&self.values, &table.0[q])
     }
 
-    /// `u_h` and `∇u_h` at the point whose shape functions are `s`.
-    fn at(&self, s: &Shapes) -> ([f64; 3], [[f64; 3]; 3]) {
+    /// `u_h` and `∇u_h` from nodal `values` at the point whose shape
+    /// functions are `s`.
+    fn at(&self, values: &[[f64; 3]; 27], s: &Shapes) -> ([f64; 3], [[f64; 3]; 3]) {
         let mut val = [0.0; 3];
         let mut grad = [[0.0; 3]; 3];
         for a in 0..self.nodes_per_cell {
             for i in 0..3 {
-                let ui = self.values[a][i];
+                let ui = values[a][i];
                 val[i] += s.n[a] * ui;
                 for j in 0..3 {
                     grad[i][j] += s.dn[a][j] * ui;
@@ -255,7 +283,9 @@ fn error_norms_of<const N: usize>(
                     k += 1;
                     add(
                         acc,
-                        point(ue[k - 1], ge[k - 1], w * vol, &|f| fields[f].at(s)),
+                        point(ue[k - 1], ge[k - 1], w * vol, &|f| {
+                            fields[f].at(&fields[f].values, s)
+                        }),
                     )
                 });
                 add(acc, cell)

@@ -12,6 +12,7 @@
 //! and `--compress`) and writes those of the linear run ([`write_paraview`]:
 //! `solution.vtu`, `surface.vtp`, `solution.pvd` listing them).
 
+use std::collections::HashMap;
 use std::path::Path;
 use std::str::FromStr;
 
@@ -20,8 +21,10 @@ use rayon::prelude::*;
 use super::recovery::{recover_stress_around, vertex_nodes_of};
 use super::setup::Setup;
 use super::surface_output::{surface_fields, write_surface, SurfaceFields};
+use crate::cells::split::PRIMARY;
 use crate::cells::CellKind;
 use crate::discrete::boundary_mesh::BoundaryMesh;
+use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::geometry::Geometry;
@@ -135,6 +138,61 @@ pub(crate) fn body_mesh(grid: &Grid, order: ElementOrder, body: &[usize]) -> Bod
     }
 }
 
+/// The pieces of the split cells ([`crate::cells::split`]) in `mesh` (of the
+/// Q1 cells `body`, with the active index of each point in `active`): the
+/// copies become points of their own (their node's position and stress,
+/// their own displacement), the first piece of a split cell takes the
+/// cell's hexahedron and each further piece is a hexahedron appended after
+/// the cells. Returns, per appended hexahedron, the position in `body` of
+/// its cell. Each piece's hexahedron spans the whole cell, as the cell's
+/// does: `level_set` clips both to the body, so where pieces share a cell
+/// each shows both walls with its own displacement.
+fn add_pieces(
+    grid: &Grid,
+    dofs: &DofMap,
+    body: &[usize],
+    mesh: &mut BodyMesh,
+    active: &mut Vec<usize>,
+) -> Vec<usize> {
+    if dofs.split.is_empty() {
+        return Vec::new();
+    }
+    let point_of: HashMap<usize, usize> = mesh
+        .nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| (n, i))
+        .collect();
+    let first_copy = mesh.nodes.len();
+    for (a, node) in dofs.copies() {
+        mesh.nodes.push(node);
+        mesh.node_cell.push(mesh.node_cell[point_of[&node]]);
+        active.push(a);
+    }
+    let mut appended = Vec::new();
+    let mut local = [0usize; 8];
+    for s in &dofs.split.cells {
+        let k = body
+            .binary_search(&s.cell)
+            .expect("a split cell is a body cell");
+        grid.cell_nodes(ElementOrder::Q1, s.cell, &mut local);
+        for (p, copies) in s.pieces.iter().enumerate() {
+            let points: [usize; 8] = std::array::from_fn(|i| match copies[i] {
+                PRIMARY => point_of[&local[i]],
+                copy => first_copy + copy as usize,
+            });
+            let hex = VtuCell::hex8_from_lexicographic(points);
+            if p == 0 {
+                mesh.cells[k] = hex;
+            } else {
+                mesh.cells.push(hex);
+                appended.push(k);
+            }
+        }
+    }
+    appended
+}
+
 /// Nodes per parallel task of [`nodal_stress`].
 const NODE_CHUNK: usize = 4096;
 
@@ -214,20 +272,22 @@ fn solution_file(
     let body: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| setup.cells.kinds[c] != CellKind::Outside)
         .collect();
-    let mesh = body_mesh(grid, dofs.order, &body);
+    let mut mesh = body_mesh(grid, dofs.order, &body);
+    // Every node of a body cell is active, so u there is a nodal value.
+    let mut active: Vec<usize> = mesh
+        .nodes
+        .iter()
+        .map(|&n| dofs.node_to_active[n] as usize)
+        .collect();
+    let pieces_of = add_pieces(grid, dofs, &body, &mut mesh, &mut active);
     let points: Vec<[f64; 3]> = mesh
         .nodes
         .iter()
         .map(|&n| grid.node_position(dofs.order, n))
         .collect();
-    // Every node of a body cell is active, so u there is a nodal value.
-    let displacement: Vec<[f64; 3]> = mesh
-        .nodes
+    let displacement: Vec<[f64; 3]> = active
         .iter()
-        .map(|&n| {
-            let a = dofs.node_to_active[n] as usize;
-            [u[3 * a], u[3 * a + 1], u[3 * a + 2]]
-        })
+        .map(|&a| [u[3 * a], u[3 * a + 1], u[3 * a + 2]])
         .collect();
     let sigma = recover_stress_around(setup, u, &vertex_nodes_of(setup, &body), known)?;
     let stress = nodal_stress(grid, dofs.order, &mesh, &points, &sigma)?;
@@ -252,6 +312,14 @@ fn solution_file(
             fraction[k] = setup.cells.fraction[i];
         }
     }
+    // The further pieces of split cells repeat their cell's data.
+    let repeated: Vec<f64> = pieces_of.iter().map(|&k| fraction[k]).collect();
+    fraction.extend(repeated);
+    let body: Vec<usize> = body
+        .iter()
+        .chain(pieces_of.iter().map(|&k| &body[k]))
+        .copied()
+        .collect();
     let class: Vec<u8> = body.iter().map(|&c| setup.cells.kinds[c] as u8).collect();
     let cell_data = vec![
         DataArray::scalars_u8("cell_class", class),

@@ -7,7 +7,10 @@ use std::time::Instant;
 use crate::backend::LinearOperator;
 use crate::case::Case;
 use crate::cells::pieces::{held_pieces, HeldPoint, Naming, Pieces};
+use crate::cells::split::Split;
 use crate::cells::Cells;
+use crate::discrete::dofs::DofMap;
+use crate::element::ElementOrder;
 use crate::error::Result;
 use crate::fem::checks::{check_finite, check_rules, Assembled};
 use crate::fem::flux_consistency::FluxCorrection;
@@ -15,6 +18,7 @@ use crate::fem::level::LevelOperator;
 use crate::fem::operator::ElasticOperator;
 use crate::fem::problem::Problem;
 use crate::fem::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
+use crate::geometry::Geometry;
 use crate::grid::{machine_memory_bytes, Grid};
 use crate::multigrid::{Hierarchy, MultigridOptions};
 use crate::progress::{Event, Phase, Progress, Silent};
@@ -106,13 +110,20 @@ impl Setup {
             key: &case.body_key(0, "dirichlet"),
             body: &body.spec.name,
         };
-        let (pieces, unheld) = held_pieces(&grid, &cells, &body.geometry, held, &[], &naming);
+        let order = body.spec.element;
+        let split = split_walls(&grid, &cells, &body.geometry, order, &dirichlet);
+        let (pieces, unheld) =
+            held_pieces(&grid, &cells, &split, &body.geometry, held, &[], &naming);
+        let dofs = match split.is_empty() {
+            true => DofMap::new(&grid, &cells, order),
+            false => DofMap::with_split(&grid, &cells, split),
+        };
         let LevelOperator {
             op,
             beta,
             omega_star,
             s_factor,
-        } = LevelOperator::new(case, &problem, &grid, &cells, case.body().spec.element);
+        } = LevelOperator::new(case, &problem, &grid, &cells, dofs);
         let t_rhs = Instant::now();
         let mut fixed_rhs = fixed_rhs(&grid, &cells, &op.dofs, &problem, beta, &dirichlet);
         let rhs_seconds = t_rhs.elapsed().as_secs_f64();
@@ -181,5 +192,27 @@ impl Setup {
             multigrid,
             timings,
         })
+    }
+}
+
+/// The copies of the nodes whose parts of the body do not meet
+/// ([`crate::cells::split`]), where the walls can be taken apart: Q1
+/// elements, and no Dirichlet point in a split cell (its recovered traction
+/// would mix the pieces). None elsewhere: the walls stay glued (the report
+/// says where).
+fn split_walls(
+    grid: &Grid,
+    cells: &Cells,
+    geometry: &Geometry,
+    order: ElementOrder,
+    dirichlet: &[DirichletPoint],
+) -> Split {
+    if order != ElementOrder::Q1 {
+        return Split::default();
+    }
+    let split = Split::new(grid, cells, geometry);
+    match dirichlet.iter().any(|p| split.cell(p.cell).is_some()) {
+        true => Split::default(),
+        false => split,
     }
 }

@@ -212,8 +212,9 @@ impl FluxCorrection {
         problem: &Problem,
         rhs: &mut [f64],
     ) {
+        let whole = |i: usize| dofs.split.cell(cells.cut[i]).is_none();
         let exact: Vec<usize> = (0..cells.cut.len())
-            .filter(|&i| self.exact_share[i] > 0.0)
+            .filter(|&i| self.exact_share[i] > 0.0 && whole(i))
             .collect();
         let cell_of = |i: usize| cells.cut[i];
         let element = per_item(|i, fe| {
@@ -224,7 +225,7 @@ impl FluxCorrection {
         });
         add_cell_loads(grid, dofs, &exact, &cell_of, rhs, element)
             .expect("the exact stress is infallible");
-        for &(i, tag, share) in &self.pressure_share {
+        for &(i, tag, share) in self.pressure_share.iter().filter(|p| whole(p.0)) {
             let c = cells.cut[i];
             let mut tau = |x: [f64; 3]| {
                 let p = problem.pressure(tag, x);
@@ -245,7 +246,10 @@ impl FluxCorrection {
         sigma: &Recovered<6>,
         rhs: &mut [f64],
     ) -> Result<()> {
-        let recovered: Vec<usize> = self.recovered_cells().collect();
+        let recovered: Vec<usize> = self
+            .recovered_cells()
+            .filter(|&i| dofs.split.cell(cells.cut[i]).is_none())
+            .collect();
         let cell_of = |i: usize| cells.cut[i];
         let element = per_item(|i, fe| {
             let c = cells.cut[i];

@@ -5,6 +5,7 @@
 use crate::case::physics::StabilisationSpec;
 use crate::case::Case;
 use crate::cells::Cells;
+use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
 use crate::fem::operator::{ElasticOperator, OperatorParams};
 use crate::fem::problem::Problem;
@@ -35,17 +36,18 @@ pub struct LevelOperator {
 }
 
 impl LevelOperator {
-    /// `K + K_p` of elements `order` on `grid` classified as `cells`, plus
-    /// `(k2 E / h²) M_c` on the pathological cells of `order`'s threshold.
+    /// `K + K_p` on the unknowns `dofs` of `grid` classified as `cells`,
+    /// plus `(k2 E / h²) M_c` on the pathological cells of the element's
+    /// threshold.
     pub fn new(
         case: &Case,
         problem: &Problem,
         grid: &Grid,
         cells: &Cells,
-        order: ElementOrder,
+        dofs: DofMap,
     ) -> LevelOperator {
         let k2 = case.spec.stabilisation.k2;
-        LevelOperator::with_k2(case, problem, grid, cells, order, k2)
+        LevelOperator::on_dofs(case, problem, grid, cells, dofs, k2)
     }
 
     /// [`LevelOperator::new`] with the S-term's weight `k2`; `0` for a
@@ -59,6 +61,19 @@ impl LevelOperator {
         order: ElementOrder,
         k2: f64,
     ) -> LevelOperator {
+        let dofs = DofMap::new(grid, cells, order);
+        LevelOperator::on_dofs(case, problem, grid, cells, dofs, k2)
+    }
+
+    /// [`LevelOperator::with_k2`] on the unknowns `dofs`.
+    fn on_dofs(
+        case: &Case,
+        problem: &Problem,
+        grid: &Grid,
+        cells: &Cells,
+        dofs: DofMap,
+        k2: f64,
+    ) -> LevelOperator {
         let params = OperatorParams {
             young: problem.young,
             poisson: problem.poisson,
@@ -69,20 +84,24 @@ impl LevelOperator {
             k2,
             ..case.spec.stabilisation.clone()
         };
-        LevelOperator::with_params(grid, cells, order, &params, &st)
+        LevelOperator::with_params(grid, cells, dofs, &params, &st)
     }
 
     /// [`LevelOperator::new`] from the operator's parameters and the
-    /// stabilisation settings (`k2`, `A`; `params.beta` is the penalty).
+    /// stabilisation settings (`k2`, `A`; `params.beta` is the penalty), on
+    /// the unknowns of `dofs`.
     pub fn with_params(
         grid: &Grid,
         cells: &Cells,
-        order: ElementOrder,
+        dofs: DofMap,
         params: &OperatorParams,
         st: &StabilisationSpec,
     ) -> LevelOperator {
-        let mut op = ElasticOperator::new(grid, cells, order, params);
-        let omega_star = pathological_cells(cells, st.threshold(order));
+        let mut op = ElasticOperator::with_dofs(grid, cells, dofs, params);
+        let mut omega_star = pathological_cells(cells, st.threshold(op.dofs.order));
+        // A split cell's pieces have no S-term: its recovered displacement
+        // would mix them.
+        omega_star.retain(|&c| op.dofs.split.cell(c).is_none());
         let s_factor = st.k2 * params.young / (grid.h * grid.h);
         if s_factor > 0.0 {
             for &c in &omega_star {

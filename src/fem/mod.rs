@@ -18,4 +18,5 @@ pub mod q1_forms;
 pub mod q2_stencil;
 pub mod rhs;
 pub mod rigid_resultant;
+pub mod split_elements;
 pub mod stencil;

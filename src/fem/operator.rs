@@ -33,6 +33,7 @@ use super::cut_apply::CutKernel;
 use super::fast_apply::{CellData, FastApply};
 use super::moment_fit::{CutWeights, FitBasis};
 use super::q1_forms::Q1Forms;
+use super::split_elements::SplitElements;
 use crate::backend::LinearOperator;
 use crate::cells::{CellKind, Cells};
 use crate::discrete::dofs::{node_cells, DofMap};
@@ -64,6 +65,8 @@ pub struct ElasticOperator {
     basis: FitBasis,
     /// The penalty of the Dirichlet points that hold only some components.
     partial: ComponentPenalty,
+    /// The pieces of split cells, applied after the lattice.
+    split: SplitElements,
     /// The fast apply's plan and its reused scratch.
     fast: FastApply,
     scratch: Scratch,
@@ -106,7 +109,13 @@ pub struct OperatorParams<'a> {
 impl ElasticOperator {
     /// Builds the operator: reference matrix and cut-cell weights (in parallel).
     pub fn new(grid: &Grid, cells: &Cells, order: ElementOrder, p: &OperatorParams) -> Self {
-        let dofs = DofMap::new(grid, cells, order);
+        ElasticOperator::with_dofs(grid, cells, DofMap::new(grid, cells, order), p)
+    }
+
+    /// [`ElasticOperator::new`] on the unknowns of `dofs`: the pieces of its
+    /// split cells are elements of their own ([`SplitElements`]).
+    pub fn with_dofs(grid: &Grid, cells: &Cells, dofs: DofMap, p: &OperatorParams) -> Self {
+        let order = dofs.order;
         let ne = 3 * order.nodes_per_cell();
         let k_ref = reference_stiffness(order, p.young, p.poisson) * grid.h;
         let mut k_inside = Vec::with_capacity(ne * ne);
@@ -123,15 +132,22 @@ impl ElasticOperator {
             slot[c] = i as u32;
         }
         let basis = FitBasis::new(order);
+        let weights_of = |i: usize, keep: &dyn Fn([f64; 3]) -> bool| {
+            cut_cell_weights(grid, cells, i, &basis, p, keep)
+        };
         let data: Vec<f64> = (0..cells.cut.len())
             .into_par_iter()
-            .flat_map_iter(|i| cut_cell_weights(grid, cells, i, &basis, p))
+            .flat_map_iter(|i| match dofs.split.cell(cells.cut[i]) {
+                Some(_) => vec![0.0; 2 * basis.num_points()],
+                None => weights_of(i, &|_| true),
+            })
             .collect();
         let weights = CutWeights {
             nq: basis.num_points(),
             data,
         };
         let lame = lame(p.young, p.poisson);
+        let split = SplitElements::new(grid, cells, &dofs, &basis, lame, &weights_of);
         let partial = ComponentPenalty::new(grid, cells, &dofs, p.beta, p.dirichlet);
         let cut = match order {
             ElementOrder::Q1 => CutData::Forms(Q1Forms::new(&basis, &weights, lame, grid.h)),
@@ -147,7 +163,8 @@ impl ElasticOperator {
             own_cells: &cells.cut,
             node_to_active: &dofs.node_to_active,
         };
-        let fast = FastApply::new(grid, order, &data, &dofs.active_to_node, &basis, lame);
+        let lattice = &dofs.active_to_node[..dofs.lattice];
+        let fast = FastApply::new(grid, order, &data, lattice, &basis, lame);
         ElasticOperator {
             grid: grid.clone(),
             dofs,
@@ -159,9 +176,20 @@ impl ElasticOperator {
             lame,
             basis,
             partial,
+            split,
             fast,
             scratch: Scratch::default(),
         }
+    }
+
+    /// The lattice's part of a vector (the copies follow it).
+    fn lattice_len(&self) -> usize {
+        3 * self.dofs.lattice
+    }
+
+    /// The pieces of the split cells.
+    pub fn split_elements(&self) -> &SplitElements {
+        &self.split
     }
 
     /// The data the fast apply reads.
@@ -306,6 +334,7 @@ impl ElasticOperator {
                 + self.dofs.active_to_node.len())
             + self.basis.bytes()
             + self.fast.bytes()
+            + self.split.bytes()
     }
 
     /// `z[ne s .. ne (s+1)] = K_s x_s` for every cut cell `s`.
@@ -346,7 +375,10 @@ impl ElasticOperator {
         let z = &z;
         let npc = self.dofs.order.nodes_per_cell();
         let ne = self.ne;
-        y.par_chunks_mut(3)
+        let lattice = self.lattice_len();
+        y[lattice..].fill(0.0);
+        y[..lattice]
+            .par_chunks_mut(3)
             .enumerate()
             .with_min_len(64)
             .for_each_init(
@@ -381,6 +413,7 @@ impl ElasticOperator {
                 },
             );
         self.partial.apply_add(x, y);
+        self.split.apply_add(x, y);
     }
 
     /// Calls `f(cell, local, matrix)` for the non-outside cells around an
@@ -417,17 +450,6 @@ impl ElasticOperator {
                 }
             }
         });
-        for r in &mut rows {
-            r.sort_by_key(|e| e.0);
-            r.dedup_by(|b, a| {
-                if a.0 == b.0 {
-                    a.1 += b.1;
-                    true
-                } else {
-                    false
-                }
-            });
-        }
         rows
     }
 
@@ -435,10 +457,26 @@ impl ElasticOperator {
     pub fn assemble(&self) -> faer::sparse::SparseColMat<usize, f64> {
         let n = self.dofs.ndofs();
         let own = self.own_matrices();
-        let blocks: Vec<[Vec<(usize, f64)>; 3]> = (0..self.dofs.num_active())
+        let mut blocks: Vec<[Vec<(usize, f64)>; 3]> = (0..self.dofs.num_active())
             .into_par_iter()
-            .map(|a| self.node_rows(a, &own))
+            .map(|a| match a < self.dofs.lattice {
+                true => self.node_rows(a, &own),
+                false => Default::default(),
+            })
             .collect();
+        for (nodes, k) in self.split.iter() {
+            for (r, row) in k.chunks_exact(24).enumerate() {
+                let entries = row
+                    .iter()
+                    .enumerate()
+                    .map(|(m, &v)| (3 * nodes[m / 3] + m % 3, v));
+                blocks[nodes[r / 3]][r % 3].extend(entries);
+            }
+        }
+        blocks
+            .par_iter_mut()
+            .flatten()
+            .for_each(sum_duplicates);
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
         let mut values = Vec::new();
@@ -458,6 +496,20 @@ impl ElasticOperator {
     }
 }
 
+/// A row's (column, value) entries sorted by column, those of one column
+/// summed.
+fn sum_duplicates(row: &mut Vec<(usize, f64)>) {
+    row.sort_by_key(|e| e.0);
+    row.dedup_by(|b, a| {
+        if a.0 == b.0 {
+            a.1 += b.1;
+            true
+        } else {
+            false
+        }
+    });
+}
+
 impl LinearOperator for ElasticOperator {
     fn nrows(&self) -> usize {
         self.dofs.ndofs()
@@ -470,8 +522,12 @@ impl LinearOperator for ElasticOperator {
         // A concurrent apply holds the shared scratch: use a fresh one.
         let scratch = guard.as_deref_mut().unwrap_or(&mut local);
         scratch.resize(self.fast.scratch_len(), 0.0);
-        self.fast.apply(&self.cell_data(), x, y, scratch);
+        let lattice = self.lattice_len();
+        self.fast
+            .apply(&self.cell_data(), &x[..lattice], &mut y[..lattice], scratch);
         self.partial.apply_add(x, y);
+        y[lattice..].fill(0.0);
+        self.split.apply_add(x, y);
     }
 
     fn diagonal(&self) -> Vec<f64> {
@@ -481,25 +537,31 @@ impl LinearOperator for ElasticOperator {
             .collect();
         let ne = self.ne;
         let mut d = vec![0.0; self.dofs.ndofs()];
-        d.par_chunks_mut(3).enumerate().for_each(|(a, dn)| {
-            let node = self.dofs.active_to_node[a] as usize;
-            let mut around = Vec::with_capacity(8);
-            node_cells(&self.grid, self.dofs.order, node, &mut around);
-            for &(cell, l) in &around {
-                for (i, v) in dn.iter_mut().enumerate() {
-                    *v += match self.slot[cell] {
-                        OUTSIDE => 0.0,
-                        INSIDE => self.k_inside[(3 * l + i) * ne + 3 * l + i],
-                        s => own[ne * s as usize + 3 * l + i],
-                    };
+        let lattice = self.lattice_len();
+        d[..lattice]
+            .par_chunks_mut(3)
+            .enumerate()
+            .for_each(|(a, dn)| {
+                let node = self.dofs.active_to_node[a] as usize;
+                let mut around = Vec::with_capacity(8);
+                node_cells(&self.grid, self.dofs.order, node, &mut around);
+                for &(cell, l) in &around {
+                    for (i, v) in dn.iter_mut().enumerate() {
+                        *v += match self.slot[cell] {
+                            OUTSIDE => 0.0,
+                            INSIDE => self.k_inside[(3 * l + i) * ne + 3 * l + i],
+                            s => own[ne * s as usize + 3 * l + i],
+                        };
+                    }
                 }
-            }
-        });
+            });
+        self.split.add_diagonal(&mut d);
         d
     }
 }
 
-/// The moment-fitted weights of the `i`-th cut cell (see
+/// The moment-fitted weights of the `i`-th cut cell's points `x` with
+/// `keep(x)` (see
 /// [`super::moment_fit`]): `W_q = Σ_vol w L_q(ξ)`, then
 /// `M_q = (β/h) Σ_{Dirichlet points holding every component} w L_q(ξ)`.
 fn cut_cell_weights(
@@ -508,6 +570,7 @@ fn cut_cell_weights(
     i: usize,
     basis: &FitBasis,
     p: &OperatorParams,
+    keep: &dyn Fn([f64; 3]) -> bool,
 ) -> Vec<f64> {
     let nq = basis.num_points();
     let x0 = grid.cell_box(cells.cut[i]).lo;
@@ -515,11 +578,11 @@ fn cut_cell_weights(
     let xi = |x: [f64; 3]| [0, 1, 2].map(|a| (x[a] - x0[a]) * inv_h);
     let mut w = vec![0.0; 2 * nq];
     let (stiffness, mass) = w.split_at_mut(nq);
-    for q in cells.volume_points(i) {
+    for q in cells.volume_points(i).iter().filter(|q| keep(q.x)) {
         basis.add_point(xi(q.x), q.w, stiffness);
     }
     // Points holding some components only: [`ComponentPenalty`].
-    for q in cells.surface_points(i) {
+    for q in cells.surface_points(i).iter().filter(|q| keep(q.x)) {
         if (p.dirichlet)(q.tag, q.x) == Some([true; 3]) {
             basis.add_point(xi(q.x), q.w * p.beta * inv_h, mass);
         }

@@ -49,7 +49,8 @@ pub fn dirichlet_points(cells: &Cells, problem: &Problem) -> Vec<DirichletPoint>
     out
 }
 
-/// Adds `N(x)ᵀ f` to `rhs` for a point `x` of `cell` (`f` carries the weight).
+/// Adds `N(x)ᵀ f` to `rhs` for a point `x` of `cell` (`f` carries the weight;
+/// in a split cell, the shape functions of the piece `x` lies in).
 pub fn add_point_load(
     grid: &Grid,
     dofs: &DofMap,
@@ -60,7 +61,7 @@ pub fn add_point_load(
 ) {
     let npc = dofs.order.nodes_per_cell();
     let mut nodes = [0usize; 27];
-    dofs.cell_active_nodes(grid, cell, &mut nodes[..npc]);
+    dofs.point_active_nodes(grid, cell, x, &mut nodes[..npc]);
     let n = shape_values_at(grid, dofs.order, cell, x);
     for a in 0..npc {
         for c in 0..3 {
@@ -158,7 +159,8 @@ fn add_inside_body_load(
     .expect("a body load is infallible");
 }
 
-/// The body load of the cut cells on their volume points.
+/// The body load of the cut cells on their volume points; a split cell's
+/// point by point, each on its piece.
 fn add_cut_body_load(
     grid: &Grid,
     cells: &Cells,
@@ -166,7 +168,17 @@ fn add_cut_body_load(
     problem: &Problem,
     rhs: &mut [f64],
 ) {
-    let cut: Vec<usize> = (0..cells.cut.len()).collect();
+    let (cut, split): (Vec<usize>, Vec<usize>) =
+        (0..cells.cut.len()).partition(|&i| dofs.split.cell(cells.cut[i]).is_none());
+    for i in split {
+        let points = cells.volume_points(i);
+        let xs: Vec<[f64; 3]> = points.iter().map(|q| q.x).collect();
+        let mut loads = vec![[0.0; 3]; xs.len()];
+        problem.body_loads(&xs, &mut loads);
+        for (q, b) in points.iter().zip(loads) {
+            add_point_load(grid, dofs, cells.cut[i], q.x, b.map(|v| v * q.w), rhs);
+        }
+    }
     let cell_of = |i: usize| cells.cut[i];
     add_cell_loads(grid, dofs, &cut, &cell_of, rhs, |group, fes| {
         let points = |i: usize| cells.volume_points(i).iter();

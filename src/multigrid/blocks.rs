@@ -15,8 +15,9 @@
 //! The cut cells are visited in ascending order; each claims the active
 //! nodes of its own that no earlier cut cell claimed, and its block is the
 //! operator restricted to their unknowns, `A_b = R_b A R_bᵀ` (summed over
-//! every cell around them, inside cells included). The blocks do not
-//! overlap, so
+//! every cell around them, inside cells included, and the pieces of split
+//! cells; the copies of [`crate::cells::split`] are in no block). The
+//! blocks do not overlap, so
 //!
 //! ```text
 //! B = diag(D_rest, A_1, A_2, …),     B⁻¹ r = D_rest⁻¹ r_rest + Σ_b R_bᵀ A_b⁻¹ R_b r
@@ -183,11 +184,19 @@ fn block_matrices(op: &ElasticOperator, claims: &[Vec<usize>]) -> Vec<DMatrix<f6
         .iter()
         .map(|nodes| DMatrix::zeros(3 * nodes.len(), 3 * nodes.len()))
         .collect();
-    for pass in cells.chunks(CELLS_PER_PASS) {
-        let parts: Vec<Vec<Contribution>> = pass
-            .par_iter()
-            .map(|&cell| contributions(op, &owner, cell))
-            .collect();
+    let pieces = op
+        .split_elements()
+        .iter()
+        .map(|(nodes, k)| element_contributions(&owner, k, nodes));
+    for parts in cells
+        .chunks(CELLS_PER_PASS)
+        .map(|pass| {
+            pass.par_iter()
+                .map(|&cell| contributions(op, &owner, cell))
+                .collect::<Vec<_>>()
+        })
+        .chain(std::iter::once(pieces.collect()))
+    {
         for (b, locals, values) in parts.into_iter().flatten() {
             let g = 3 * locals.len();
             for (p, &bp) in locals.iter().enumerate() {
@@ -219,10 +228,20 @@ fn contributions(
     let Some(k) = op.cell_matrix(cell) else {
         return Vec::new();
     };
-    let ne = op.dofs_per_cell();
-    let mut nodes = vec![0usize; ne / 3];
+    let mut nodes = vec![0usize; op.dofs_per_cell() / 3];
     op.dofs.cell_active_nodes(&op.grid, cell, &mut nodes);
-    // (block, local in block, local in cell), grouped by block.
+    element_contributions(owner, &k, &nodes)
+}
+
+/// The contributions of an element with matrix `k` (row-major) on the
+/// active nodes `nodes` to the blocks that own them.
+fn element_contributions(
+    owner: &[Option<(usize, usize)>],
+    k: &[f64],
+    nodes: &[usize],
+) -> Vec<Contribution> {
+    let ne = 3 * nodes.len();
+    // (block, local in block, local in element), grouped by block.
     let mut owned: Vec<(usize, usize, usize)> = nodes
         .iter()
         .enumerate()

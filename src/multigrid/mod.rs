@@ -219,7 +219,8 @@ impl Hierarchy {
         opts: &MultigridOptions,
     ) -> Result<Hierarchy> {
         let st = &case.spec.stabilisation;
-        let omega_star = pathological_cells(cells, st.threshold(fine.dofs.order));
+        let mut omega_star = pathological_cells(cells, st.threshold(fine.dofs.order));
+        omega_star.retain(|&c| fine.dofs.split.cell(c).is_none());
         let s_term = FineSTerm {
             grid: &fine.grid,
             cells: &omega_star,

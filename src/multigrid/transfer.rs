@@ -29,6 +29,11 @@
 //! Both are gathers (every output node reads its up-to-8 or up-to-27 inputs),
 //! written as explicit index loops over the lattice so that a WGSL kernel can
 //! mirror them one thread per output node, with no atomics.
+//!
+//! # Copies
+//! A fine node's copies ([`crate::cells::split`]) interpolate the coarse
+//! field as the node does (the coarse levels do not split), and `R`
+//! gathers their residuals with the node's weights, so `R = Pᵀ` still.
 
 use rayon::prelude::*;
 
@@ -153,5 +158,31 @@ impl Transfer<'_> {
                     }
                 }
             });
+        self.restrict_copies(xf, xc);
+    }
+
+    /// `xc += P_copiesᵀ xf`: the copies' part of `R`, scattered (they are
+    /// few, and only the CPU splits cells).
+    fn restrict_copies(&self, xf: &[f64], xc: &mut [f64]) {
+        for (a, node) in self.fine.dofs.copies() {
+            let [i, j, k] = self.fine.ijk(node);
+            let (wi, ni) = from_coarse(i);
+            let (wj, nj) = from_coarse(j);
+            let (wk, nk) = from_coarse(k);
+            for &(ck, vk) in &wk[..nk] {
+                for &(cj, vj) in &wj[..nj] {
+                    for &(ci, vi) in &wi[..ni] {
+                        let c = self.coarse.active([ci, cj, ck]);
+                        if c == INACTIVE {
+                            continue;
+                        }
+                        let (w, c) = (vi * vj * vk, 3 * c as usize);
+                        for d in 0..3 {
+                            xc[c + d] += w * xf[3 * a + d];
+                        }
+                    }
+                }
+            }
+        }
     }
 }

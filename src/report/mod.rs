@@ -14,6 +14,7 @@ use serde::Serialize;
 
 use crate::cells::glued::{glued_nodes, nodes_box};
 use crate::cells::{CellKind, Cells};
+use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
@@ -44,6 +45,31 @@ pub struct CellCounts {
     /// some.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub glued_box: Option<[[f64; 3]; 2]>,
+    /// Grid vertices given one set of unknowns per part of the body around
+    /// them, so those parts move apart ([`crate::cells::split`]); they are
+    /// not glued.
+    pub split_nodes: usize,
+    /// The box of the split vertices' cells, `[min, max]`, when there are
+    /// some.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_box: Option<[[f64; 3]; 2]>,
+    /// The glued vertices, ascending.
+    #[serde(skip)]
+    glued: Vec<usize>,
+}
+
+impl CellCounts {
+    /// Records the vertices that `dofs` copies: they are split, no longer
+    /// glued.
+    pub fn record_split(&mut self, grid: &Grid, dofs: &DofMap) {
+        let mut split: Vec<usize> = dofs.copies().map(|(_, node)| node).collect();
+        split.dedup();
+        self.glued.retain(|v| split.binary_search(v).is_err());
+        self.glued_nodes = self.glued.len();
+        self.glued_box = nodes_box(grid, &self.glued).map(|b| [b.lo, b.hi]);
+        self.split_nodes = split.len();
+        self.split_box = nodes_box(grid, &split).map(|b| [b.lo, b.hi]);
+    }
 }
 
 /// Measures of the domain by the cut-cell quadrature.
@@ -286,6 +312,9 @@ impl BodyReport {
                 }),
                 glued_nodes: glued.len(),
                 glued_box: nodes_box(grid, &glued).map(|b| [b.lo, b.hi]),
+                split_nodes: 0,
+                split_box: None,
+                glued,
             },
             domain: Domain {
                 volume: cells.volume(grid),
