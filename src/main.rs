@@ -255,7 +255,7 @@ fn geometry(args: &CaseArgs, progress: &Terminal) -> anyhow::Result<()> {
             println!("  boundary part '{tag}': area {area:.6e}");
         }
         cli_run::repaired_note(r);
-        cli_run::glued_note(r);
+        cli_run::glued_geometry_note(r);
     }
     let files = match case.bodies.len() {
         1 => "cells.vtu, boundary.vtp".to_string(),

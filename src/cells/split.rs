@@ -7,9 +7,12 @@
 //! cell's quadrature points that lie in that piece.
 //!
 //! The pieces of a cell are its inside sub-cells ([`super::glued::SUB`]³)
-//! joined by 26-connectivity, less the pieces that hold no volume point of
-//! the cell's rule (a part thinner than the rule resolves belongs to the
-//! piece around it). A point is in the piece of its sub-cell, or of the
+//! joined by 26-connectivity, less the pieces whose volume points of the
+//! cell's rule weigh nothing (a part thinner than the rule resolves belongs
+//! to the piece around it). Nodes with a cut cell around them
+//! whose rule has a weight that is not positive (a repaired or polyhedral
+//! rule of a mesh with defects) are not copied: a piece's matrix is
+//! positive only where its points' weights are. A point is in the piece of its sub-cell, or of the
 //! nearest inside sub-cell where its own centre is outside. The copy that
 //! holds an inside cell, or else the largest, is the node itself (the
 //! *primary* copy): cells that are not split use only primary copies, so
@@ -19,9 +22,10 @@ use rayon::prelude::*;
 
 use super::glued::{candidate_nodes, cell_labels, node_cells, piece_roots, pieces, Labels};
 use super::glued::{INSIDE, SUB};
-use super::{CellKind, Cells};
+use super::{face_neighbour, face_rule, CellKind, Cells};
 use crate::geometry::Geometry;
 use crate::grid::Grid;
+use crate::quadrature::saye::VolumePoint;
 use crate::spatial::Aabb;
 
 /// The copy of a vertex that is the lattice node itself.
@@ -56,6 +60,14 @@ impl SplitCell {
     pub fn piece_of(&self, x: [f64; 3]) -> usize {
         piece_at(&self.labels, &self.bounds, x) as usize - 1
     }
+
+    /// The piece of a boundary point `x` with outward normal `n`: that of
+    /// the point half a sub-cell inside (a boundary point's own sub-cell is
+    /// often outside, and the nearest inside one may be across a slot).
+    pub fn piece_of_boundary(&self, x: [f64; 3], n: [f64; 3]) -> usize {
+        let step = 0.5 * (self.bounds.hi[0] - self.bounds.lo[0]) / SUB as f64;
+        self.piece_of([0, 1, 2].map(|a| x[a] - step * n[a]))
+    }
 }
 
 impl Split {
@@ -79,8 +91,7 @@ impl Split {
             .map(|&c| {
                 let b = grid.cell_box(c);
                 let i = cells.cut_position(c).expect("cut");
-                let volume: Vec<[f64; 3]> = cells.volume_points(i).iter().map(|q| q.x).collect();
-                prune(cell_labels(geometry, &b), &b, &volume)
+                prune(cell_labels(geometry, &b), &b, cells.volume_points(i))
             })
             .collect();
         let labels_of = |c: usize| match cells.kinds[c] {
@@ -94,6 +105,11 @@ impl Split {
             .into_par_iter()
             .filter_map(|v| {
                 let around = node_cells(grid, v);
+                // A piece's matrix is positive only where its points'
+                // weights are.
+                if around.iter().flatten().any(|&c| !positive_rule(cells, c)) {
+                    return None;
+                }
                 let roots = piece_roots(&around.map(|c| c.and_then(labels_of)));
                 let copies = copies_of(&roots, |d| {
                     around[d].is_some_and(|c| cells.kinds[c] == CellKind::Inside)
@@ -134,10 +150,88 @@ impl Split {
                 bounds: grid.cell_box(c),
             });
         }
-        Split {
+        let mut split = Split {
             extra_nodes,
             cells: split,
+        };
+        loop {
+            let torn = split.torn_vertices(grid, cells, geometry);
+            if torn.is_empty() {
+                return split;
+            }
+            split = split.glued_at(&torn);
         }
+    }
+
+    /// The vertices where a face between two cells holds the body but the
+    /// pieces on its two sides take different copies: the sampling missed
+    /// a connection, and the copies would tear the body there.
+    fn torn_vertices(&self, grid: &Grid, cells: &Cells, geometry: &Geometry) -> Vec<usize> {
+        let mut torn: Vec<usize> = self
+            .cells
+            .par_iter()
+            .flat_map_iter(|s| {
+                let mut out = Vec::new();
+                for (axis, side) in (0..3).flat_map(|a| [(a, 0), (a, 1)]) {
+                    let Some(nb) = face_neighbour(grid, s.cell, axis, side) else {
+                        continue;
+                    };
+                    if cells.kinds[nb] == CellKind::Outside {
+                        continue;
+                    }
+                    let other = self.cell(nb);
+                    // Local vertices of the face in this cell and in the
+                    // neighbour (the same grid vertices).
+                    let face: Vec<(usize, usize)> = (0..8)
+                        .filter(|l| (l >> axis & 1) == side)
+                        .map(|l| (l, l ^ (1 << axis)))
+                        .collect();
+                    for p in face_rule(geometry, grid, s.cell, axis, side, 2) {
+                        let mine = &s.pieces[s.piece_of(p.x)];
+                        let theirs = other.map_or([PRIMARY; 8], |o| o.pieces[o.piece_of(p.x)]);
+                        for &(l, m) in &face {
+                            if mine[l] != theirs[m] {
+                                let mut v = [0usize; 8];
+                                grid.cell_nodes(crate::element::ElementOrder::Q1, s.cell, &mut v);
+                                out.push(v[l]);
+                            }
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        torn.sort_unstable();
+        torn.dedup();
+        torn
+    }
+
+    /// This split with the vertices `glued` (ascending) back to one
+    /// unknown: their copies dropped, the others renumbered, and cells that
+    /// no longer take a copy no longer split.
+    fn glued_at(self, glued: &[usize]) -> Split {
+        let mut renumber = vec![PRIMARY; self.extra_nodes.len()];
+        let mut extra_nodes = Vec::new();
+        for (k, &v) in self.extra_nodes.iter().enumerate() {
+            if glued.binary_search(&v).is_err() {
+                renumber[k] = extra_nodes.len() as u32;
+                extra_nodes.push(v);
+            }
+        }
+        let cells = self
+            .cells
+            .into_iter()
+            .filter_map(|mut s| {
+                for copies in &mut s.pieces {
+                    for c in copies.iter_mut().filter(|c| **c != PRIMARY) {
+                        *c = renumber[*c as usize];
+                    }
+                }
+                let any = s.pieces.iter().flatten().any(|&c| c != PRIMARY);
+                any.then_some(s)
+            })
+            .collect();
+        Split { extra_nodes, cells }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -200,20 +294,33 @@ fn copies_of(roots: &[(usize, usize, u16)], inside: impl Fn(usize) -> bool) -> O
     )
 }
 
-/// `labels` without the pieces that hold none of the cell's `volume` points,
-/// the rest renumbered from 1 in order.
-fn prune(mut labels: Labels, b: &Aabb, volume: &[[f64; 3]]) -> Labels {
+/// Whether cell `c`'s rule can be split into pieces: not repaired (first
+/// order), all its volume weights positive (a polyhedral rule of a mesh
+/// with defects need not have them).
+fn positive_rule(cells: &Cells, c: usize) -> bool {
+    match cells.cut_position(c) {
+        Some(i) => {
+            cells.repaired.binary_search(&c).is_err()
+                && cells.volume_points(i).iter().all(|q| q.w > 0.0)
+        }
+        None => true,
+    }
+}
+
+/// `labels` without the pieces whose share of the cell's `volume` points
+/// weighs nothing (or less), the rest renumbered from 1 in order.
+fn prune(mut labels: Labels, b: &Aabb, volume: &[VolumePoint]) -> Labels {
     if labels.is_empty() {
         return labels;
     }
-    let mut used = [false; 256];
-    for x in volume {
-        used[piece_at(&labels, b, *x) as usize] = true;
+    let mut weight = [0.0f64; 256];
+    for q in volume {
+        weight[piece_at(&labels, b, q.x) as usize] += q.w;
     }
     let mut renumber = [0u8; 256];
     let mut next = 0u8;
     for l in 1..256 {
-        if used[l] {
+        if weight[l] > 0.0 {
             next += 1;
             renumber[l] = next;
         }

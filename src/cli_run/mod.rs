@@ -175,14 +175,32 @@ pub(crate) fn repaired_note(b: &cgfem_gpu::report::BodyReport) {
     }
 }
 
-/// Where body `b`'s walls share grid vertices (a slot, gap or hole narrower
-/// than about two cells), on stderr.
+/// Warns where a run glued walls: vertices whose cells hold parts of the
+/// body that do not meet, sharing one unknown.
 pub(crate) fn glued_note(b: &cgfem_gpu::report::BodyReport) {
+    glued(
+        b,
+        "one unknown moves both walls, so the part is stiffer there than it is; a finer level \
+         resolves it",
+    );
+}
+
+/// Says where the geometry has walls that a run may glue.
+pub(crate) fn glued_geometry_note(b: &cgfem_gpu::report::BodyReport) {
+    glued(
+        b,
+        "a linear Q1 run on the CPU gives them one set of unknowns per part (where no Dirichlet \
+         boundary crosses their cells); other runs glue them, so the part is stiffer there than it is",
+    );
+}
+
+/// The glued vertices of `b`, where there are some, and what they do.
+fn glued(b: &cgfem_gpu::report::BodyReport, consequence: &str) {
     if let Some([lo, hi]) = b.cells.glued_box {
         eprintln!(
             "warning: body '{}': {} grid vertices in {}..{} join parts of the body that do not \
-             meet inside their cells (a slot, gap or hole narrower than about two cells, h = {:.4}): one unknown \
-             moves both walls, so the part is stiffer there than it is; a finer level resolves it",
+             meet inside their cells (a slot, gap or hole narrower than about two cells, h = {:.4}): \
+             {consequence}",
             b.name,
             b.cells.glued_nodes,
             point(lo),

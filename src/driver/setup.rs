@@ -130,6 +130,7 @@ impl Setup {
         let flux = FluxCorrection::new(
             &grid,
             &cells,
+            &op.dofs.split,
             &case.body().geometry,
             case.body().spec.element,
             case.rule_points(),

@@ -62,6 +62,14 @@
 //! get no correction. A cut cell without boundary points (its surface lies
 //! on a face claimed by a neighbour, or it received a merged sliver's face)
 //! uses `σ̂` when the problem has Dirichlet parts, else the exact stress.
+//!
+//! # Split cells
+//! Each piece of a split cell ([`crate::cells::split`]) is a domain of its
+//! own: its defect is taken over the cell's volume, boundary and face points
+//! that lie in it, and its correction loads its own nodes. The face terms
+//! still cancel, where the pieces on both sides of a face are one
+//! component. A split cell carries no Dirichlet point (the set-up keeps such
+//! walls glued), so only the given stresses correct it.
 
 use std::collections::HashMap;
 
@@ -70,8 +78,10 @@ use rayon::prelude::*;
 use super::moment_fit::{lagrange, lagrange_derivative, FitBasis};
 use super::problem::{Boundary, Problem};
 use super::rhs::{
-    add_cell_loads, add_element_point_load, add_point_load, per_item, DirichletPoint,
+    add_cell_loads, add_element_point_load, add_piece_load, add_point_load, per_item,
+    DirichletPoint,
 };
+use crate::cells::split::Split;
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
 use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
@@ -96,6 +106,9 @@ pub struct FluxCorrection {
     /// (cut cell, pressure tag, share) for the cells with pressure points:
     /// the share carried by that part's stress `−p I`.
     pressure_share: Vec<(usize, u16, f64)>,
+    /// Per piece of a split cell (cut cell, piece, `D_{r,j}` over the
+    /// piece's points); a split cell's own `D` is their sum.
+    pieces: Vec<(usize, usize, Vec<[f64; 3]>)>,
 }
 
 impl FluxCorrection {
@@ -105,6 +118,7 @@ impl FluxCorrection {
     pub fn new(
         grid: &Grid,
         cells: &Cells,
+        split: &Split,
         geometry: &Geometry,
         order: ElementOrder,
         q: usize,
@@ -114,10 +128,38 @@ impl FluxCorrection {
         let nq = basis.num_points();
         // Face rules exact on whole faces for `Q_{2p}` (2q − 1 ≥ 2p).
         let q = q.max(order.degree() + 1);
-        let defect: Vec<[f64; 3]> = (0..cells.cut.len())
+        let mut defect: Vec<[f64; 3]> = (0..cells.cut.len())
             .into_par_iter()
-            .flat_map_iter(|i| cell_defect(grid, cells, geometry, &basis, q, i))
+            .flat_map_iter(|i| match split.cell(cells.cut[i]) {
+                Some(_) => vec![[0.0; 3]; nq],
+                None => cell_defect(grid, cells, geometry, &basis, q, i, &|_, _| true),
+            })
             .collect();
+        let pieces: Vec<(usize, usize, Vec<[f64; 3]>)> = split
+            .cells
+            .par_iter()
+            .flat_map_iter(|s| {
+                let i = cells.cut_position(s.cell).expect("a split cell is cut");
+                (0..s.pieces.len()).map(move |p| (i, p, s))
+            })
+            .map(|(i, p, s)| {
+                let keep = |x: [f64; 3], n: Option<[f64; 3]>| match n {
+                    Some(n) => s.piece_of_boundary(x, n) == p,
+                    None => s.piece_of(x) == p,
+                };
+                (
+                    i,
+                    p,
+                    cell_defect(grid, cells, geometry, &basis, q, i, &keep),
+                )
+            })
+            .collect();
+        // A split cell's own defect is the sum of its pieces'.
+        for (i, _, d) in &pieces {
+            for (a, b) in defect[i * nq..(i + 1) * nq].iter_mut().zip(d) {
+                *a = [0, 1, 2].map(|j| a[j] + b[j]);
+            }
+        }
         let has_dirichlet = problem.has_dirichlet();
         let mut exact_share = vec![0.0; cells.cut.len()];
         let mut recovered_share = vec![0.0; cells.cut.len()];
@@ -157,6 +199,7 @@ impl FluxCorrection {
             exact_share,
             recovered_share,
             pressure_share,
+            pieces,
         }
     }
 
@@ -190,9 +233,25 @@ impl FluxCorrection {
         tau: &mut dyn FnMut([f64; 3]) -> Result<[[f64; 3]; 3]>,
         sink: &mut dyn FnMut([f64; 3], [f64; 3]),
     ) -> Result<()> {
+        self.for_each_defect_load(grid, cells, i, self.defect(i), factor, tau, sink)
+    }
+
+    /// [`FluxCorrection::for_each_load`] of the defect `defect` of the
+    /// `i`-th cut cell (or of a piece of it).
+    #[allow(clippy::too_many_arguments)]
+    fn for_each_defect_load(
+        &self,
+        grid: &Grid,
+        cells: &Cells,
+        i: usize,
+        defect: &[[f64; 3]],
+        factor: f64,
+        tau: &mut dyn FnMut([f64; 3]) -> Result<[[f64; 3]; 3]>,
+        sink: &mut dyn FnMut([f64; 3], [f64; 3]),
+    ) -> Result<()> {
         let lo = grid.cell_box(cells.cut[i]).lo;
         let n = self.points.len();
-        for (r, d) in self.defect(i).iter().enumerate() {
+        for (r, d) in defect.iter().enumerate() {
             let xi = [r % n, (r / n) % n, r / (n * n)].map(|a| self.points[a]);
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
             let t = tau(x)?;
@@ -212,6 +271,7 @@ impl FluxCorrection {
         problem: &Problem,
         rhs: &mut [f64],
     ) {
+        // A split cell's pieces load their own nodes (below).
         let whole = |i: usize| dofs.split.cell(cells.cut[i]).is_none();
         let exact: Vec<usize> = (0..cells.cut.len())
             .filter(|&i| self.exact_share[i] > 0.0 && whole(i))
@@ -234,6 +294,25 @@ impl FluxCorrection {
             let mut sink = |x, f| add_point_load(grid, dofs, c, x, f, rhs);
             self.for_each_load(grid, cells, i, share, &mut tau, &mut sink)
                 .expect("a pressure is infallible");
+        }
+        for (i, piece, defect) in &self.pieces {
+            let s = dofs
+                .split
+                .cell(cells.cut[*i])
+                .expect("the split of the set-up");
+            let mut sink = |x, f| add_piece_load(grid, dofs, (s, *piece), x, f, rhs);
+            let mut exact = |x: [f64; 3]| Ok(problem.exact_stress(x).unwrap_or([[0.0; 3]; 3]));
+            let share = self.exact_share[*i];
+            self.for_each_defect_load(grid, cells, *i, defect, share, &mut exact, &mut sink)
+                .expect("the exact stress is infallible");
+            for &(_, tag, share) in self.pressure_share.iter().filter(|p| p.0 == *i) {
+                let mut tau = |x: [f64; 3]| {
+                    let p = problem.pressure(tag, x);
+                    Ok([[-p, 0.0, 0.0], [0.0, -p, 0.0], [0.0, 0.0, -p]])
+                };
+                self.for_each_defect_load(grid, cells, *i, defect, share, &mut tau, &mut sink)
+                    .expect("a pressure is infallible");
+            }
         }
     }
 
@@ -311,7 +390,8 @@ fn voigt_matrix(s: &[f64; 6]) -> [[f64; 3]; 3] {
     [[s[0], s[5], s[4]], [s[5], s[1], s[3]], [s[4], s[3], s[2]]]
 }
 
-/// `D_{r,j} = V(∂_j L_r) − F_j(L_r) − G_j(L_r)` of the `i`-th cut cell.
+/// `D_{r,j} = V(∂_j L_r) − F_j(L_r) − G_j(L_r)` of the `i`-th cut cell's
+/// points `x` with `keep(x)` (all of them, or those of one piece).
 fn cell_defect(
     grid: &Grid,
     cells: &Cells,
@@ -319,6 +399,7 @@ fn cell_defect(
     basis: &FitBasis,
     q: usize,
     i: usize,
+    keep: &dyn Fn([f64; 3], Option<[f64; 3]>) -> bool,
 ) -> Vec<[f64; 3]> {
     let (t, gw) = (&basis.points, &basis.weights);
     let n = t.len();
@@ -356,10 +437,14 @@ fn cell_defect(
             }
         }
     };
-    for p in cells.volume_points(i) {
+    for p in cells.volume_points(i).iter().filter(|p| keep(p.x, None)) {
         add(p.x, [p.w; 3], true);
     }
-    for p in cells.surface_points(i) {
+    for p in cells
+        .surface_points(i)
+        .iter()
+        .filter(|p| keep(p.x, Some(p.n)))
+    {
         add(p.x, p.n.map(|c| -p.w * c), false);
     }
     for axis in 0..3 {
@@ -381,14 +466,18 @@ fn cell_defect(
                             x[b] = lo[b] + h * sb;
                             x[c] = lo[c] + h * sc;
                             w[axis] = sign * wb * wc * h * h;
-                            add(x, w, false);
+                            if keep(x, None) {
+                                add(x, w, false);
+                            }
                         }
                     }
                 }
                 CellKind::Cut => {
                     for p in face_rule(g, grid, cell, axis, side, q) {
                         w[axis] = sign * p.w;
-                        add(p.x, w, false);
+                        if keep(p.x, None) {
+                            add(p.x, w, false);
+                        }
                     }
                 }
             }

@@ -473,10 +473,7 @@ impl ElasticOperator {
                 blocks[nodes[r / 3]][r % 3].extend(entries);
             }
         }
-        blocks
-            .par_iter_mut()
-            .flatten()
-            .for_each(sum_duplicates);
+        blocks.par_iter_mut().flatten().for_each(sum_duplicates);
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
         let mut values = Vec::new();

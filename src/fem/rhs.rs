@@ -7,6 +7,7 @@
 use rayon::prelude::*;
 
 use super::problem::{Boundary, Problem};
+use crate::cells::split::SplitCell;
 use crate::cells::{CellKind, Cells};
 use crate::discrete::dofs::DofMap;
 use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
@@ -59,11 +60,38 @@ pub fn add_point_load(
     f: [f64; 3],
     rhs: &mut [f64],
 ) {
-    let npc = dofs.order.nodes_per_cell();
     let mut nodes = [0usize; 27];
-    dofs.point_active_nodes(grid, cell, x, &mut nodes[..npc]);
-    let n = shape_values_at(grid, dofs.order, cell, x);
-    for a in 0..npc {
+    dofs.point_active_nodes(grid, cell, x, &mut nodes[..dofs.order.nodes_per_cell()]);
+    add_load_on(grid, dofs.order, cell, &nodes, x, f, rhs);
+}
+
+/// Adds `N(x)ᵀ f` to `rhs` on the nodes of piece `piece` of a split cell,
+/// wherever in the cell `x` lies.
+pub fn add_piece_load(
+    grid: &Grid,
+    dofs: &DofMap,
+    (cell, piece): (&SplitCell, usize),
+    x: [f64; 3],
+    f: [f64; 3],
+    rhs: &mut [f64],
+) {
+    let mut nodes = [0usize; 27];
+    dofs.piece_active_nodes(grid, cell, piece, &mut nodes[..dofs.order.nodes_per_cell()]);
+    add_load_on(grid, dofs.order, cell.cell, &nodes, x, f, rhs);
+}
+
+/// Adds `N(x)ᵀ f` to `rhs` on the active nodes `nodes` of `cell`.
+fn add_load_on(
+    grid: &Grid,
+    order: ElementOrder,
+    cell: usize,
+    nodes: &[usize; 27],
+    x: [f64; 3],
+    f: [f64; 3],
+    rhs: &mut [f64],
+) {
+    let n = shape_values_at(grid, order, cell, x);
+    for a in 0..order.nodes_per_cell() {
         for c in 0..3 {
             rhs[3 * nodes[a] + c] += n[a] * f[c];
         }
@@ -102,10 +130,17 @@ pub fn fixed_rhs(
         add_cut_body_load(grid, cells, dofs, problem, &mut rhs);
     }
     for (i, &c) in cells.cut.iter().enumerate() {
+        let split = dofs.split.cell(c);
         for q in cells.surface_points(i) {
             if let Boundary::Neumann(_) = problem.boundary[q.tag as usize] {
                 let t = problem.traction(q.tag, q.x, q.n).map(|v| v * q.w);
-                add_point_load(grid, dofs, c, q.x, t, &mut rhs);
+                match split {
+                    Some(s) => {
+                        let piece = s.piece_of_boundary(q.x, q.n);
+                        add_piece_load(grid, dofs, (s, piece), q.x, t, &mut rhs);
+                    }
+                    None => add_point_load(grid, dofs, c, q.x, t, &mut rhs),
+                }
             }
         }
     }
