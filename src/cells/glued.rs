@@ -41,14 +41,7 @@ pub fn glued_nodes(grid: &Grid, cells: &Cells, geometry: &Geometry) -> Vec<usize
     if candidates.is_empty() {
         return Vec::new();
     }
-    let mut sampled: Vec<usize> = candidates
-        .iter()
-        .flat_map(|&v| node_cells(grid, v))
-        .flatten()
-        .filter(|&c| cells.kinds[c] == CellKind::Cut)
-        .collect();
-    sampled.sort_unstable();
-    sampled.dedup();
+    let sampled = cut_cells_around(grid, cells, &candidates);
     let labels: Vec<Labels> = sampled
         .par_iter()
         .map(|&c| cell_labels(geometry, &grid.cell_box(c)))
@@ -79,6 +72,19 @@ pub fn nodes_box(grid: &Grid, nodes: &[usize]) -> Option<Aabb> {
             grid.block_box(lo, hi)
         })
         .reduce(|a, b| a.union(&b))
+}
+
+/// The cut cells around the vertex-lattice `nodes`, ascending.
+pub(super) fn cut_cells_around(grid: &Grid, cells: &Cells, nodes: &[usize]) -> Vec<usize> {
+    let mut around: Vec<usize> = nodes
+        .iter()
+        .flat_map(|&v| node_cells(grid, v))
+        .flatten()
+        .filter(|&c| cells.kinds[c] == CellKind::Cut)
+        .collect();
+    around.sort_unstable();
+    around.dedup();
+    around
 }
 
 /// Every sub-cell of an inside cell is in its one piece.
@@ -328,4 +334,4 @@ pub(super) fn pieces(labels: &[u8]) -> std::ops::RangeInclusive<usize> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

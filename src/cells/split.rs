@@ -20,7 +20,8 @@
 
 use rayon::prelude::*;
 
-use super::glued::{candidate_nodes, cell_labels, node_cells, piece_roots, pieces, Labels};
+use super::glued::{candidate_nodes, cell_labels, cut_cells_around, node_cells, piece_roots};
+use super::glued::{pieces, Labels};
 use super::glued::{INSIDE, SUB};
 use super::{face_neighbour, face_rule, CellKind, Cells};
 use crate::geometry::Geometry;
@@ -78,14 +79,7 @@ impl Split {
         if candidates.is_empty() {
             return Split::default();
         }
-        let mut sampled: Vec<usize> = candidates
-            .iter()
-            .flat_map(|&v| node_cells(grid, v))
-            .flatten()
-            .filter(|&c| cells.kinds[c] == CellKind::Cut)
-            .collect();
-        sampled.sort_unstable();
-        sampled.dedup();
+        let sampled = cut_cells_around(grid, cells, &candidates);
         let labels: Vec<Labels> = sampled
             .par_iter()
             .map(|&c| {

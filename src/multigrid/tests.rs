@@ -67,6 +67,37 @@ fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
+/// The V-cycle `mg` on `n` unknowns is symmetric, `x·M⁻¹y = y·M⁻¹x`, and
+/// positive.
+fn assert_symmetric_positive(mg: &Multigrid, n: usize, what: &str) {
+    let (x, y) = (scrambled(n, 3), scrambled(n, 4));
+    let (mut mx, mut my) = (vec![0.0; n], vec![0.0; n]);
+    mg.apply(&x, &mut mx);
+    mg.apply(&y, &mut my);
+    let (a, b) = (dot(&x, &my), dot(&y, &mx));
+    let scale = (dot(&x, &x) * dot(&my, &my)).sqrt();
+    assert!(
+        (a - b).abs() <= 1e-12 * scale,
+        "{what}: x·M⁻¹y = {a}, y·M⁻¹x = {b}"
+    );
+    assert!(dot(&x, &mx) > 0.0 && dot(&y, &my) > 0.0, "{what}");
+}
+
+/// The dot-product test of a transfer: `(P y)·x = y·(Pᵀ x)`.
+fn assert_transposes(t: &Transfer, fine: &ElasticOperator, coarse: &ElasticOperator, what: &str) {
+    let (x, y) = (scrambled(fine.nrows(), 1), scrambled(coarse.nrows(), 2));
+    let mut py = vec![0.0; fine.nrows()];
+    t.prolong_add(&y, &mut py);
+    let mut rx = vec![0.0; coarse.nrows()];
+    t.restrict(&x, &mut rx);
+    let (a, b) = (dot(&py, &x), dot(&y, &rx));
+    let scale = dot(&py, &py).sqrt() * dot(&x, &x).sqrt();
+    assert!(
+        (a - b).abs() <= 1e-14 * scale,
+        "{what}: (Py)·x = {a}, y·(Rx) = {b}"
+    );
+}
+
 /// Every transfer of a Q1 hierarchy (h-steps) and of a Q2 one (the p-step
 /// first): `P` reproduces a trilinear field at the fine nodes to round-off,
 /// and `Pᵀ` passes the dot-product test `(P y)·x = y·(Pᵀ x)`.
@@ -90,17 +121,7 @@ fn transfers_interpolate_trilinear_fields_and_are_transposes() {
                 max_abs(&err)
             );
 
-            let (x, y) = (scrambled(fine.nrows(), 1), scrambled(coarse.nrows(), 2));
-            let mut py = vec![0.0; fine.nrows()];
-            t.prolong_add(&y, &mut py);
-            let mut rx = vec![0.0; coarse.nrows()];
-            t.restrict(&x, &mut rx);
-            let (a, b) = (dot(&py, &x), dot(&y, &rx));
-            let scale = dot(&py, &py).sqrt() * dot(&x, &x).sqrt();
-            assert!(
-                (a - b).abs() <= 1e-14 * scale,
-                "{element} transfer {i}: (Py)·x = {a}, y·(Rx) = {b}"
-            );
+            assert_transposes(&t, fine, coarse, &format!("{element} transfer {i}"));
         }
     }
 }
@@ -114,19 +135,11 @@ fn v_cycle_is_symmetric_and_positive() {
         let setup = Setup::new(&case, Some(4)).unwrap();
         let h = hierarchy(&case, &setup, &SMALL);
         assert!(h.num_levels() >= 3);
-        let mg = Multigrid::new(&setup.op, &h);
-        let n = setup.op.nrows();
-        let (x, y) = (scrambled(n, 3), scrambled(n, 4));
-        let (mut mx, mut my) = (vec![0.0; n], vec![0.0; n]);
-        mg.apply(&x, &mut mx);
-        mg.apply(&y, &mut my);
-        let (a, b) = (dot(&x, &my), dot(&y, &mx));
-        let scale = (dot(&x, &x) * dot(&my, &my)).sqrt();
-        assert!(
-            (a - b).abs() <= 1e-12 * scale,
-            "k2 {k2}: x·M⁻¹y = {a}, y·M⁻¹x = {b}"
+        assert_symmetric_positive(
+            &Multigrid::new(&setup.op, &h),
+            setup.op.nrows(),
+            &format!("k2 {k2}"),
         );
-        assert!(dot(&x, &mx) > 0.0 && dot(&y, &my) > 0.0, "k2 {k2}");
     }
 }
 
@@ -258,24 +271,11 @@ fn a_split_fine_level_keeps_a_symmetric_v_cycle_and_short_solves() {
     for i in 0..h.num_levels() - 1 {
         let t = h.transfer(&setup.op, i);
         let (fine, coarse) = (h.level(&setup.op, i), h.level(&setup.op, i + 1));
-        let (x, y) = (scrambled(fine.nrows(), 1), scrambled(coarse.nrows(), 2));
-        let mut py = vec![0.0; fine.nrows()];
-        t.prolong_add(&y, &mut py);
-        let mut rx = vec![0.0; coarse.nrows()];
-        t.restrict(&x, &mut rx);
-        let (a, b) = (dot(&py, &x), dot(&y, &rx));
-        let scale = dot(&py, &py).sqrt() * dot(&x, &x).sqrt();
-        assert!((a - b).abs() <= 1e-14 * scale, "transfer {i}: {a} vs {b}");
+        assert_transposes(&t, fine, coarse, &format!("transfer {i}"));
     }
     let mg = Multigrid::new(&setup.op, &h);
     let n = setup.op.nrows();
-    let (x, y) = (scrambled(n, 3), scrambled(n, 4));
-    let (mut mx, mut my) = (vec![0.0; n], vec![0.0; n]);
-    mg.apply(&x, &mut mx);
-    mg.apply(&y, &mut my);
-    let (a, b) = (dot(&x, &my), dot(&y, &mx));
-    assert!((a - b).abs() <= 1e-12 * (dot(&x, &x) * dot(&my, &my)).sqrt());
-    assert!(dot(&x, &mx) > 0.0 && dot(&y, &my) > 0.0);
+    assert_symmetric_positive(&mg, n, "split");
 
     let be = CpuBackend::new();
     let opts = |preconditioner, rel_tol| KrylovOptions {

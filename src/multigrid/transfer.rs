@@ -107,24 +107,11 @@ impl Transfer<'_> {
             .with_min_len(NODES_PER_TASK)
             .for_each(|(a, yn)| {
                 let node = self.fine.dofs.active_to_node[a] as usize;
-                let [i, j, k] = self.fine.ijk(node);
-                let (wi, ni) = from_coarse(i);
-                let (wj, nj) = from_coarse(j);
-                let (wk, nk) = from_coarse(k);
-                for &(ck, vk) in &wk[..nk] {
-                    for &(cj, vj) in &wj[..nj] {
-                        for &(ci, vi) in &wi[..ni] {
-                            let c = self.coarse.active([ci, cj, ck]);
-                            if c == INACTIVE {
-                                continue;
-                            }
-                            let (w, c) = (vi * vj * vk, 3 * c as usize);
-                            for (y, x) in yn.iter_mut().zip(&xc[c..c + 3]) {
-                                *y += w * x;
-                            }
-                        }
+                self.for_coarse_of(node, |c, w| {
+                    for (y, x) in yn.iter_mut().zip(&xc[3 * c..3 * c + 3]) {
+                        *y += w * x;
                     }
-                }
+                });
             });
     }
 
@@ -165,21 +152,28 @@ impl Transfer<'_> {
     /// few, and only the CPU splits cells).
     fn restrict_copies(&self, xf: &[f64], xc: &mut [f64]) {
         for (a, node) in self.fine.dofs.copies() {
-            let [i, j, k] = self.fine.ijk(node);
-            let (wi, ni) = from_coarse(i);
-            let (wj, nj) = from_coarse(j);
-            let (wk, nk) = from_coarse(k);
-            for &(ck, vk) in &wk[..nk] {
-                for &(cj, vj) in &wj[..nj] {
-                    for &(ci, vi) in &wi[..ni] {
-                        let c = self.coarse.active([ci, cj, ck]);
-                        if c == INACTIVE {
-                            continue;
-                        }
-                        let (w, c) = (vi * vj * vk, 3 * c as usize);
-                        for d in 0..3 {
-                            xc[c + d] += w * xf[3 * a + d];
-                        }
+            self.for_coarse_of(node, |c, w| {
+                for d in 0..3 {
+                    xc[3 * c + d] += w * xf[3 * a + d];
+                }
+            });
+        }
+    }
+
+    /// Calls `f(c, w)` for the active coarse nodes `c` that fine lattice
+    /// node `node` interpolates from, with their weights `w`: row `node` of
+    /// `P`.
+    fn for_coarse_of(&self, node: usize, mut f: impl FnMut(usize, f64)) {
+        let [i, j, k] = self.fine.ijk(node);
+        let (wi, ni) = from_coarse(i);
+        let (wj, nj) = from_coarse(j);
+        let (wk, nk) = from_coarse(k);
+        for &(ck, vk) in &wk[..nk] {
+            for &(cj, vj) in &wj[..nj] {
+                for &(ci, vi) in &wi[..ni] {
+                    let c = self.coarse.active([ci, cj, ck]);
+                    if c != INACTIVE {
+                        f(c as usize, vi * vj * vk);
                     }
                 }
             }

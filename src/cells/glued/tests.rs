@@ -5,14 +5,20 @@ use crate::geometry::Geometry;
 
 /// `geometry` on a level-4 grid over its box, shifted off the grid planes.
 fn classify(g: &Geometry) -> (Grid, Cells) {
-    let grid = Grid::new(&g.bounding_box(), 4, [0.3, 0.6, 0.45]).unwrap();
+    classify_at(g, 4)
+}
+
+/// `geometry` on a level-`level` grid over its box, shifted off the grid
+/// planes.
+pub(crate) fn classify_at(g: &Geometry, level: u32) -> (Grid, Cells) {
+    let grid = Grid::new(&g.bounding_box(), level, [0.3, 0.6, 0.45]).unwrap();
     let cells = Cells::classify(&grid, g, cut_rule_points(ElementOrder::Q1)).unwrap();
     (grid, cells)
 }
 
 /// A 4 × 1 × 1 bar with a slot `width` wide across it at x = 2, down to a
 /// ligament 0.2 thick at z = 0 (h = 0.25 at level 4).
-fn slotted_bar(width: f64) -> Geometry {
+pub(crate) fn slotted_bar(width: f64) -> Geometry {
     let bar = Geometry::cuboid([0.0; 3], [4.0, 1.0, 1.0]).unwrap();
     let slot = Geometry::cuboid(
         [2.0 - width / 2.0, -1.0, 0.2],

@@ -1,27 +1,7 @@
 use super::*;
-use crate::cells::cut_rule_points;
+use crate::cells::glued::tests::{classify_at as classify, slotted_bar};
 use crate::element::ElementOrder;
 use crate::geometry::Geometry;
-
-/// `geometry` on a level-`level` grid over its box, shifted off the grid
-/// planes.
-fn classify(g: &Geometry, level: u32) -> (Grid, Cells) {
-    let grid = Grid::new(&g.bounding_box(), level, [0.3, 0.6, 0.45]).unwrap();
-    let cells = Cells::classify(&grid, g, cut_rule_points(ElementOrder::Q1)).unwrap();
-    (grid, cells)
-}
-
-/// A 4 × 1 × 1 bar with a slot `width` wide across it at x = 2, down to a
-/// ligament 0.2 thick at z = 0.
-fn slotted_bar(width: f64) -> Geometry {
-    let bar = Geometry::cuboid([0.0; 3], [4.0, 1.0, 1.0]).unwrap();
-    let slot = Geometry::cuboid(
-        [2.0 - width / 2.0, -1.0, 0.2],
-        [2.0 + width / 2.0, 2.0, 2.0],
-    )
-    .unwrap();
-    bar.difference(slot).unwrap()
-}
 
 /// Every piece of every split cell holds volume points, and those above
 /// `z_min` lie on one side of the plane `x = x0` only.

@@ -6,8 +6,8 @@
 //! apart (one set of unknowns per piece of a cell), so a slotted bar is as
 //! compliant at a level where a cell spans the slot as where it is resolved.
 
-use std::path::PathBuf;
-use std::process::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 /// Two unit cubes along x, the second `gap` from the first; the first's
 /// x = 0 face is `clamp_a`, the second's far face `clamp_b`. `held` adds the
@@ -42,8 +42,10 @@ const WEIGHT: &str = "[body_load]\nvalue = [\"0\", \"0\", \"-1\"]\n";
 const CLAMP_A: &str = "[dirichlet.clamp_a]\nvalue = [\"0\", \"0\", \"0\"]\n";
 const CLAMP_B: &str = "[dirichlet.clamp_b]\nvalue = [\"0\", \"0\", \"0\"]\n";
 
-/// Runs `text`; returns (exit code, stderr, output folder).
-fn run(name: &str, text: &str) -> (i32, String, PathBuf) {
+/// Runs `cgfem-gpu <command> case.toml <args> --out <folder>` on the case
+/// `text` in a fresh folder named after `name`; returns the output and the
+/// output folder.
+fn cli(name: &str, text: &str, command: &str, args: &[&str]) -> (Output, PathBuf) {
     let dir = std::env::temp_dir().join(format!("cgfem-pieces-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -51,12 +53,19 @@ fn run(name: &str, text: &str) -> (i32, String, PathBuf) {
     std::fs::write(&case, text).unwrap();
     let out = dir.join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .arg("run")
+        .arg(command)
         .arg(&case)
+        .args(args)
         .arg("--out")
         .arg(&out)
         .output()
         .unwrap();
+    (o, out)
+}
+
+/// Runs `text`; returns (exit code, stderr, output folder).
+fn run(name: &str, text: &str) -> (i32, String, PathBuf) {
+    let (o, out) = cli(name, text, "run", &[]);
     (
         o.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&o.stderr).into_owned(),
@@ -64,8 +73,12 @@ fn run(name: &str, text: &str) -> (i32, String, PathBuf) {
     )
 }
 
-/// A few cells apart (0.5) and less than a cell apart (0.1, the cells of
-/// the gap split between the cubes).
+/// The report a successful command wrote into `out`.
+fn report(o: &Output, out: &Path) -> serde_json::Value {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap()
+}
+
 #[test]
 fn an_unheld_piece_is_refused_by_name() {
     for gap in [0.5, 0.1] {
@@ -154,26 +167,8 @@ value = ["0.01", "free", "free"]
 /// The glued vertices `report.json` counts for `text` at `level`, and
 /// stderr, from the `geometry` command.
 fn glued(name: &str, text: &str, level: u32) -> (u64, String) {
-    let dir = std::env::temp_dir().join(format!("cgfem-glued-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let case = dir.join("case.toml");
-    std::fs::write(&case, text).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .args([
-            "geometry",
-            case.to_str().unwrap(),
-            "--level",
-            &level.to_string(),
-            "--out",
-        ])
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).unwrap()).unwrap();
-    let cells = &report["bodies"][0]["cells"];
+    let (o, out) = cli(name, text, "geometry", &["--level", &level.to_string()]);
+    let cells = &report(&o, &out)["bodies"][0]["cells"];
     (
         cells["glued_nodes"].as_u64().unwrap(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
@@ -207,20 +202,10 @@ fn a_slot_narrower_than_the_cells_is_reported_where_it_is_glued() {
 /// The clamp's reaction along x of `text` at `level`, and the split and
 /// glued vertices of its report.
 fn slot_run(name: &str, text: &str, level: u32) -> (f64, u64, u64) {
-    let dir = std::env::temp_dir().join(format!("cgfem-slot-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let case = dir.join("case.toml");
-    std::fs::write(&case, text).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .args(["-q", "run", case.to_str().unwrap(), "--output", "none"])
-        .args(["--level", &level.to_string(), "--out"])
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).unwrap()).unwrap();
+    let level = level.to_string();
+    let args = ["--level", &level, "--output", "none"];
+    let (o, out) = cli(&format!("slot-{name}"), text, "run", &args);
+    let report = report(&o, &out);
     let clamp = report["reactions"]
         .as_array()
         .unwrap()
@@ -258,24 +243,8 @@ fn a_slot_narrower_than_a_cell_is_as_compliant_as_a_resolved_one() {
 /// that has them (exit 2), naming them.
 #[test]
 fn the_gpu_backend_refuses_split_cells() {
-    let dir = std::env::temp_dir().join(format!("cgfem-slot-gpu-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let case = dir.join("case.toml");
-    std::fs::write(&case, slotted_bar(0.1)).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_cgfem-gpu"))
-        .args([
-            "run",
-            case.to_str().unwrap(),
-            "--level",
-            "5",
-            "--backend",
-            "gpu",
-        ])
-        .args(["--output", "none", "--out"])
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
+    let args = ["--level", "5", "--backend", "gpu", "--output", "none"];
+    let (o, _) = cli("slot-gpu", &slotted_bar(0.1), "run", &args);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     let no_adapter = stderr.contains("no GPU adapter");
