@@ -24,6 +24,7 @@ use super::glued::{candidate_nodes, cell_labels, cut_cells_around, node_cells, p
 use super::glued::{pieces, Labels};
 use super::glued::{INSIDE, SUB};
 use super::{face_neighbour, face_rule, CellKind, Cells};
+use crate::element::ElementOrder;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::quadrature::saye::VolumePoint;
@@ -60,14 +61,6 @@ impl SplitCell {
     /// cell lies in.
     pub fn piece_of(&self, x: [f64; 3]) -> usize {
         piece_at(&self.labels, &self.bounds, x) as usize - 1
-    }
-
-    /// The piece of a boundary point `x` with outward normal `n`: that of
-    /// the point half a sub-cell inside (a boundary point's own sub-cell is
-    /// often outside, and the nearest inside one may be across a slot).
-    pub fn piece_of_boundary(&self, x: [f64; 3], n: [f64; 3]) -> usize {
-        let step = 0.5 * (self.bounds.hi[0] - self.bounds.lo[0]) / SUB as f64;
-        self.piece_of([0, 1, 2].map(|a| x[a] - step * n[a]))
     }
 }
 
@@ -166,6 +159,8 @@ impl Split {
             .par_iter()
             .flat_map_iter(|s| {
                 let mut out = Vec::new();
+                let mut vertices = [0usize; 8];
+                grid.cell_nodes(ElementOrder::Q1, s.cell, &mut vertices);
                 for (axis, side) in (0..3).flat_map(|a| [(a, 0), (a, 1)]) {
                     let Some(nb) = face_neighbour(grid, s.cell, axis, side) else {
                         continue;
@@ -185,9 +180,7 @@ impl Split {
                         let theirs = other.map_or([PRIMARY; 8], |o| o.pieces[o.piece_of(p.x)]);
                         for &(l, m) in &face {
                             if mine[l] != theirs[m] {
-                                let mut v = [0usize; 8];
-                                grid.cell_nodes(crate::element::ElementOrder::Q1, s.cell, &mut v);
-                                out.push(v[l]);
+                                out.push(vertices[l]);
                             }
                         }
                     }

@@ -132,7 +132,7 @@ impl FluxCorrection {
             .into_par_iter()
             .flat_map_iter(|i| match split.cell(cells.cut[i]) {
                 Some(_) => vec![[0.0; 3]; nq],
-                None => cell_defect(grid, cells, geometry, &basis, q, i, &|_, _| true),
+                None => cell_defect(grid, cells, geometry, &basis, q, i, &|_| true),
             })
             .collect();
         let pieces: Vec<(usize, usize, Vec<[f64; 3]>)> = split
@@ -143,10 +143,7 @@ impl FluxCorrection {
                 (0..s.pieces.len()).map(move |p| (i, p, s))
             })
             .map(|(i, p, s)| {
-                let keep = |x: [f64; 3], n: Option<[f64; 3]>| match n {
-                    Some(n) => s.piece_of_boundary(x, n) == p,
-                    None => s.piece_of(x) == p,
-                };
+                let keep = |x: [f64; 3]| s.piece_of(x) == p;
                 (
                     i,
                     p,
@@ -399,7 +396,7 @@ fn cell_defect(
     basis: &FitBasis,
     q: usize,
     i: usize,
-    keep: &dyn Fn([f64; 3], Option<[f64; 3]>) -> bool,
+    keep: &dyn Fn([f64; 3]) -> bool,
 ) -> Vec<[f64; 3]> {
     let (t, gw) = (&basis.points, &basis.weights);
     let n = t.len();
@@ -437,14 +434,10 @@ fn cell_defect(
             }
         }
     };
-    for p in cells.volume_points(i).iter().filter(|p| keep(p.x, None)) {
+    for p in cells.volume_points(i).iter().filter(|p| keep(p.x)) {
         add(p.x, [p.w; 3], true);
     }
-    for p in cells
-        .surface_points(i)
-        .iter()
-        .filter(|p| keep(p.x, Some(p.n)))
-    {
+    for p in cells.surface_points(i).iter().filter(|p| keep(p.x)) {
         add(p.x, p.n.map(|c| -p.w * c), false);
     }
     for axis in 0..3 {
@@ -466,7 +459,7 @@ fn cell_defect(
                             x[b] = lo[b] + h * sb;
                             x[c] = lo[c] + h * sc;
                             w[axis] = sign * wb * wc * h * h;
-                            if keep(x, None) {
+                            if keep(x) {
                                 add(x, w, false);
                             }
                         }
@@ -475,7 +468,7 @@ fn cell_defect(
                 CellKind::Cut => {
                     for p in face_rule(g, grid, cell, axis, side, q) {
                         w[axis] = sign * p.w;
-                        if keep(p.x, None) {
+                        if keep(p.x) {
                             add(p.x, w, false);
                         }
                     }

@@ -130,17 +130,10 @@ pub fn fixed_rhs(
         add_cut_body_load(grid, cells, dofs, problem, &mut rhs);
     }
     for (i, &c) in cells.cut.iter().enumerate() {
-        let split = dofs.split.cell(c);
         for q in cells.surface_points(i) {
             if let Boundary::Neumann(_) = problem.boundary[q.tag as usize] {
                 let t = problem.traction(q.tag, q.x, q.n).map(|v| v * q.w);
-                match split {
-                    Some(s) => {
-                        let piece = s.piece_of_boundary(q.x, q.n);
-                        add_piece_load(grid, dofs, (s, piece), q.x, t, &mut rhs);
-                    }
-                    None => add_point_load(grid, dofs, c, q.x, t, &mut rhs),
-                }
+                add_point_load(grid, dofs, c, q.x, t, &mut rhs);
             }
         }
     }
