@@ -173,6 +173,13 @@ impl ComponentPenalty {
         }
     }
 
+    /// Slot `s`'s masses, one `npc × npc` row-major per component, or
+    /// `None` where it has none.
+    pub fn masses_of(&self, s: usize) -> Option<[&[f64]; 3]> {
+        let &k = self.by_slot.get(&s)?;
+        Some([0, 1, 2].map(|i| self.mass(k, i)))
+    }
+
     /// Bytes held.
     pub fn bytes(&self) -> usize {
         8 * (self.masses.len() + self.held.len()) + 4 * self.nodes.len() + 3 * self.held.len()

@@ -324,6 +324,16 @@ impl ElasticOperator {
             }
     }
 
+    /// The cut cells' factored forms and the partial-mask penalty beside
+    /// them (what a device backend uploads), or `None` where the cut cells
+    /// are not in factored form (not Q1).
+    pub fn q1_cut_data(&self) -> Option<(&Q1Forms, &ComponentPenalty)> {
+        match &self.cut {
+            CutData::Forms(forms) => Some((forms, &self.partial)),
+            CutData::Weights { .. } => None,
+        }
+    }
+
     /// Cells with their own matrix.
     pub fn own_cells(&self) -> &[usize] {
         &self.own_cells

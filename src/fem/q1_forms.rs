@@ -51,7 +51,8 @@ const PREFETCH_AHEAD: usize = 12;
 /// Offsets of the parts of a form.
 const DIAG: usize = 0;
 const MIXED: usize = 30;
-const MASS: usize = 78;
+/// Offset of the scalar mass `M` (packed symmetric 8 × 8) in a form.
+pub const MASS: usize = 78;
 
 type V = [f64; LANES];
 
@@ -71,7 +72,7 @@ const MASS_INDEX: [[usize; 8]; 8] = {
 };
 
 /// Packed index of `(r, c)` in a symmetric `n × n` matrix (upper triangle).
-const fn sym(n: usize, r: usize, c: usize) -> usize {
+pub const fn sym(n: usize, r: usize, c: usize) -> usize {
     let (r, c) = if r <= c { (r, c) } else { (c, r) };
     r * n - r * (r + 1) / 2 + c
 }
@@ -86,7 +87,7 @@ const fn others(d: usize) -> (usize, usize) {
 }
 
 /// The node with coordinate `v` along `d` and `α` along the other two axes.
-const fn node(d: usize, alpha: usize, v: usize) -> usize {
+pub const fn node(d: usize, alpha: usize, v: usize) -> usize {
     let (o1, o2) = others(d);
     (v << d) | ((alpha & 1) << o1) | ((alpha >> 1) << o2)
 }
@@ -98,7 +99,7 @@ const fn other_index(d: usize, a: usize) -> usize {
 }
 
 /// Index of `T^{de}[α, β]` in a form.
-const fn t_index(d: usize, e: usize, alpha: usize, beta: usize) -> usize {
+pub const fn t_index(d: usize, e: usize, alpha: usize, beta: usize) -> usize {
     if d == e {
         DIAG + 10 * d + sym(4, alpha, beta)
     } else if d < e {
@@ -182,6 +183,16 @@ impl Q1Forms {
 
     fn at(&self, s: usize, k: usize) -> f64 {
         self.data[(s / LANES) * FORM_LEN + k][s % LANES]
+    }
+
+    /// The form of cell `s` (what a device backend uploads).
+    pub fn form(&self, s: usize) -> [f64; FORM_LEN] {
+        std::array::from_fn(|k| self.at(s, k))
+    }
+
+    /// The Lamé parameters `(λ, μ)` the forms are applied with.
+    pub fn lame(&self) -> (f64, f64) {
+        (self.lambda, self.mu)
     }
 
     /// Adds `factor_h3 M_ref` to cell `s`'s mass (the S-term's whole-cell mass).

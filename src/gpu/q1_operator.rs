@@ -1,18 +1,20 @@
 //! [`Q1Device`]: a Q1 operator's plan on the device, the GPU twin of the
 //! CPU's fast apply ([`crate::fem::fast_apply`], whose plan it uploads):
-//! 1. `q1_cells`: `z_c = K_c x_c` for the cut cells (their matrices packed
-//!    symmetric, 300 entries, stored entry-major so a warp's reads are
-//!    contiguous; stabilisation and partial-mask penalties included) and the
-//!    rim cells (the packed inside matrix, shared, stored after them);
+//! 1. `q1_cells`: `z_c = K_c x_c` for the cut cells (from their factored
+//!    forms, [`crate::fem::q1_forms`], 114 numbers stored entry-major so a
+//!    warp's reads are contiguous; stabilisation included, partial-mask
+//!    penalties beside them);
 //! 2. `q1_nodes`: the interior nodes in segments of up to [`SEG`] nodes of
 //!    one run, the 27-point stencil (coefficients in a uniform, terms
 //!    unrolled) over the segment's 9 neighbour rows of `x`; the boundary
-//!    nodes the sum of their cells' triples of `z`.
+//!    nodes the sum over their cells: a cut cell's triple of `z`, a rim
+//!    cell's (an inside cell with a boundary node) the node's rows of the
+//!    inside matrix (in a uniform) times the cell's `x`.
 //!
 //! Two dispatches per apply, no atomics, no per-node index lookups in the
-//! interior. The plan needs every array in one storage binding and symmetric
-//! cut-cell matrices; otherwise [`Q1Device::new`] declines and the operator
-//! runs on the node-centred gather ([`super::operator`]).
+//! interior. The plan needs every array in one storage binding; otherwise
+//! [`Q1Device::new`] declines and the operator runs on the node-centred
+//! gather ([`super::operator`]).
 
 use rayon::prelude::*;
 use wgpu::util::DeviceExt;
@@ -23,12 +25,9 @@ use crate::fem::stencil::{Run, Stencil};
 
 use super::backend::{GpuBackend, GpuVector};
 use super::kernels::{grid_2d, Kernel, Q1Params, APPLY_WG};
-use super::q1_terms::{asymmetry, pack, PACKED, SEG, SEGMENT_WORDS, STENCIL_LEN};
+use super::q1_terms::{NO_PARTIAL, PARTIAL_LEN, SEG, SEGMENT_WORDS, STENCIL_LEN};
 use super::record::whole;
-
-/// Largest `|K − Kᵀ|` (relative to the largest entry) of a cut-cell matrix
-/// the packed form accepts: round-off of a symmetric matrix.
-const SYMMETRY_TOL: f64 = 1e-12;
+use crate::fem::q1_forms::FORM_LEN;
 
 /// One of the plan's two kernels (the bench times them apart).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,14 +51,18 @@ impl GpuBackend {
 /// A Q1 operator's plan on the device.
 pub struct Q1Device {
     stencil: wgpu::Buffer,
+    inside: wgpu::Buffer,
     segments: wgpu::Buffer,
     boundary: wgpu::Buffer,
     links: wgpu::Buffer,
     cell_nodes: wgpu::Buffer,
+    partial_of: wgpu::Buffer,
     k_cells: wgpu::Buffer,
     z: wgpu::Buffer,
     params: Q1Params,
     num_active: usize,
+    /// Cut cells with a partial-mask penalty.
+    num_partial: usize,
 }
 
 /// The runs cut into segments of at most [`SEG`] nodes, [`SEGMENT_WORDS`]
@@ -79,31 +82,40 @@ pub fn segments(runs: &[Run]) -> Vec<u32> {
     out
 }
 
-/// The cut cells' matrices packed ([`pack`]) and stored entry-major (entry
-/// `e` of slot `s` at `e · count + s`), then the packed inside matrix; or
-/// `None` when a cut cell's matrix is not symmetric.
-pub fn packed_cell_matrices(op: &ElasticOperator) -> Option<Vec<f64>> {
-    let cells = op.own_cells();
-    let packed: Option<Vec<[f64; PACKED]>> = cells
-        .par_iter()
-        .map(|&cell| {
-            let k = op.cell_matrix(cell)?;
-            (asymmetry(&k) <= SYMMETRY_TOL).then(|| pack(&k))
-        })
-        .collect();
-    let packed = packed?;
-    let count = packed.len();
-    let mut out = vec![0.0; PACKED * (count + 1)];
-    let (cut, inside) = out.split_at_mut(PACKED * count);
-    cut.par_chunks_mut(count.max(1))
+/// `q1_cells`' cell data: the cut cells' factored forms stored entry-major
+/// (entry `k` of slot `s` at `k · count + s`), λ and μ, then the partial-mask penalties' masses ([`PARTIAL_LEN`] numbers per
+/// cell that has one); and per cut cell the index of its penalty, or
+/// [`NO_PARTIAL`]. `None` where the cut cells have no factored forms (Q2).
+pub fn cell_forms(op: &ElasticOperator) -> Option<(Vec<f64>, Vec<u32>)> {
+    let (forms, partial) = op.q1_cut_data()?;
+    let count = op.own_cells().len();
+    let mut out = vec![0.0; FORM_LEN * count];
+    let per_slot: Vec<[f64; FORM_LEN]> =
+        (0..count).into_par_iter().map(|s| forms.form(s)).collect();
+    out.par_chunks_mut(count.max(1))
         .enumerate()
-        .for_each(|(e, row)| {
+        .for_each(|(k, row)| {
             for (s, v) in row.iter_mut().enumerate() {
-                *v = packed[s][e];
+                *v = per_slot[s][k];
             }
         });
-    inside.copy_from_slice(&pack(op.inside_matrix()));
-    Some(out)
+    let (lambda, mu) = forms.lame();
+    out.extend([lambda, mu]);
+    let mut partial_of = vec![NO_PARTIAL; count.max(1)];
+    let mut n_partial = 0;
+    for (s, of) in partial_of.iter_mut().enumerate().take(count) {
+        let Some(masses) = partial.masses_of(s) else {
+            continue;
+        };
+        for m in masses {
+            for a in 0..8 {
+                out.extend((a..8).map(|b| m[8 * a + b]));
+            }
+        }
+        *of = n_partial;
+        n_partial += 1;
+    }
+    Some((out, partial_of))
 }
 
 /// The stencil values in the uniform's order (`81 · 3`, zero-padded to
@@ -119,20 +131,24 @@ fn stencil_values(stencil: &Stencil) -> Vec<f64> {
 pub struct Q1Arrays {
     pub params: Q1Params,
     pub stencil: Vec<f64>,
+    /// The inside matrix `h K_ref`, row-major 24 × 24 (the rim cells').
+    pub inside: Vec<f64>,
     pub segments: Vec<u32>,
     pub boundary: Vec<u32>,
     pub links: Vec<u32>,
     pub cell_nodes: Vec<u32>,
-    /// [`packed_cell_matrices`].
+    /// [`cell_forms`]: the forms, λ and μ, the partial-mask penalties.
     pub k_cells: Vec<f64>,
+    /// [`cell_forms`]: per cut cell, its partial-mask penalty's index.
+    pub partial_of: Vec<u32>,
 }
 
 impl Q1Arrays {
-    /// The arrays of `op`'s plan, or `None` where it is not Q1's or a
-    /// cut-cell matrix is not symmetric.
+    /// The arrays of `op`'s plan, or `None` where it is not Q1's.
     pub fn new(op: &ElasticOperator) -> Option<Q1Arrays> {
         let plan = op.fast_apply();
         let (stencil, runs) = plan.q1()?;
+        let (k_cells, partial_of) = cell_forms(op)?;
         let cell_nodes = plan.cell_nodes().to_vec();
         let segments = segments(runs);
         let params = Q1Params {
@@ -145,11 +161,13 @@ impl Q1Arrays {
         Some(Q1Arrays {
             params,
             stencil: stencil_values(stencil),
+            inside: op.inside_matrix().to_vec(),
             segments,
             boundary: plan.boundary().to_vec(),
             links: plan.links().iter().flatten().copied().collect(),
             cell_nodes,
-            k_cells: packed_cell_matrices(op)?,
+            k_cells,
+            partial_of,
         })
     }
 
@@ -161,8 +179,8 @@ impl Q1Arrays {
 
 impl Q1Device {
     /// The plan of `op` on the device of `be`, or `None` where it does not
-    /// apply: not Q1 (no fast plan), a cut-cell matrix not symmetric, or an
-    /// array (the vectors included) larger than one storage binding.
+    /// apply: not Q1 (no fast plan), or an array (the vectors included)
+    /// larger than one storage binding.
     pub fn new(be: &GpuBackend, op: &ElasticOperator) -> Option<Q1Device> {
         let a = Q1Arrays::new(op)?;
         let bytes = be.precision().bytes();
@@ -173,30 +191,35 @@ impl Q1Device {
             4 * a.segments.len() as u64,
             4 * a.links.len() as u64,
             4 * a.cell_nodes.len() as u64,
+            4 * a.partial_of.len() as u64,
             4 * a.boundary.len() as u64,
         ];
         if sizes.iter().any(|&s| s > be.bindings().max_bytes) {
             return None;
         }
         let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
-        let stencil = be
-            .context()
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("stencil"),
-                contents: &be.to_bytes(&a.stencil),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
+        let uniform = |label: &str, v: &[f64]| {
+            be.context()
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: &be.to_bytes(v),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                })
+        };
         Some(Q1Device {
-            stencil,
+            stencil: uniform("stencil", &a.stencil),
+            inside: uniform("inside matrix", &a.inside),
             segments: u32s("segments", &a.segments),
             boundary: u32s("boundary", &a.boundary),
             links: u32s("links", &a.links),
             cell_nodes: u32s("cell nodes", &a.cell_nodes),
-            k_cells: be.buffer_init("cell matrices", &be.to_bytes(&a.k_cells)),
+            partial_of: u32s("partial penalties", &a.partial_of),
+            k_cells: be.buffer_init("cell forms", &be.to_bytes(&a.k_cells)),
             z: be.buffer_init("z", &be.to_bytes(&vec![0.0; a.z_len()])),
             params: a.params,
             num_active: op.dofs.num_active(),
+            num_partial: a.partial_of.iter().filter(|&&p| p != NO_PARTIAL).count(),
         })
     }
 
@@ -208,17 +231,20 @@ impl Q1Device {
     /// Bytes one apply moves to and from device memory, modelled: `x` read
     /// and `y` written once per active node (the re-reads of a neighbour
     /// row by nearby segments and the cells' gathers of `x` hit the
-    /// caches), the segment table, the packed cut matrices, each cell's
+    /// caches, and so do the rim cells' for the boundary nodes that share
+    /// them), the segment table, the cut cells' forms, penalty indices,
     /// node indices and product `z` (written, then read by the boundary
-    /// nodes), and the boundary nodes' indices and links.
+    /// nodes), the partial-mask penalties, the rim cells' node indices, and
+    /// the boundary nodes' indices and links.
     pub fn modelled_traffic(&self, bytes: u64) -> u64 {
         let p = &self.params;
         let vectors = 2 * 3 * self.num_active as u64 * bytes;
         let segments = 4 * SEGMENT_WORDS as u64 * p.n_segments as u64;
-        let cut = PACKED as u64 * bytes * p.n_cut as u64;
-        let cells = (32 + 2 * 24 * bytes) * p.n_cells as u64;
+        let cut = (FORM_LEN as u64 * bytes + 4 + 32 + 2 * 24 * bytes) * p.n_cut as u64
+            + PARTIAL_LEN as u64 * bytes * self.num_partial as u64;
+        let rim = 32 * (p.n_cells - p.n_cut) as u64;
         let boundary = (4 + 32) * p.n_boundary as u64;
-        vectors + segments + cut + cells + boundary
+        vectors + segments + cut + rim + boundary
     }
 
     /// Records `y = A x`: `q1_cells`, then `q1_nodes`.
@@ -248,19 +274,22 @@ impl Q1Device {
                 Kernel::Q1Cells,
                 vec![
                     whole(&self.cell_nodes),
+                    whole(&self.partial_of),
                     whole(&self.k_cells),
                     whole(x),
                     whole(&self.z),
                 ],
-                grid_2d(p.n_cells, APPLY_WG, be.max_dim()),
+                grid_2d(p.n_cut, APPLY_WG, be.max_dim()),
             ),
             Q1Kernel::Nodes => (
                 Kernel::Q1Nodes,
                 vec![
                     whole(&self.stencil),
+                    whole(&self.inside),
                     whole(&self.segments),
                     whole(&self.boundary),
                     whole(&self.links),
+                    whole(&self.cell_nodes),
                     whole(&self.z),
                     whole(x),
                     whole(y),

@@ -1,9 +1,12 @@
 //! The unrolled bodies of the Q1 kernels (`shaders/q1_nodes.wgsl`,
 //! `shaders/q1_cells.wgsl`): the structurally nonzero terms of the interior
-//! stencil and the packed symmetric cell product, as term lists that the WGSL
-//! generator ([`expand`]) and the CPU mirrors ([`super::mirror::q1_nodes`],
-//! [`super::mirror::q1_cells`]) walk in the same order.
+//! stencil and the cell product from the factored forms of
+//! [`crate::fem::q1_forms`], as term lists that the WGSL generator
+//! ([`expand`]) and the CPU mirrors ([`super::mirror::q1_nodes`],
+//! [`super::mirror::q1_cells`], through [`form_product`] and
+//! [`mass_product`]) walk in the same order.
 
+use crate::fem::q1_forms::{node, sym, t_index, MASS};
 use crate::fem::stencil::coupled;
 
 /// Interior nodes per segment (= the workgroup size of `q1_nodes`).
@@ -12,8 +15,6 @@ pub const SEG: usize = 64;
 /// Words per segment: start, length, the 9 row bases, padding.
 /// Keep in sync with `SEGMENT_WORDS` in q1_nodes.wgsl.
 pub const SEGMENT_WORDS: usize = 12;
-/// Entries of a packed symmetric 24 × 24 matrix.
-pub const PACKED: usize = 300;
 /// Stencil values in the uniform (`81 · 3`, padded to whole `vec4`s).
 pub const STENCIL_LEN: usize = 244;
 
@@ -46,37 +47,81 @@ pub fn stencil_terms() -> Vec<StencilTerm> {
     out
 }
 
-/// Index of `(r, c)`, `r ≤ c`, in a packed symmetric 24 × 24 matrix (upper
-/// triangle, row-major).
-pub const fn packed_index(r: usize, c: usize) -> usize {
-    r * 24 - r * (r + 1) / 2 + c
+/// Numbers of a cell with a partial-mask penalty: its three component
+/// masses, packed symmetric 8 × 8 ([`sym`]), component after component.
+pub const PARTIAL_LEN: usize = 108;
+/// `partial_of` of a cut cell without a partial-mask penalty.
+pub const NO_PARTIAL: u32 = u32::MAX;
+
+/// `dif[12 e + 4 j + β]`: the difference of component `j` along axis `e`
+/// between the nodes `β` with coordinate 1 and 0 along it.
+fn dif(e: usize, j: usize, beta: usize) -> usize {
+    12 * e + 4 * j + beta
 }
 
-/// The packed upper triangle of a row-major 24 × 24 matrix.
-pub fn pack(k: &[f64]) -> [f64; PACKED] {
-    let mut out = [0.0; PACKED];
-    for r in 0..24 {
-        for c in r..24 {
-            out[packed_index(r, c)] = k[r * 24 + c];
+/// The stiffness part of a Q1 cell's product from its factored form
+/// (`crate::fem::q1_forms`, whose module doc derives it): `z += K u`,
+/// `t(k)` entry `k` of the form, in the order that `q1_cells`' generated
+/// body ([`cell_terms`]) sums.
+pub fn form_product(
+    t: impl Fn(usize) -> f64,
+    (lam, mu): (f64, f64),
+    u: &[f64; 24],
+    z: &mut [f64; 24],
+) {
+    let mut d = [0.0; 36];
+    for e in 0..3 {
+        for j in 0..3 {
+            for beta in 0..4 {
+                d[dif(e, j, beta)] = u[3 * node(e, beta, 1) + j] - u[3 * node(e, beta, 0) + j];
+            }
         }
     }
-    out
+    for dd in 0..3 {
+        let mut p = [0.0; 4];
+        for (alpha, p) in p.iter_mut().enumerate() {
+            for e in 0..3 {
+                for beta in 0..4 {
+                    *p += t(t_index(dd, e, alpha, beta)) * d[dif(e, e, beta)];
+                }
+            }
+        }
+        for i in 0..3 {
+            for alpha in 0..4 {
+                let mut a = 0.0;
+                for beta in 0..4 {
+                    a += t(t_index(dd, i, alpha, beta)) * d[dif(i, dd, beta)];
+                    a += t(t_index(dd, dd, alpha, beta)) * d[dif(dd, i, beta)];
+                }
+                let mut v = mu * a;
+                if i == dd {
+                    v += lam * p[alpha];
+                }
+                z[3 * node(dd, alpha, 1) + i] += v;
+                z[3 * node(dd, alpha, 0) + i] -= v;
+            }
+        }
+    }
 }
 
-/// The largest `|K[r][c] − K[c][r]|` of a row-major 24 × 24 matrix,
-/// relative to its largest entry.
-pub fn asymmetry(k: &[f64]) -> f64 {
-    let scale = k.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let mut worst = 0.0f64;
-    for r in 0..24 {
-        for c in r + 1..24 {
-            worst = worst.max((k[r * 24 + c] - k[c * 24 + r]).abs());
+/// `z_{a,i} += Σ_b m_i(a, b) u_{b,i}` for the packed symmetric 8 × 8 masses
+/// `m(i, k)` of the components `comps`, in the order of [`cell_terms`].
+pub fn mass_product(
+    m: impl Fn(usize, usize) -> f64,
+    comps: &[usize],
+    u: &[f64; 24],
+    z: &mut [f64; 24],
+) {
+    for &i in comps {
+        for a in 0..8 {
+            for b in a..8 {
+                let k = m(i, sym(8, a, b));
+                z[3 * a + i] += k * u[3 * b + i];
+                if a != b {
+                    z[3 * b + i] += k * u[3 * a + i];
+                }
+            }
         }
-    }
-    if scale > 0.0 {
-        worst / scale
-    } else {
-        worst
     }
 }
 
@@ -131,16 +176,72 @@ fn cell_gather() -> String {
     s
 }
 
+/// The body of [`form_product`], then the masses of [`mass_product`]
+/// (the form's scalar mass, and the partial-mask penalty's where the cell
+/// has one).
 fn cell_terms() -> String {
     let mut s = String::new();
-    for r in 0..24 {
-        for c in r..24 {
-            let e = packed_index(r, c);
-            s += &format!("    {{ let k = k_cells[base + {e}u * step]; z{r} += k * u{c};");
-            if r != c {
-                s += &format!(" z{c} += k * u{r};");
+    let t = |k: usize| format!("k_cells[c + {k}u * step]");
+    for e in 0..3 {
+        for j in 0..3 {
+            for beta in 0..4 {
+                let (hi, lo) = (3 * node(e, beta, 1) + j, 3 * node(e, beta, 0) + j);
+                s += &format!("    let d{} = u{hi} - u{lo};\n", dif(e, j, beta));
             }
-            s += " }\n";
+        }
+    }
+    for dd in 0..3 {
+        s += "    {\n";
+        for alpha in 0..4 {
+            s += &format!("        var p{alpha}: real = 0.0;\n");
+            for e in 0..3 {
+                for beta in 0..4 {
+                    let k = t_index(dd, e, alpha, beta);
+                    s += &format!("        p{alpha} += {} * d{};\n", t(k), dif(e, e, beta));
+                }
+            }
+        }
+        for i in 0..3 {
+            for alpha in 0..4 {
+                s += "        {\n            var a: real = 0.0;\n";
+                for beta in 0..4 {
+                    let (k1, k2) = (t_index(dd, i, alpha, beta), t_index(dd, dd, alpha, beta));
+                    s += &format!("            a += {} * d{};\n", t(k1), dif(i, dd, beta));
+                    s += &format!("            a += {} * d{};\n", t(k2), dif(dd, i, beta));
+                }
+                s += "            var v = mu * a;\n";
+                if i == dd {
+                    s += &format!("            v += lam * p{alpha};\n");
+                }
+                let (hi, lo) = (3 * node(dd, alpha, 1) + i, 3 * node(dd, alpha, 0) + i);
+                s += &format!("            z{hi} += v;\n            z{lo} -= v;\n        }}\n");
+            }
+        }
+        s += "    }\n";
+    }
+    s += &mass_terms(&|_, k| t(MASS + k), &[0, 1, 2]);
+    s += "    let pc = partial_of[c];\n    if (pc != NO_PARTIAL) {\n";
+    s += "        let pb = partial_base + PARTIAL_LEN * pc;\n";
+    for i in 0..3 {
+        s += &mass_terms(&|i, k| format!("k_cells[pb + {}u]", 36 * i + k), &[i]);
+    }
+    s += "    }\n";
+    s
+}
+
+/// The WGSL of [`mass_product`], `m(i, k)` the expression of a mass entry.
+fn mass_terms(m: &dyn Fn(usize, usize) -> String, comps: &[usize]) -> String {
+    let mut s = String::new();
+    for &i in comps {
+        for a in 0..8 {
+            for b in a..8 {
+                s += &format!("        {{ let k = {};", m(i, sym(8, a, b)));
+                s += &format!(" z{} += k * u{};", 3 * a + i, 3 * b + i);
+                if a != b {
+                    s += &format!(" z{} += k * u{};", 3 * b + i, 3 * a + i);
+                }
+                s += " }\n";
+            }
         }
     }
     s

@@ -445,10 +445,7 @@ fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64],
     let n = op.nrows();
     let gop = GpuOperator::new(be, op).unwrap();
     let Some(a) = Q1Arrays::new(op) else {
-        assert!(
-            op.fast_apply().q1().is_none(),
-            "Q1 with symmetric cut cells"
-        );
+        assert!(op.fast_apply().q1().is_none(), "Q1 has its plan");
         assert!(gop.q1().is_none(), "Q2 runs on the gather");
         return;
     };
@@ -459,11 +456,14 @@ fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64],
     let k_cells = as_device(ctx, a.k_cells.clone());
     let stencil = as_device(ctx, a.stencil.clone());
     let mut z = vec![0.0; a.z_len()];
-    mirror::q1_cells(&a.params, &a.cell_nodes, &k_cells, x, &mut z);
+    mirror::q1_cells(&a.params, &a.cell_nodes, &a.partial_of, &k_cells, x, &mut z);
     let z = as_device(ctx, z);
     let mut want = vec![0.0; n];
     let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
-    mirror::q1_nodes(&a.params, &stencil, segs, bnd, links, &z, x, &mut want);
+    let (inside, nodes) = (as_device(ctx, a.inside.clone()), &a.cell_nodes);
+    mirror::q1_nodes(
+        &a.params, &stencil, &inside, segs, bnd, links, nodes, &z, x, &mut want,
+    );
     assert_close("q1 apply", &y, &want, tol);
     let mut host = vec![0.0; n];
     op.apply(x, &mut host);
