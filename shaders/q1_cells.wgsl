@@ -1,16 +1,18 @@
-// q1_cells: the cut cells' products z_c = K_c x_c (24 entries each) that the
+// q1_cells: the cell products z_c = K_c x_c (24 entries each) that the
 // boundary nodes of `q1_nodes` gather, from the factored Q1 forms of
 // src/fem/q1_forms.rs (114 numbers a cell: the 4 × 4 blocks T^{de} and the
 // scalar mass M). k_cells holds, in order:
 // - the cut cells' forms (cells 0 .. n_cut, slot order), stored entry-major,
 //   entry k of cell c at k n_cut + c, so that a warp's reads of one entry are
 //   contiguous;
+// - the whole cell's form (entry k at 114 n_cut + k), which the rim cells
+//   (cells n_cut .. n_cells: inside cells with a boundary node) share; it has
+//   no mass;
 // - λ and μ;
 // - the partial-mask penalties (rollers, symmetry planes): 108 numbers per
 //   cut cell that has one (three packed symmetric 8 × 8 masses, one per
 //   component), the p-th at partial_base + 108 p, p = partial_of[c].
-// One invocation per cut cell (the rim cells' products are the boundary
-// nodes' own, in `q1_nodes`); the product is unrolled (generated at the marker):
+// One invocation per cell; the product is unrolled (generated at the marker):
 // the differences of x along each axis, then per direction d the terms of
 // E_{d,i}, then the masses.
 // z holds a zero triple after the last cell, which no kernel writes.
@@ -39,12 +41,18 @@ const NO_PARTIAL: u32 = 0xffffffffu;
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = gid.x + gid.y * prm.stride;
-    if (c >= prm.n_cut) { return; }
-    // Entry k of this cell's form at k_cells[c + k step].
-    let step = prm.n_cut;
-    let lam = k_cells[FORM_LEN * step];
-    let mu = k_cells[FORM_LEN * step + 1u];
-    let partial_base = FORM_LEN * step + 2u;
+    if (c >= prm.n_cells) { return; }
+    // Entry k of this cell's form at k_cells[base + k step].
+    let shared_form = FORM_LEN * prm.n_cut;
+    var base = shared_form;
+    var step = 1u;
+    if (c < prm.n_cut) {
+        base = c;
+        step = prm.n_cut;
+    }
+    let lam = k_cells[shared_form + FORM_LEN];
+    let mu = k_cells[shared_form + FORM_LEN + 1u];
+    let partial_base = shared_form + FORM_LEN + 2u;
     // @gather
     // @product
     // @store

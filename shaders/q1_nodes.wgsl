@@ -7,12 +7,8 @@
 //   segment's 9 neighbour rows (contiguous runs of x, so a warp's reads
 //   coalesce and the rows' re-reads by neighbouring segments hit the caches):
 //       y[3(start + t) + i] = Σ S[3(27 j + 3 r + shift) + i] x[3(bases[r] + t + shift) + j]
-// - else: boundary nodes (g − n_segments) SEG + t, each the sum over its 8
-//   cells: a cut cell's triple in z (`q1_cells`), a rim cell's (an inside
-//   cell: c in n_cut .. n_cells) own row block of the inside matrix times
-//   the cell's x, read through cell_nodes; a missing cell links to a zero
-//   triple of z. Link o is the triple's offset in z: o = 24 c + 3 a, a the
-//   node's local index in cell c.
+// - else: boundary nodes (g − n_segments) SEG + t, each the sum of its 8
+//   cells' triples in z (a missing cell links to a zero triple).
 // Each invocation writes only its own node: no atomics.
 // CPU mirror: `cgfem_gpu::gpu::mirror::q1_nodes` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
@@ -29,22 +25,15 @@ const SEGMENT_WORDS: u32 = 12u;
 
 @group(0) @binding(0) var<uniform> prm: Q1Params;
 @group(0) @binding(1) var<uniform> stencil: array<vec4<real>, 61>;
-// The inside matrix h K_ref, row-major 24 × 24.
-@group(0) @binding(2) var<uniform> inside: array<vec4<real>, 144>;
-@group(0) @binding(3) var<storage, read> segments: array<u32>;
-@group(0) @binding(4) var<storage, read> boundary: array<u32>;
-@group(0) @binding(5) var<storage, read> links: array<u32>;
-@group(0) @binding(6) var<storage, read> cell_nodes: array<u32>;
-@group(0) @binding(7) var<storage, read> z: array<real>;
-@group(0) @binding(8) var<storage, read> x: array<real>;
-@group(0) @binding(9) var<storage, read_write> y: array<real>;
+@group(0) @binding(2) var<storage, read> segments: array<u32>;
+@group(0) @binding(3) var<storage, read> boundary: array<u32>;
+@group(0) @binding(4) var<storage, read> links: array<u32>;
+@group(0) @binding(5) var<storage, read> z: array<real>;
+@group(0) @binding(6) var<storage, read> x: array<real>;
+@group(0) @binding(7) var<storage, read_write> y: array<real>;
 
 fn st(k: u32) -> real {
     return stencil[k / 4u][k % 4u];
-}
-
-fn kin(k: u32) -> real {
-    return inside[k / 4u][k % 4u];
 }
 
 fn interior(g: u32, t: u32) {
@@ -68,20 +57,7 @@ fn boundary_node(b: u32) {
     var acc = array<real, 3>(0.0, 0.0, 0.0);
     for (var cc = 0u; cc < 8u; cc++) {
         let o = links[8u * b + cc];
-        let c = o / 24u;
-        if (c < prm.n_cut || c >= prm.n_cells) {
-            for (var i = 0u; i < 3u; i++) { acc[i] += z[o + i]; }
-            continue;
-        }
-        // Rows 3a .. 3a + 3 of the inside matrix: row r at 24 r.
-        let row = 24u * (o % 24u);
-        for (var m = 0u; m < 8u; m++) {
-            let n = 3u * cell_nodes[8u * c + m];
-            for (var j = 0u; j < 3u; j++) {
-                let v = x[n + j];
-                for (var i = 0u; i < 3u; i++) { acc[i] += kin(row + 24u * i + 3u * m + j) * v; }
-            }
-        }
+        for (var i = 0u; i < 3u; i++) { acc[i] += z[o + i]; }
     }
     let a = boundary[b];
     for (var i = 0u; i < 3u; i++) { y[3u * a + i] = acc[i]; }

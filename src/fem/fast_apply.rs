@@ -219,10 +219,15 @@ impl FastApply {
         }
     }
 
-    /// The Q1 interior stencil and its runs (ascending), or `None` for Q2.
-    pub fn q1(&self) -> Option<(&Stencil, &[Run])> {
+    /// The Q1 interior stencil, its runs (ascending) and the whole cell's
+    /// factored form (the rim cells'), or `None` for Q2.
+    pub fn q1(&self) -> Option<(&Stencil, &[Run], &Q1Forms)> {
         match &self.interior {
-            Interior::Q1 { stencil, runs, .. } => Some((&**stencil, runs)),
+            Interior::Q1 {
+                stencil,
+                runs,
+                inside,
+            } => Some((&**stencil, runs, inside)),
             Interior::Q2 { .. } => None,
         }
     }

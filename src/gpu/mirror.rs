@@ -302,9 +302,10 @@ pub fn apply(
     }
 }
 
-/// `z[24 c ..][.. 24] = K_c x_c` for the cut cells `c < n_cut` from their
-/// factored forms: entry `k` of cell `c`'s at `k_cells[k n_cut + c]`, λ and
-/// μ after them, then the partial-mask penalties that `partial_of` indexes.
+/// `z[24 c ..][.. 24] = K_c x_c` for cells `c < n_cells` from the factored
+/// forms: entry `k` of a cut cell's at `k_cells[k n_cut + c]`, of a rim
+/// cell's (the shared whole-cell form) at `k_cells[114 n_cut + k]`, λ and μ
+/// after it, then the partial-mask penalties that `partial_of` indexes.
 pub fn q1_cells(
     prm: &Q1Params,
     cell_nodes: &[u32],
@@ -314,10 +315,12 @@ pub fn q1_cells(
     z: &mut [f64],
 ) {
     let n_cut = prm.n_cut as usize;
-    let lame = (k_cells[FORM_LEN * n_cut], k_cells[FORM_LEN * n_cut + 1]);
-    let partial_base = FORM_LEN * n_cut + 2;
-    for c in 0..n_cut {
-        let t = |k: usize| k_cells[c + k * n_cut];
+    let shared = FORM_LEN * n_cut;
+    let lame = (k_cells[shared + FORM_LEN], k_cells[shared + FORM_LEN + 1]);
+    let partial_base = shared + FORM_LEN + 2;
+    for c in 0..prm.n_cells as usize {
+        let (base, step) = if c < n_cut { (c, n_cut) } else { (shared, 1) };
+        let t = |k: usize| k_cells[base + k * step];
         let mut u = [0.0; 24];
         for m in 0..8 {
             let n = 3 * cell_nodes[8 * c + m] as usize;
@@ -327,11 +330,13 @@ pub fn q1_cells(
         }
         let mut zc = [0.0; 24];
         form_product(t, lame, &u, &mut zc);
-        mass_product(|_, k| t(MASS + k), &[0, 1, 2], &u, &mut zc);
-        if partial_of[c] != NO_PARTIAL {
-            let pb = partial_base + PARTIAL_LEN * partial_of[c] as usize;
-            for i in 0..3 {
-                mass_product(|i, k| k_cells[pb + 36 * i + k], &[i], &u, &mut zc);
+        if c < n_cut {
+            mass_product(|_, k| t(MASS + k), &[0, 1, 2], &u, &mut zc);
+            if partial_of[c] != NO_PARTIAL {
+                let pb = partial_base + PARTIAL_LEN * partial_of[c] as usize;
+                for i in 0..3 {
+                    mass_product(|i, k| k_cells[pb + 36 * i + k], &[i], &u, &mut zc);
+                }
             }
         }
         z[24 * c..24 * c + 24].copy_from_slice(&zc);
@@ -340,19 +345,14 @@ pub fn q1_cells(
 
 /// `y = A x` at every active node from the interior stencil (`stencil`, the
 /// uniform's values) over each segment's neighbour rows, and for the
-/// boundary nodes the sum over their 8 links `o = 24 c + 3 a`: the triple of
-/// `z` of a cut cell (`c < n_cut`) or of the zero triple (`c = n_cells`),
-/// the rows `3a ..` of the `inside` matrix (row-major 24 × 24) times the
-/// cell's `x` for a rim cell.
+/// boundary nodes the sum of their 8 linked triples of `z`.
 #[allow(clippy::too_many_arguments)]
 pub fn q1_nodes(
     prm: &Q1Params,
     stencil: &[f64],
-    inside: &[f64],
     segments: &[u32],
     boundary: &[u32],
     links: &[u32],
-    cell_nodes: &[u32],
     z: &[f64],
     x: &[f64],
     y: &mut [f64],
@@ -376,21 +376,8 @@ pub fn q1_nodes(
         let mut acc = [0.0; 3];
         for cc in 0..8 {
             let o = links[8 * b + cc] as usize;
-            let c = o / 24;
-            if c < prm.n_cut as usize || c >= prm.n_cells as usize {
-                for i in 0..3 {
-                    acc[i] += z[o + i];
-                }
-                continue;
-            }
-            let row = 24 * (o % 24);
-            for m in 0..8 {
-                let n = 3 * cell_nodes[8 * c + m] as usize;
-                for j in 0..3 {
-                    for i in 0..3 {
-                        acc[i] += inside[row + 24 * i + 3 * m + j] * x[n + j];
-                    }
-                }
+            for i in 0..3 {
+                acc[i] += z[o + i];
             }
         }
         let a = boundary[b] as usize;

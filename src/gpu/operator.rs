@@ -1,6 +1,6 @@
 //! [`GpuOperator`]: an [`ElasticOperator`] resident on the device. A Q1
 //! operator that fits single bindings runs on its plan ([`Q1Device`]: the
-//! interior stencil and the packed cut cells); anything else (Q2, arrays
+//! interior stencil and the cut cells' factored forms); anything else (Q2, arrays
 //! beyond one binding) on the node-centred gather of `apply.wgsl` over the
 //! index maps (active ↔ lattice node, cell slots), the shared inside matrix
 //! and the cut cells' own matrices, described below.

@@ -3,13 +3,12 @@
 //! 1. `q1_cells`: `z_c = K_c x_c` for the cut cells (from their factored
 //!    forms, [`crate::fem::q1_forms`], 114 numbers stored entry-major so a
 //!    warp's reads are contiguous; stabilisation included, partial-mask
-//!    penalties beside them);
+//!    penalties beside them) and the rim cells (the whole cell's form, shared,
+//!    stored after them);
 //! 2. `q1_nodes`: the interior nodes in segments of up to [`SEG`] nodes of
 //!    one run, the 27-point stencil (coefficients in a uniform, terms
 //!    unrolled) over the segment's 9 neighbour rows of `x`; the boundary
-//!    nodes the sum over their cells: a cut cell's triple of `z`, a rim
-//!    cell's (an inside cell with a boundary node) the node's rows of the
-//!    inside matrix (in a uniform) times the cell's `x`.
+//!    nodes the sum of their cells' triples of `z`.
 //!
 //! Two dispatches per apply, no atomics, no per-node index lookups in the
 //! interior. The plan needs every array in one storage binding; otherwise
@@ -51,7 +50,6 @@ impl GpuBackend {
 /// A Q1 operator's plan on the device.
 pub struct Q1Device {
     stencil: wgpu::Buffer,
-    inside: wgpu::Buffer,
     segments: wgpu::Buffer,
     boundary: wgpu::Buffer,
     links: wgpu::Buffer,
@@ -83,11 +81,13 @@ pub fn segments(runs: &[Run]) -> Vec<u32> {
 }
 
 /// `q1_cells`' cell data: the cut cells' factored forms stored entry-major
-/// (entry `k` of slot `s` at `k · count + s`), λ and μ, then the partial-mask penalties' masses ([`PARTIAL_LEN`] numbers per
+/// (entry `k` of slot `s` at `k · count + s`), the whole cell's form, λ and
+/// μ, then the partial-mask penalties' masses ([`PARTIAL_LEN`] numbers per
 /// cell that has one); and per cut cell the index of its penalty, or
 /// [`NO_PARTIAL`]. `None` where the cut cells have no factored forms (Q2).
 pub fn cell_forms(op: &ElasticOperator) -> Option<(Vec<f64>, Vec<u32>)> {
     let (forms, partial) = op.q1_cut_data()?;
+    let (_, _, inside) = op.fast_apply().q1()?;
     let count = op.own_cells().len();
     let mut out = vec![0.0; FORM_LEN * count];
     let per_slot: Vec<[f64; FORM_LEN]> =
@@ -99,6 +99,7 @@ pub fn cell_forms(op: &ElasticOperator) -> Option<(Vec<f64>, Vec<u32>)> {
                 *v = per_slot[s][k];
             }
         });
+    out.extend(inside.form(0));
     let (lambda, mu) = forms.lame();
     out.extend([lambda, mu]);
     let mut partial_of = vec![NO_PARTIAL; count.max(1)];
@@ -131,8 +132,6 @@ fn stencil_values(stencil: &Stencil) -> Vec<f64> {
 pub struct Q1Arrays {
     pub params: Q1Params,
     pub stencil: Vec<f64>,
-    /// The inside matrix `h K_ref`, row-major 24 × 24 (the rim cells').
-    pub inside: Vec<f64>,
     pub segments: Vec<u32>,
     pub boundary: Vec<u32>,
     pub links: Vec<u32>,
@@ -147,7 +146,7 @@ impl Q1Arrays {
     /// The arrays of `op`'s plan, or `None` where it is not Q1's.
     pub fn new(op: &ElasticOperator) -> Option<Q1Arrays> {
         let plan = op.fast_apply();
-        let (stencil, runs) = plan.q1()?;
+        let (stencil, runs, _) = plan.q1()?;
         let (k_cells, partial_of) = cell_forms(op)?;
         let cell_nodes = plan.cell_nodes().to_vec();
         let segments = segments(runs);
@@ -161,7 +160,6 @@ impl Q1Arrays {
         Some(Q1Arrays {
             params,
             stencil: stencil_values(stencil),
-            inside: op.inside_matrix().to_vec(),
             segments,
             boundary: plan.boundary().to_vec(),
             links: plan.links().iter().flatten().copied().collect(),
@@ -198,18 +196,16 @@ impl Q1Device {
             return None;
         }
         let u32s = |label: &str, v: &[u32]| be.buffer_init(label, bytemuck::cast_slice(v));
-        let uniform = |label: &str, v: &[f64]| {
-            be.context()
-                .device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: &be.to_bytes(v),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                })
-        };
+        let stencil = be
+            .context()
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("stencil"),
+                contents: &be.to_bytes(&a.stencil),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
         Some(Q1Device {
-            stencil: uniform("stencil", &a.stencil),
-            inside: uniform("inside matrix", &a.inside),
+            stencil,
             segments: u32s("segments", &a.segments),
             boundary: u32s("boundary", &a.boundary),
             links: u32s("links", &a.links),
@@ -231,20 +227,19 @@ impl Q1Device {
     /// Bytes one apply moves to and from device memory, modelled: `x` read
     /// and `y` written once per active node (the re-reads of a neighbour
     /// row by nearby segments and the cells' gathers of `x` hit the
-    /// caches, and so do the rim cells' for the boundary nodes that share
-    /// them), the segment table, the cut cells' forms, penalty indices,
-    /// node indices and product `z` (written, then read by the boundary
-    /// nodes), the partial-mask penalties, the rim cells' node indices, and
-    /// the boundary nodes' indices and links.
+    /// caches), the segment table, the cut cells' forms and penalty
+    /// indices, the partial-mask penalties, each cell's node indices and
+    /// product `z` (written, then read by the boundary nodes), and the
+    /// boundary nodes' indices and links.
     pub fn modelled_traffic(&self, bytes: u64) -> u64 {
         let p = &self.params;
         let vectors = 2 * 3 * self.num_active as u64 * bytes;
         let segments = 4 * SEGMENT_WORDS as u64 * p.n_segments as u64;
-        let cut = (FORM_LEN as u64 * bytes + 4 + 32 + 2 * 24 * bytes) * p.n_cut as u64
+        let cut = (FORM_LEN as u64 * bytes + 4) * p.n_cut as u64
             + PARTIAL_LEN as u64 * bytes * self.num_partial as u64;
-        let rim = 32 * (p.n_cells - p.n_cut) as u64;
+        let cells = (32 + 2 * 24 * bytes) * p.n_cells as u64;
         let boundary = (4 + 32) * p.n_boundary as u64;
-        vectors + segments + cut + rim + boundary
+        vectors + segments + cut + cells + boundary
     }
 
     /// Records `y = A x`: `q1_cells`, then `q1_nodes`.
@@ -279,17 +274,15 @@ impl Q1Device {
                     whole(x),
                     whole(&self.z),
                 ],
-                grid_2d(p.n_cut, APPLY_WG, be.max_dim()),
+                grid_2d(p.n_cells, APPLY_WG, be.max_dim()),
             ),
             Q1Kernel::Nodes => (
                 Kernel::Q1Nodes,
                 vec![
                     whole(&self.stencil),
-                    whole(&self.inside),
                     whole(&self.segments),
                     whole(&self.boundary),
                     whole(&self.links),
-                    whole(&self.cell_nodes),
                     whole(&self.z),
                     whole(x),
                     whole(y),

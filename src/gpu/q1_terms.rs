@@ -177,11 +177,11 @@ fn cell_gather() -> String {
 }
 
 /// The body of [`form_product`], then the masses of [`mass_product`]
-/// (the form's scalar mass, and the partial-mask penalty's where the cell
-/// has one).
+/// (the form's scalar mass for the cut cells, and the partial-mask
+/// penalty's where a cut cell has one).
 fn cell_terms() -> String {
     let mut s = String::new();
-    let t = |k: usize| format!("k_cells[c + {k}u * step]");
+    let t = |k: usize| format!("k_cells[base + {k}u * step]");
     for e in 0..3 {
         for j in 0..3 {
             for beta in 0..4 {
@@ -219,13 +219,14 @@ fn cell_terms() -> String {
         }
         s += "    }\n";
     }
+    s += "    if (c < prm.n_cut) {\n";
     s += &mass_terms(&|_, k| t(MASS + k), &[0, 1, 2]);
-    s += "    let pc = partial_of[c];\n    if (pc != NO_PARTIAL) {\n";
-    s += "        let pb = partial_base + PARTIAL_LEN * pc;\n";
+    s += "        let pc = partial_of[c];\n        if (pc != NO_PARTIAL) {\n";
+    s += "            let pb = partial_base + PARTIAL_LEN * pc;\n";
     for i in 0..3 {
         s += &mass_terms(&|i, k| format!("k_cells[pb + {}u]", 36 * i + k), &[i]);
     }
-    s += "    }\n";
+    s += "        }\n    }\n";
     s
 }
 
