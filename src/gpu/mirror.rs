@@ -331,12 +331,10 @@ pub fn q1_cells(
         let mut zc = [0.0; 24];
         form_product(t, lame, &u, &mut zc);
         if c < n_cut {
-            mass_product(|_, k| t(MASS + k), &[0, 1, 2], &u, &mut zc);
+            mass_product(|_, k| t(MASS + k), &u, &mut zc);
             if partial_of[c] != NO_PARTIAL {
                 let pb = partial_base + PARTIAL_LEN * partial_of[c] as usize;
-                for i in 0..3 {
-                    mass_product(|i, k| k_cells[pb + 36 * i + k], &[i], &u, &mut zc);
-                }
+                mass_product(|i, k| k_cells[pb + 36 * i + k], &u, &mut zc);
             }
         }
         z[24 * c..24 * c + 24].copy_from_slice(&zc);

@@ -104,15 +104,11 @@ pub fn form_product(
     }
 }
 
-/// `z_{a,i} += Σ_b m_i(a, b) u_{b,i}` for the packed symmetric 8 × 8 masses
-/// `m(i, k)` of the components `comps`, in the order of [`cell_terms`].
-pub fn mass_product(
-    m: impl Fn(usize, usize) -> f64,
-    comps: &[usize],
-    u: &[f64; 24],
-    z: &mut [f64; 24],
-) {
-    for &i in comps {
+/// `z_{a,i} += Σ_b m(i, k_ab) u_{b,i}` for the three components' packed
+/// symmetric 8 × 8 masses, entry `k` of component `i`'s `m(i, k)`, in the
+/// order of [`cell_terms`].
+pub fn mass_product(m: impl Fn(usize, usize) -> f64, u: &[f64; 24], z: &mut [f64; 24]) {
+    for i in 0..3 {
         for a in 0..8 {
             for b in a..8 {
                 let k = m(i, sym(8, a, b));
@@ -220,20 +216,18 @@ fn cell_terms() -> String {
         s += "    }\n";
     }
     s += "    if (c < prm.n_cut) {\n";
-    s += &mass_terms(&|_, k| t(MASS + k), &[0, 1, 2]);
+    s += &mass_terms(&|_, k| t(MASS + k));
     s += "        let pc = partial_of[c];\n        if (pc != NO_PARTIAL) {\n";
     s += "            let pb = partial_base + PARTIAL_LEN * pc;\n";
-    for i in 0..3 {
-        s += &mass_terms(&|i, k| format!("k_cells[pb + {}u]", 36 * i + k), &[i]);
-    }
+    s += &mass_terms(&|i, k| format!("k_cells[pb + {}u]", 36 * i + k));
     s += "        }\n    }\n";
     s
 }
 
 /// The WGSL of [`mass_product`], `m(i, k)` the expression of a mass entry.
-fn mass_terms(m: &dyn Fn(usize, usize) -> String, comps: &[usize]) -> String {
+fn mass_terms(m: &dyn Fn(usize, usize) -> String) -> String {
     let mut s = String::new();
-    for &i in comps {
+    for i in 0..3 {
         for a in 0..8 {
             for b in a..8 {
                 s += &format!("        {{ let k = {};", m(i, sym(8, a, b)));
