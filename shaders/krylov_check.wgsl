@@ -3,7 +3,7 @@
 // ‖r‖² = scal[num] ≤ scal[tol2]; with early = 1 (BiCGStab's half step, ‖s‖²)
 // count it only when it marks done. A non-finite ‖r‖² is the host's to catch
 // when it reads the slots back (drivers may compile NaN/∞ tests away).
-// CPU mirror: `cgfem_gpu::gpu::mirror::krylov_check` (same name, same binding order).
+// CPU mirror: `cgfem_gpu::gpu::mirror_krylov::krylov_check` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
 

@@ -10,6 +10,9 @@
 // - else: boundary nodes (g − n_segments) SEG + t, each the sum of its 8
 //   cells' triples in z (a missing cell links to a zero triple).
 // Each invocation writes only its own node: no atomics.
+// With dot = 1 the workgroup also sums x · y over its nodes (each thread its
+// node's three products, then a fixed tree) into partials[g], for CG's
+// p · Ap (`cg_update` reduces the partials; src/gpu/device_krylov.rs).
 // CPU mirror: `cgfem_gpu::gpu::mirror::q1_nodes` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
@@ -17,7 +20,7 @@ alias real = f64;
 // Keep in sync with `Q1Params` in src/gpu/kernels.rs.
 struct Q1Params {
     n_segments: u32, n_boundary: u32, n_cut: u32, n_cells: u32,
-    stride: u32, pad0: u32, pad1: u32, pad2: u32,
+    stride: u32, dot: u32, pad1: u32, pad2: u32,
 }
 // Keep in sync with `SEG`, `SEGMENT_WORDS` in src/gpu/q1_terms.rs.
 const SEG: u32 = 64u;
@@ -31,16 +34,20 @@ const SEGMENT_WORDS: u32 = 12u;
 @group(0) @binding(5) var<storage, read> z: array<real>;
 @group(0) @binding(6) var<storage, read> x: array<real>;
 @group(0) @binding(7) var<storage, read_write> y: array<real>;
+@group(0) @binding(8) var<storage, read_write> partials: array<real>;
+
+var<workgroup> sh: array<real, 64>;
 
 fn st(k: u32) -> real {
     return stencil[k / 4u][k % 4u];
 }
 
-fn interior(g: u32, t: u32) {
+// Both node functions return x · y at their node (0 for no node).
+fn interior(g: u32, t: u32) -> real {
     let s = SEGMENT_WORDS * g;
     let start = segments[s];
     let len = segments[s + 1u];
-    if (t >= len) { return; }
+    if (t >= len) { return 0.0; }
     // @bases
     var y0: real = 0.0;
     var y1: real = 0.0;
@@ -50,25 +57,42 @@ fn interior(g: u32, t: u32) {
     y[3u * a] = y0;
     y[3u * a + 1u] = y1;
     y[3u * a + 2u] = y2;
+    return x[3u * a] * y0 + x[3u * a + 1u] * y1 + x[3u * a + 2u] * y2;
 }
 
-fn boundary_node(b: u32) {
-    if (b >= prm.n_boundary) { return; }
+fn boundary_node(b: u32) -> real {
+    if (b >= prm.n_boundary) { return 0.0; }
     var acc = array<real, 3>(0.0, 0.0, 0.0);
     for (var cc = 0u; cc < 8u; cc++) {
         let o = links[8u * b + cc];
         for (var i = 0u; i < 3u; i++) { acc[i] += z[o + i]; }
     }
     let a = boundary[b];
-    for (var i = 0u; i < 3u; i++) { y[3u * a + i] = acc[i]; }
+    var c: real = 0.0;
+    for (var i = 0u; i < 3u; i++) {
+        y[3u * a + i] = acc[i];
+        c += x[3u * a + i] * acc[i];
+    }
+    return c;
 }
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) t: u32) {
     let g = wid.x + wid.y * prm.stride;
+    var c: real = 0.0;
     if (g < prm.n_segments) {
-        interior(g, t);
+        c = interior(g, t);
     } else {
-        boundary_node((g - prm.n_segments) * SEG + t);
+        c = boundary_node((g - prm.n_segments) * SEG + t);
+    }
+    if (prm.dot == 1u) {
+        sh[t] = c;
+        workgroupBarrier();
+        for (var k = SEG / 2u; k > 0u; k = k / 2u) {
+            if (t < k) { sh[t] = sh[t] + sh[t + k]; }
+            workgroupBarrier();
+        }
+        let groups = prm.n_segments + (prm.n_boundary + SEG - 1u) / SEG;
+        if (t == 0u && g < groups) { partials[g] = sh[0]; }
     }
 }

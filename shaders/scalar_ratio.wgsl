@@ -8,7 +8,7 @@
 // done, α = 0 and x, r stay put. With roll = 1 then scal[den] = scal[num]
 // (ρ ← ρ' after β = ρ'/ρ). With product = 1, q = scal[num] · scal[den]
 // instead, with no breakdown test (BiCGStab's β = (ρ/ρ_prev)(α/ω)).
-// CPU mirror: `cgfem_gpu::gpu::mirror::scalar_ratio` (same name, same binding order).
+// CPU mirror: `cgfem_gpu::gpu::mirror_krylov::scalar_ratio` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
 

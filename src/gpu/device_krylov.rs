@@ -23,8 +23,9 @@ use crate::solver::{breakdown, drive, Cycles, Precond};
 use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
 use super::backend::{GpuBackend, GpuVector};
-use super::kernels::{Kernel, ScalParams};
+use super::kernels::{reduction_groups, DirectionParams, Kernel, ScalParams, UpdateParams};
 use super::operator::GpuOperator;
+use super::q1_operator::Q1Device;
 
 /// Slots of the device scalars (next to the backend's host slots 0..4).
 const TOL2: u32 = 8;
@@ -42,6 +43,8 @@ const RR: u32 = 17;
 const RHO_NEXT: u32 = 18;
 /// `scalar_ratio` records a breakdown's (num, den, out) here.
 const BAD: u32 = 19;
+/// The fused CG iteration's breakdown flag (`cg_update` to `cg_direction`).
+const BROKE: u32 = 31;
 /// BiCGStab: ω and −ω; ρ/ρ_prev and α/ω (each with its negative); ‖s‖²,
 /// t·s and t·t.
 const OMEGA: u32 = 22;
@@ -52,16 +55,25 @@ const SS: u32 = 28;
 const TS: u32 = 29;
 const TT: u32 = 30;
 
-/// How often the host looks.
+/// How often the host looks, and how CG's iteration is recorded.
 #[derive(Clone, Copy, Debug)]
 pub struct DeviceOptions {
     /// Iterations per submit between read-backs of the residual.
     pub check_every: usize,
+    /// CG in four dispatches an iteration where the operator runs on the Q1
+    /// plan and the vectors fit one window: `q1_cells`, `q1_nodes` with
+    /// `p · Ap`'s partials, `cg_update` taking α from them, `cg_direction`
+    /// (the dots' second passes and the scalar kernels folded in). `false`
+    /// records the iteration kernel by kernel (the tests' reference).
+    pub fuse: bool,
 }
 
 impl Default for DeviceOptions {
     fn default() -> Self {
-        DeviceOptions { check_every: 8 }
+        DeviceOptions {
+            check_every: 8,
+            fuse: true,
+        }
     }
 }
 
@@ -85,6 +97,7 @@ pub fn solve_device(
             b_norm,
             opts,
             every: dev.check_every.max(1),
+            fuse: dev.fuse,
         })
     })
 }
@@ -116,6 +129,7 @@ pub fn run_iterations(
         b_norm,
         opts: &opts,
         every: iterations.max(1),
+        fuse: true,
     };
     let mut r = be.zeros(n);
     be.apply(op, x, &mut r);
@@ -136,6 +150,103 @@ fn describe(name: &str, v: f64, positive: Option<&str>) -> String {
     }
 }
 
+/// The device scalars of the fused CG iteration: ρ alternates between
+/// `rho[0]` (read at even iterations) and `rho[1]`; α and −α at `alpha`,
+/// `alpha + 1`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CgSlots {
+    pub tol2: u32,
+    pub done: u32,
+    pub iters: u32,
+    pub rho: [u32; 2],
+    pub alpha: u32,
+    pub beta: u32,
+    pub rr: u32,
+    pub bad: u32,
+    pub broke: u32,
+}
+
+/// The slots of [`solve_device`]'s CG.
+const CG_SLOTS: CgSlots = CgSlots {
+    tol2: TOL2,
+    done: DONE,
+    iters: ITERS,
+    rho: [RHO, RHO_NEXT],
+    alpha: ALPHA,
+    beta: BETA,
+    rr: RR,
+    bad: BAD,
+    broke: BROKE,
+};
+
+/// The params of iteration `k`'s `cg_update` and `cg_direction` over `n`
+/// entries with `terms` partials of `p · Ap` at the start of the partials
+/// and `cg_update`'s pairs after them.
+pub(super) fn fused_params(
+    s: &CgSlots,
+    k: usize,
+    n: usize,
+    terms: u32,
+    precond: bool,
+) -> (UpdateParams, DirectionParams) {
+    let (rho_old, rho_new) = (s.rho[k % 2], s.rho[(k + 1) % 2]);
+    let groups = reduction_groups(n as u32);
+    let step = UpdateParams {
+        n: n as u32,
+        groups,
+        ia: s.alpha,
+        ib: s.alpha + 1,
+        precond: u32::from(precond),
+        terms,
+        rho: rho_old,
+        done: s.done,
+        bad: s.bad,
+        broke: s.broke,
+        base: terms,
+        ..Default::default()
+    };
+    let direction = DirectionParams {
+        n: n as u32,
+        groups,
+        terms: groups,
+        base: terms,
+        rr: s.rr,
+        rho_old,
+        rho_new,
+        beta: s.beta,
+        done: s.done,
+        iters: s.iters,
+        tol2: s.tol2,
+        bad: s.bad,
+        broke: s.broke,
+        ..Default::default()
+    };
+    (step, direction)
+}
+
+/// Records CG's iteration `k` in four dispatches: `q1_cells`, `q1_nodes`
+/// with `p · Ap`'s partials, `cg_update` (α from them), `cg_direction`
+/// (`p = z + β p` and the check) over the `n` entries of the vectors; `z`
+/// is `d ∘ r` where `d` is given, else `r` stands in for it. `partials`
+/// holds `q1.node_groups()` and then twice `reduction_groups(n)` entries.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn record_fused_cg(
+    be: &GpuBackend,
+    enc: &mut wgpu::CommandEncoder,
+    q1: &Q1Device,
+    partials: &wgpu::Buffer,
+    slots: &CgSlots,
+    (k, n): (usize, usize),
+    [p, q, x, r, z]: [&wgpu::Buffer; 5],
+    d: Option<&wgpu::Buffer>,
+) {
+    let (step, direction) = fused_params(slots, k, n, q1.node_groups(), d.is_some());
+    q1.record_dot(be, enc, p, q, partials);
+    be.record_cg_step(enc, n, [p, q, x, r, z], d, step, partials);
+    let zr = if d.is_some() { z } else { r };
+    be.record_cg_direction(enc, n, direction, partials, [zr, p]);
+}
+
 /// What one cycle needs.
 struct Cycle<'a, 'o> {
     be: &'a GpuBackend,
@@ -145,6 +256,7 @@ struct Cycle<'a, 'o> {
     b_norm: f64,
     opts: &'a KrylovOptions,
     every: usize,
+    fuse: bool,
 }
 
 /// The params of `scalar_ratio` / `krylov_check`; `positive` for CG.
@@ -231,6 +343,7 @@ impl Cycle<'_, '_> {
         let tol2 = (self.opts.rel_tol * self.b_norm).powi(2);
         be.write_slots(TOL2, &[tol2, 0.0, 0.0]);
         be.write_slots(BETA, &[0.0, 0.0]);
+        be.write_slots(BROKE, &[0.0]);
         let z = self.pre.scratch(be, n);
         let (p, q, v) = (be.zeros(n), be.zeros(n), be.zeros(n));
         let method = self.opts.method;
@@ -257,13 +370,21 @@ impl Cycle<'_, '_> {
             be.record_dot(&mut enc, n, &[&r.buf, zr], RHO);
         }
         be.submit(enc);
+        let fused = self.fused(method);
         let start = stats.iterations;
+        let mut k = 0;
         loop {
             let left = self.opts.max_iterations - stats.iterations;
             let mut enc = be.encoder();
             for _ in 0..self.every.min(left) {
                 match method {
-                    KrylovMethod::Cg => self.cg_iteration(&mut enc, x, r, [&p, &q, &z]),
+                    KrylovMethod::Cg => match &fused {
+                        Some((q1, partials)) => {
+                            let vecs = [&p, &q, &z];
+                            self.cg_fused_iteration(&mut enc, (q1, partials), k, x, r, vecs);
+                        }
+                        None => self.cg_iteration(&mut enc, x, r, [&p, &q, &z]),
+                    },
                     KrylovMethod::Cgs => {
                         self.cgs_iteration(&mut enc, x, r, [&rt, &u, &p, &q, &v, &z])
                     }
@@ -271,6 +392,7 @@ impl Cycle<'_, '_> {
                         self.bicgstab_iteration(&mut enc, x, r, [&rt, &p, &v, &q, &z, &u])
                     }
                 }
+                k += 1;
             }
             be.submit(enc);
             // One read-back per batch: DONE, ITERS … RR.
@@ -331,6 +453,34 @@ impl Cycle<'_, '_> {
             scal_params(RHO_NEXT, RHO, BETA, true, true),
         );
         be.record_vec(enc, Kernel::Xpay, n, (BETA, 0), &[&be.scal, zr, &p.buf]);
+    }
+
+    /// The Q1 plan and the partials of the fused CG iteration (the plan's
+    /// `q1_nodes` partials, then `cg_update`'s pairs), where CG runs fused.
+    fn fused(&self, method: KrylovMethod) -> Option<(&Q1Device, GpuVector)> {
+        let q1 = self.op.q1()?;
+        let fits = self.n > 0 && self.n <= self.be.vector_window();
+        if !(self.fuse && fits && method == KrylovMethod::Cg) {
+            return None;
+        }
+        let len = q1.node_groups() + 2 * reduction_groups(self.n as u32);
+        Some((q1, self.be.zeros(len as usize)))
+    }
+
+    /// One CG iteration in four dispatches ([`DeviceOptions::fuse`]).
+    fn cg_fused_iteration(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        (q1, partials): (&Q1Device, &GpuVector),
+        k: usize,
+        x: &GpuVector,
+        r: &GpuVector,
+        [p, q, z]: [&GpuVector; 3],
+    ) {
+        let d = self.pre.inverse_diagonal().map(|inv| &inv.buf);
+        let bufs = [&p.buf, &q.buf, &x.buf, &r.buf, &z.buf];
+        let kn = (k, self.n);
+        record_fused_cg(self.be, enc, q1, &partials.buf, &CG_SLOTS, kn, bufs, d);
     }
 
     /// One CGS iteration (see `crate::solver` for the formulas).

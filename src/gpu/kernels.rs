@@ -80,7 +80,11 @@ pub struct ApplyParams {
 }
 
 /// Params of `cg_update`: `n` entries in `groups` workgroups, the slots of
-/// α and −α, and `precond` (1: `z = d ∘ r`; 0: no preconditioner).
+/// α and −α, `precond` (1: `z = d ∘ r`; 0: no preconditioner), and where its
+/// partials go (`base`). With `terms > 0` the kernel takes α itself from
+/// the `terms` partials of `p · Ap` at the buffer's start and ρ in slot
+/// `rho` (and writes it to `ia`, `ib`); the slots `done`, `bad` and `broke`
+/// are then those of [`ScalParams`] and the breakdown flag.
 /// Keep in sync with `UpdateParams` in cg_update.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -90,14 +94,45 @@ pub struct UpdateParams {
     pub ia: u32,
     pub ib: u32,
     pub precond: u32,
+    pub terms: u32,
+    pub rho: u32,
+    pub done: u32,
+    pub bad: u32,
+    pub broke: u32,
+    pub base: u32,
+    pub pad0: u32,
+}
+
+/// Params of `cg_direction`: `n` entries in `groups` workgroups; the
+/// `terms` pairs of partials `(r · r, r · z)` from `base`; the slots of
+/// `‖r‖²` (written), ρ (read) and ρ' (written), β, and those of the check
+/// ([`ScalParams`]) with the breakdown flag `broke`.
+/// Keep in sync with `DirectionParams` in cg_direction.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DirectionParams {
+    pub n: u32,
+    pub groups: u32,
+    pub terms: u32,
+    pub base: u32,
+    pub rr: u32,
+    pub rho_old: u32,
+    pub rho_new: u32,
+    pub beta: u32,
+    pub done: u32,
+    pub iters: u32,
+    pub tol2: u32,
+    pub bad: u32,
+    pub broke: u32,
     pub pad0: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
 
 /// Params of `q1_cells` and `q1_nodes`: interior segments, boundary nodes,
-/// cut cells, cut + rim cells, and the 2D row stride (in workgroups for
-/// `q1_nodes`, invocations for `q1_cells`).
+/// cut cells, cut + rim cells, the 2D row stride (in workgroups for
+/// `q1_nodes`, invocations for `q1_cells`), and `dot` (1: `q1_nodes` also
+/// writes each workgroup's `x · y` to its partials).
 /// Keep in sync with `Q1Params` in q1_cells.wgsl, q1_nodes.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -107,7 +142,7 @@ pub struct Q1Params {
     pub n_cut: u32,
     pub n_cells: u32,
     pub stride: u32,
-    pub pad0: u32,
+    pub dot: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -162,6 +197,7 @@ pub enum Kernel {
     CgsUpdateQu,
     BicgstabUpdateP,
     CgUpdate,
+    CgDirection,
     Dot,
     Dot2,
     Reduce,
@@ -180,7 +216,7 @@ pub enum Kernel {
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 24] = [
+    pub const ALL: [Kernel; 25] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -191,6 +227,7 @@ impl Kernel {
         Kernel::CgsUpdateQu,
         Kernel::BicgstabUpdateP,
         Kernel::CgUpdate,
+        Kernel::CgDirection,
         Kernel::Dot,
         Kernel::Dot2,
         Kernel::Reduce,
@@ -220,6 +257,7 @@ impl Kernel {
             Kernel::CgsUpdateQu => "cgs_update_qu",
             Kernel::BicgstabUpdateP => "bicgstab_update_p",
             Kernel::CgUpdate => "cg_update",
+            Kernel::CgDirection => "cg_direction",
             Kernel::Dot => "dot",
             Kernel::Dot2 => "dot2",
             Kernel::Reduce => "reduce",
@@ -266,6 +304,7 @@ impl Kernel {
             Kernel::CgsUpdateQu => include_str!("../../shaders/cgs_update_qu.wgsl"),
             Kernel::BicgstabUpdateP => include_str!("../../shaders/bicgstab_update_p.wgsl"),
             Kernel::CgUpdate => include_str!("../../shaders/cg_update.wgsl"),
+            Kernel::CgDirection => include_str!("../../shaders/cg_direction.wgsl"),
             Kernel::Dot => include_str!("../../shaders/dot.wgsl"),
             Kernel::Dot2 => include_str!("../../shaders/dot2.wgsl"),
             Kernel::Reduce => include_str!("../../shaders/reduce.wgsl"),

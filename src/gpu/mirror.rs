@@ -6,10 +6,10 @@
 // Index loops, not slice methods, to read like the shaders.
 #![allow(clippy::manual_memcpy)]
 
-use super::kernels::{ApplyParams, Q1Params, RedParams, ScalParams, UpdateParams, VecParams};
+use super::kernels::{ApplyParams, Q1Params, RedParams, VecParams};
 use super::kernels::{PER, WG};
 use super::q1_terms::{
-    form_product, mass_product, stencil_terms, NO_PARTIAL, PARTIAL_LEN, SEGMENT_WORDS,
+    form_product, mass_product, stencil_terms, NO_PARTIAL, PARTIAL_LEN, SEG, SEGMENT_WORDS,
 };
 use crate::fem::operator::{INSIDE, OUTSIDE};
 use crate::fem::q1_forms::{FORM_LEN, MASS};
@@ -91,15 +91,8 @@ pub fn bicgstab_update_p(prm: &VecParams, scal: &[f64], r: &[f64], v: &[f64], p:
 
 /// The workgroup's fixed binary tree: `sh[t] += sh[t + k]` for
 /// `k = WG/2, WG/4, …, 1`; the sum lands in `sh[0]`.
-fn tree(sh: &mut [f64]) -> f64 {
-    let mut k = WG as usize / 2;
-    while k > 0 {
-        for t in 0..k {
-            sh[t] += sh[t + k];
-        }
-        k /= 2;
-    }
-    sh[0]
+pub(super) fn tree(sh: &mut [f64]) -> f64 {
+    tree_of(&mut sh[..WG as usize])
 }
 
 /// First pass of `x · y` over one window: `partials[base + g]` for each of its
@@ -142,49 +135,6 @@ pub fn dot2(prm: &RedParams, x: &[f64], y: &[f64], z: &[f64], partials: &mut [f6
         }
         partials[base + g] = tree(&mut sy);
         partials[prm.total as usize + base + g] = tree(&mut sz);
-    }
-}
-
-/// CG's step and the first pass of its dots: `x += α p`, `r += (−α) q`,
-/// `z = d ∘ r` (when `precond`; else `z` is `r`), then `(r · r, r · z)`
-/// per workgroup like [`dot2`]: `partials[g]`, `partials[groups + g]`.
-#[allow(clippy::too_many_arguments)]
-pub fn cg_update(
-    prm: &UpdateParams,
-    scal: &[f64],
-    p: &[f64],
-    q: &[f64],
-    d: &[f64],
-    x: &mut [f64],
-    r: &mut [f64],
-    z: &mut [f64],
-    partials: &mut [f64],
-) {
-    let (wg, per, groups) = (WG as usize, PER as usize, prm.groups as usize);
-    let (alpha, nalpha) = (scal[prm.ia as usize], scal[prm.ib as usize]);
-    let (mut sy, mut sz) = (vec![0.0; wg], vec![0.0; wg]);
-    for g in 0..groups {
-        for t in 0..wg {
-            let (mut a, mut b) = (0.0, 0.0);
-            for j in 0..per {
-                let i = g * wg * per + j * wg + t;
-                if i < prm.n as usize {
-                    x[i] += alpha * p[i];
-                    let ri = r[i] + nalpha * q[i];
-                    r[i] = ri;
-                    let mut zi = ri;
-                    if prm.precond == 1 {
-                        zi = d[i] * ri;
-                        z[i] = zi;
-                    }
-                    a += ri * ri;
-                    b += ri * zi;
-                }
-            }
-            (sy[t], sz[t]) = (a, b);
-        }
-        partials[g] = tree(&mut sy);
-        partials[groups + g] = tree(&mut sz);
     }
 }
 
@@ -343,7 +293,9 @@ pub fn q1_cells(
 
 /// `y = A x` at every active node from the interior stencil (`stencil`, the
 /// uniform's values) over each segment's neighbour rows, and for the
-/// boundary nodes the sum of their 8 linked triples of `z`.
+/// boundary nodes the sum of their 8 linked triples of `z`. With `dot`,
+/// `partials[g]` is workgroup `g`'s `x · y` (the tree over its [`SEG`]
+/// threads).
 #[allow(clippy::too_many_arguments)]
 pub fn q1_nodes(
     prm: &Q1Params,
@@ -354,79 +306,69 @@ pub fn q1_nodes(
     z: &[f64],
     x: &[f64],
     y: &mut [f64],
+    partials: &mut [f64],
 ) {
     let terms = stencil_terms();
+    let seg = SEG;
+    let mut sh = vec![0.0; seg];
     for g in 0..prm.n_segments as usize {
         let s = &segments[SEGMENT_WORDS * g..SEGMENT_WORDS * (g + 1)];
         let (start, len) = (s[0] as usize, s[1] as usize);
+        sh.fill(0.0);
         for t in 0..len {
             let mut acc = [0.0; 3];
             for term in &terms {
                 let b = s[2 + term.r] as usize + t;
                 acc[term.i] += stencil[term.k] * x[3 * (b + term.shift) + term.j];
             }
+            let a = start + t;
             for i in 0..3 {
-                y[3 * (start + t) + i] = acc[i];
+                y[3 * a + i] = acc[i];
             }
+            sh[t] = x[3 * a] * acc[0] + x[3 * a + 1] * acc[1] + x[3 * a + 2] * acc[2];
+        }
+        if prm.dot == 1 {
+            partials[g] = tree_of(&mut sh);
         }
     }
-    for b in 0..prm.n_boundary as usize {
-        let mut acc = [0.0; 3];
-        for cc in 0..8 {
-            let o = links[8 * b + cc] as usize;
-            for i in 0..3 {
-                acc[i] += z[o + i];
-            }
+    let n_boundary = prm.n_boundary as usize;
+    for (k, g) in (prm.n_segments as usize..).enumerate() {
+        if k * seg >= n_boundary {
+            break;
         }
-        let a = boundary[b] as usize;
-        for i in 0..3 {
-            y[3 * a + i] = acc[i];
+        sh.fill(0.0);
+        for t in 0..seg.min(n_boundary - k * seg) {
+            let b = k * seg + t;
+            let mut acc = [0.0; 3];
+            for cc in 0..8 {
+                let o = links[8 * b + cc] as usize;
+                for i in 0..3 {
+                    acc[i] += z[o + i];
+                }
+            }
+            let a = boundary[b] as usize;
+            let mut c = 0.0;
+            for i in 0..3 {
+                y[3 * a + i] = acc[i];
+                c += x[3 * a + i] * acc[i];
+            }
+            sh[t] = c;
+        }
+        if prm.dot == 1 {
+            partials[g] = tree_of(&mut sh);
         }
     }
 }
 
-/// Unless done: `q = scal[num] / scal[den]`; a breakdown (a zero num or den, or
-/// with `positive` a `num` or `den` not `> 0`) sets done = 2, q = 0 and
-/// `scal[bad..bad + 3] = (num, den, out)`. Then `scal[out] = q`,
-/// `scal[out + 1] = −q` (0 once done); with `roll`, `scal[den] = scal[num]`.
-/// With `product`, `q = scal[num] · scal[den]` and no breakdown test.
-pub fn scalar_ratio(prm: &ScalParams, scal: &mut [f64]) {
-    let mut q = 0.0;
-    if scal[prm.done as usize] == 0.0 {
-        let (num, den) = (scal[prm.num as usize], scal[prm.den as usize]);
-        let broken = if prm.positive != 0 {
-            !(num > 0.0 && den > 0.0)
-        } else {
-            num == 0.0 || den == 0.0
-        };
-        if prm.product != 0 {
-            q = num * den;
-        } else if broken {
-            scal[prm.done as usize] = 2.0;
-            let bad = prm.bad as usize;
-            scal[bad..bad + 3].copy_from_slice(&[num, den, prm.out as f64]);
-        } else {
-            q = num / den;
+/// The fixed binary tree of a workgroup of `sh.len()` threads (a power of
+/// two): `sh[t] += sh[t + k]` for `k = len/2, …, 1`.
+fn tree_of(sh: &mut [f64]) -> f64 {
+    let mut k = sh.len() / 2;
+    while k > 0 {
+        for t in 0..k {
+            sh[t] += sh[t + k];
         }
+        k /= 2;
     }
-    scal[prm.out as usize] = q;
-    scal[prm.out as usize + 1] = -q;
-    if prm.roll != 0 {
-        scal[prm.den as usize] = scal[prm.num as usize];
-    }
-}
-
-/// Unless done: count the iteration (with `early`, only when it is the
-/// last); done = 1 when `scal[num] ≤ scal[tol2]`.
-pub fn krylov_check(prm: &ScalParams, scal: &mut [f64]) {
-    if scal[prm.done as usize] != 0.0 {
-        return;
-    }
-    let met = scal[prm.num as usize] <= scal[prm.tol2 as usize];
-    if prm.early == 0 || met {
-        scal[prm.iters as usize] += 1.0;
-    }
-    if met {
-        scal[prm.done as usize] = 1.0;
-    }
+    sh[0]
 }

@@ -1,8 +1,8 @@
 //! The GPU backend on wgpu/WGSL: adapter selection and the device
 //! ([`context`]), the kernels of `shaders/` ([`kernels`]) and their CPU mirrors
-//! ([`mirror`]), the [`crate::backend::Backend`] implementation with the
+//! ([`mirror`]; the device-scalar Krylov kernels' in [`mirror_krylov`]), the [`crate::backend::Backend`] implementation with the
 //! operator resident on the device ([`backend`], [`operator`]), the
-//! device-scalar CG/CGS ([`device_krylov`]), the multigrid V-cycle
+//! device-scalar CG/CGS/BiCGStab and the fused CG iteration ([`device_krylov`]), the multigrid V-cycle
 //! ([`multigrid`], its kernels' mirrors in [`mirror_multigrid`]), f32 inner solves inside f64 defect
 //! correction ([`defect`]), the linear solver the fixed-point loop calls
 //! ([`linear`]), and the windows that bind arrays larger than one storage
@@ -15,6 +15,9 @@ pub mod device_krylov;
 pub mod kernels;
 pub mod linear;
 pub mod mirror;
+pub mod mirror_krylov;
+#[cfg(test)]
+mod mirror_krylov_tests;
 pub mod mirror_multigrid;
 pub mod multigrid;
 #[cfg(test)]

@@ -42,7 +42,7 @@ impl GpuBackend {
     /// that the last `Cells` left).
     pub fn apply_q1_kernel(&self, q1: &Q1Device, kernel: Q1Kernel, x: &GpuVector, y: &GpuVector) {
         let mut enc = self.encoder();
-        q1.record_kernel(self, &mut enc, kernel, &x.buf, &y.buf);
+        q1.record_kernel(self, &mut enc, kernel, &x.buf, &y.buf, None);
         self.submit(enc);
     }
 }
@@ -250,11 +250,32 @@ impl Q1Device {
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
     ) {
-        self.record_kernel(be, enc, Q1Kernel::Cells, x, y);
-        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y);
+        self.record_kernel(be, enc, Q1Kernel::Cells, x, y, None);
+        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y, None);
     }
 
-    /// Records one of the plan's kernels.
+    /// Workgroups of `q1_nodes`: one per segment, then one per [`SEG`]
+    /// boundary nodes (the number of partials of [`Q1Device::record_dot`]).
+    pub fn node_groups(&self) -> u32 {
+        self.params.n_segments + self.params.n_boundary.div_ceil(SEG as u32)
+    }
+
+    /// Records `y = A x` as [`Q1Device::record`] does, and `x · y`'s
+    /// per-workgroup sums in `partials[..node_groups()]` (CG's `p · Ap`).
+    pub(super) fn record_dot(
+        &self,
+        be: &GpuBackend,
+        enc: &mut wgpu::CommandEncoder,
+        x: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+        partials: &wgpu::Buffer,
+    ) {
+        self.record_kernel(be, enc, Q1Kernel::Cells, x, y, None);
+        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y, Some(partials));
+    }
+
+    /// Records one of the plan's kernels; `q1_nodes` writes its partials of
+    /// `x · y` to `dot` where given.
     fn record_kernel(
         &self,
         be: &GpuBackend,
@@ -262,8 +283,11 @@ impl Q1Device {
         kernel: Q1Kernel,
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
+        dot: Option<&wgpu::Buffer>,
     ) {
         let p = self.params;
+        // Not written without `dot`: the backend's partials stand in.
+        let spare = be.partials(1);
         let (id, binds, (gx, gy, stride)) = match kernel {
             Q1Kernel::Cells => (
                 Kernel::Q1Cells,
@@ -286,16 +310,16 @@ impl Q1Device {
                     whole(&self.z),
                     whole(x),
                     whole(y),
+                    whole(dot.unwrap_or(&spare)),
                 ],
-                // One workgroup per segment, then per SEG boundary nodes.
-                grid_2d(
-                    p.n_segments + p.n_boundary.div_ceil(SEG as u32),
-                    1,
-                    be.max_dim(),
-                ),
+                grid_2d(self.node_groups(), 1, be.max_dim()),
             ),
         };
-        let prm = Q1Params { stride, ..p };
+        let prm = Q1Params {
+            stride,
+            dot: u32::from(dot.is_some()),
+            ..p
+        };
         be.record(enc, id, bytemuck::bytes_of(&prm), &binds, (gx, gy));
     }
 }

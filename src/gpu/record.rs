@@ -9,7 +9,8 @@ use std::ops::Range;
 use wgpu::util::DeviceExt;
 
 use super::backend::{storage_usage, GpuBackend};
-use super::kernels::{grid_2d, reduction_groups, Kernel, RedParams, ScalParams, UpdateParams};
+use super::kernels::{grid_2d, reduction_groups, DirectionParams, Kernel, RedParams};
+use super::kernels::{ScalParams, UpdateParams};
 use super::kernels::{VecParams, WG};
 use super::windows::{vector_windows, REDUCTION_CHUNK};
 
@@ -94,7 +95,7 @@ impl GpuBackend {
     }
 
     /// Entries per vector window.
-    fn vector_window(&self) -> usize {
+    pub(super) fn vector_window(&self) -> usize {
         self.bindings.vector_window(self.ctx.precision.bytes())
     }
 
@@ -209,7 +210,7 @@ impl GpuBackend {
         );
     }
 
-    /// Records `cg_update` over `n` entries (`x += α p`, `r += (−α) q`,
+    /// Records `cg_update` over `n` entries (`x += α p`, `r −= α q`,
     /// `z = d ∘ r` where `d` is given; α, −α in slots `ia`, `ib`)
     /// and the reduction of `(r · r, r · z)` into slots `out`, `out + 1`:
     /// two dispatches for the four of the step taken apart. Returns `false`,
@@ -219,7 +220,7 @@ impl GpuBackend {
         &self,
         enc: &mut wgpu::CommandEncoder,
         n: usize,
-        [p, q, x, r, z]: [&wgpu::Buffer; 5],
+        bufs: [&wgpu::Buffer; 5],
         d: Option<&wgpu::Buffer>,
         (ia, ib): (u32, u32),
         out: u32,
@@ -230,15 +231,36 @@ impl GpuBackend {
         let groups = reduction_groups(n as u32);
         let partials = self.partials(2 * groups);
         let prm = UpdateParams {
-            n: n as u32,
-            groups,
             ia,
             ib,
-            precond: u32::from(d.is_some()),
             ..Default::default()
         };
-        // Without a preconditioner `d` is not read (the scalars stand in).
-        let d = d.unwrap_or(&self.scal);
+        self.record_cg_step(enc, n, bufs, d, prm, &partials);
+        self.record_reduce(enc, &partials, groups, 2, out);
+        true
+    }
+
+    /// Records one `cg_update` over `n` entries (one window) with `prm`'s
+    /// slots, `terms` and `base` (its `n`, `groups` and `precond` filled in
+    /// here), its partials in `partials`.
+    pub(super) fn record_cg_step(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        n: usize,
+        [p, q, x, r, z]: [&wgpu::Buffer; 5],
+        d: Option<&wgpu::Buffer>,
+        prm: UpdateParams,
+        partials: &wgpu::Buffer,
+    ) {
+        let groups = reduction_groups(n as u32);
+        let prm = UpdateParams {
+            n: n as u32,
+            groups,
+            precond: u32::from(d.is_some()),
+            ..prm
+        };
+        // Without a preconditioner `d` is not read (`p` stands in).
+        let d = d.unwrap_or(p);
         let (gx, gy, _) = grid_2d(groups, 1, self.max_dim());
         let binds = [
             whole(&self.scal),
@@ -248,21 +270,36 @@ impl GpuBackend {
             whole(x),
             whole(r),
             whole(z),
-            whole(&partials),
+            whole(partials),
         ];
-        self.record(
-            enc,
-            Kernel::CgUpdate,
-            bytemuck::bytes_of(&prm),
-            &binds,
-            (gx, gy),
-        );
-        self.record_reduce(enc, &partials, groups, 2, out);
-        true
+        let bytes = bytemuck::bytes_of(&prm);
+        self.record(enc, Kernel::CgUpdate, bytes, &binds, (gx, gy));
+    }
+
+    /// Records `cg_direction` over `n` entries (one window): `p = z + β p`
+    /// from the partials `cg_update` left in `partials`, and the check.
+    pub(super) fn record_cg_direction(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        n: usize,
+        prm: DirectionParams,
+        partials: &wgpu::Buffer,
+        [z, p]: [&wgpu::Buffer; 2],
+    ) {
+        let groups = reduction_groups(n as u32);
+        let prm = DirectionParams {
+            n: n as u32,
+            groups,
+            ..prm
+        };
+        let (gx, gy, _) = grid_2d(groups, 1, self.max_dim());
+        let binds = [whole(&self.scal), whole(partials), whole(z), whole(p)];
+        let bytes = bytemuck::bytes_of(&prm);
+        self.record(enc, Kernel::CgDirection, bytes, &binds, (gx, gy));
     }
 
     /// The partial-sums buffer, grown to at least `entries`.
-    fn partials(&self, entries: u32) -> wgpu::Buffer {
+    pub(super) fn partials(&self, entries: u32) -> wgpu::Buffer {
         let bytes = entries as u64 * self.ctx.precision.bytes();
         let mut cache = self.partials.borrow_mut();
         match &*cache {

@@ -9,10 +9,12 @@ use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 use super::context::Precision;
 use super::kernels::{
-    grid_2d, reduction_groups, ApplyParams, GatherParams, Kernel, Q1Params, RedParams, ScalParams,
-    UpdateParams, VecParams, ALIAS_F64,
+    grid_2d, reduction_groups, ApplyParams, DirectionParams, GatherParams, Kernel, Q1Params,
+    RedParams, ScalParams, UpdateParams, VecParams, ALIAS_F64,
 };
 use super::mirror;
+use super::mirror_krylov;
+use super::q1_terms::SEG;
 use crate::hyper::mirror::HyperTangentParams;
 
 fn validate(kernel: Kernel, precision: Precision) -> naga::Module {
@@ -102,8 +104,41 @@ fn params_structs_match_their_wgsl_twins() {
         pad2
     );
     let q1 =
-        rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, pad0, pad1, pad2);
-    let update = rust_layout!(UpdateParams, n, groups, ia, ib, precond, pad0, pad1, pad2);
+        rust_layout!(Q1Params, n_segments, n_boundary, n_cut, n_cells, stride, dot, pad1, pad2);
+    let update = rust_layout!(
+        UpdateParams,
+        n,
+        groups,
+        ia,
+        ib,
+        precond,
+        terms,
+        rho,
+        done,
+        bad,
+        broke,
+        base,
+        pad0
+    );
+    let direction = rust_layout!(
+        DirectionParams,
+        n,
+        groups,
+        terms,
+        base,
+        rr,
+        rho_old,
+        rho_new,
+        beta,
+        done,
+        iters,
+        tol2,
+        bad,
+        broke,
+        pad0,
+        pad1,
+        pad2
+    );
     let gather = rust_layout!(GatherParams, n, stride, fx, fy, fz, cx, cy, cz);
     let hyper = rust_layout!(
         HyperTangentParams,
@@ -123,6 +158,7 @@ fn params_structs_match_their_wgsl_twins() {
             Kernel::Apply => ("ApplyParams", &apply),
             Kernel::Q1Cells | Kernel::Q1Nodes => ("Q1Params", &q1),
             Kernel::CgUpdate => ("UpdateParams", &update),
+            Kernel::CgDirection => ("DirectionParams", &direction),
             Kernel::BlockRows | Kernel::ProlongAdd | Kernel::Restrict | Kernel::DenseMatvec => {
                 ("GatherParams", &gather)
             }
@@ -244,7 +280,7 @@ fn cg_update_mirror_is_the_steps_it_fuses() {
         let v =
             |k: usize| -> Vec<f64> { (0..n).map(|i| ((i * k) % 13) as f64 / 7.0 - 0.9).collect() };
         let (p, q, d, x, r) = (v(3), v(5), v(7), v(11), v(2));
-        let scal = [0.375, -0.375];
+        let mut scal = [0.375, -0.375];
         let groups = reduction_groups(n as u32);
         for precond in [false, true] {
             let prm = UpdateParams {
@@ -257,8 +293,8 @@ fn cg_update_mirror_is_the_steps_it_fuses() {
             };
             let (mut fx, mut fr, mut fz) = (x.clone(), r.clone(), vec![0.0; n]);
             let mut fused = vec![0.0; 2 * groups as usize];
-            mirror::cg_update(
-                &prm, &scal, &p, &q, &d, &mut fx, &mut fr, &mut fz, &mut fused,
+            mirror_krylov::cg_update(
+                &prm, &mut scal, &p, &q, &d, &mut fx, &mut fr, &mut fz, &mut fused,
             );
             let vp = VecParams {
                 n: n as u32,
@@ -316,11 +352,32 @@ fn q1_mirrors_equal_the_host_operator() {
         mirror::q1_cells(p, &a.cell_nodes, &a.partial_of, &a.k_cells, &x, &mut z);
         let mut y = vec![f64::NAN; n];
         let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
-        mirror::q1_nodes(p, &a.stencil, segs, bnd, links, &z, &x, &mut y);
+        let groups = p.n_segments + p.n_boundary.div_ceil(SEG as u32);
+        let mut partials = vec![f64::NAN; groups as usize];
+        let dot = Q1Params { dot: 1, ..*p };
+        mirror::q1_nodes(
+            &dot,
+            &a.stencil,
+            segs,
+            bnd,
+            links,
+            &z,
+            &x,
+            &mut y,
+            &mut partials,
+        );
         let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, b) in y.iter().zip(&expected) {
             assert!((a - b).abs() <= 1e-12 * scale, "{name}: {a} vs {b}");
         }
+        // The partials of `x · y` sum to the dot product of the host's apply.
+        let want: f64 = x.iter().zip(&expected).map(|(a, b)| a * b).sum();
+        let mag: f64 = x.iter().zip(&expected).map(|(a, b)| (a * b).abs()).sum();
+        let got: f64 = partials.iter().sum();
+        assert!(
+            (got - want).abs() <= 1e-13 * mag,
+            "{name}: x·y {got} vs {want}"
+        );
     }
 }
 
@@ -338,11 +395,11 @@ fn scalar_kernels_compute_ratios_and_mark_done() {
         ..Default::default()
     };
     let mut s = vec![6.0, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
-    mirror::scalar_ratio(&prm, &mut s);
+    mirror_krylov::scalar_ratio(&prm, &mut s);
     assert_eq!(&s[..5], &[6.0, 6.0, 2.0, -2.0, 0.0]);
     s[1] = 0.0;
     s[0] = 1.0;
-    mirror::scalar_ratio(&prm, &mut s);
+    mirror_krylov::scalar_ratio(&prm, &mut s);
     assert_eq!((s[2], s[4]), (0.0, 2.0), "zero divisor: breakdown");
     assert_eq!(&s[7..], &[1.0, 0.0, 2.0], "recorded (num, den, out)");
     // CG: a negative p·Ap is a breakdown, a negative ratio otherwise is not.
@@ -353,13 +410,13 @@ fn scalar_kernels_compute_ratios_and_mark_done() {
         (positive, f64::NAN, 2.0),
     ] {
         let mut s = vec![1.0, den, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
-        mirror::scalar_ratio(&flags, &mut s);
+        mirror_krylov::scalar_ratio(&flags, &mut s);
         assert_eq!(s[4], done, "den {den}, positive {}", flags.positive);
     }
     let mut s = vec![0.5, 0.0, 0.0, 0.0, 0.0, 3.0, 1.0];
-    mirror::krylov_check(&prm, &mut s);
+    mirror_krylov::krylov_check(&prm, &mut s);
     assert_eq!((s[4], s[5]), (1.0, 4.0));
-    mirror::krylov_check(&prm, &mut s);
+    mirror_krylov::krylov_check(&prm, &mut s);
     assert_eq!(s[5], 4.0, "done: no more counting");
 }
 

@@ -16,7 +16,7 @@ use cgfem_gpu::driver::solve::solve_with;
 use cgfem_gpu::gpu::kernels::VecParams;
 use cgfem_gpu::gpu::kernels::{reduction_groups, ApplyParams, Kernel, RedParams, ScalParams};
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
-use cgfem_gpu::gpu::{context_or_skip, mirror, GpuBackend, GpuContext, GpuOperator};
+use cgfem_gpu::gpu::{context_or_skip, mirror, mirror_krylov, GpuBackend, GpuContext, GpuOperator};
 use cgfem_gpu::gpu::{Precision, PrecisionChoice};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -205,10 +205,10 @@ fn cg_update_matches_its_mirror(ctx: Arc<GpuContext>) {
             };
             let (mut ex, mut er, mut ez) = (x.clone(), r.clone(), vec![0.0; n]);
             let mut partials = vec![0.0; 2 * groups as usize];
-            let scal = [alpha, -alpha];
-            mirror::cg_update(
+            let mut scal = [alpha, -alpha];
+            mirror_krylov::cg_update(
                 &prm,
-                &scal,
+                &mut scal,
                 &p,
                 &q,
                 &d,
@@ -308,7 +308,7 @@ fn scalar_kernels_match_their_mirrors() {
         be.scalar_kernel(Kernel::ScalarRatio, &prm);
         let mut m = vec![0.0; 8];
         m.extend_from_slice(&want);
-        mirror::scalar_ratio(&prm, &mut m);
+        mirror_krylov::scalar_ratio(&prm, &mut m);
         let got = be.read_slots(8, 10);
         let what = format!("scalar_ratio {num}, {den} positive={positive} product={product}");
         assert_eq!(format!("{got:?}"), format!("{:?}", &m[8..]), "{what}");
@@ -319,7 +319,7 @@ fn scalar_kernels_match_their_mirrors() {
         be.scalar_kernel(Kernel::KrylovCheck, &check);
         let mut m = vec![0.0; 8];
         m.extend_from_slice(&want);
-        mirror::krylov_check(&check, &mut m);
+        mirror_krylov::krylov_check(&check, &mut m);
         let got = be.read_slots(8, 10);
         assert_eq!(
             format!("{got:?}"),
@@ -460,7 +460,10 @@ fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64],
     let z = as_device(ctx, z);
     let mut want = vec![0.0; n];
     let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
-    mirror::q1_nodes(&a.params, &stencil, segs, bnd, links, &z, x, &mut want);
+    let mut spare = [];
+    mirror::q1_nodes(
+        &a.params, &stencil, segs, bnd, links, &z, x, &mut want, &mut spare,
+    );
     assert_close("q1 apply", &y, &want, tol);
     let mut host = vec![0.0; n];
     op.apply(x, &mut host);
