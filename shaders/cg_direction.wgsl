@@ -1,8 +1,8 @@
 // cg_direction: the end of a fused CG iteration. Every workgroup reduces the
 // `terms` pairs of partials that `cg_update` left from `base` (‖r‖² from
 // partials[base ..], ρ' = r · z from partials[base + terms ..]; thread t sums
-// entries t, t + WG, … in order, then the fixed tree, so every workgroup
-// gets the same values), takes β = ρ' / ρ (ρ = scal[rho_old]; 0 unless both
+// entries t, t + WG, … in order, then the two-level sum of `dot`, so every
+// workgroup gets the same values), takes β = ρ' / ρ (ρ = scal[rho_old]; 0 unless both
 // are > 0) and sets p = z + β p over its WG · PER entries (z is r without a
 // preconditioner). Workgroup 0 then does what `krylov_check` and
 // `scalar_ratio` do on one invocation: scal[rr] = ‖r‖², scal[rho_new] = ρ',
@@ -39,11 +39,14 @@ fn sum_terms(t: u32, first: u32) -> real {
     }
     sh[t] = s;
     workgroupBarrier();
-    for (var k = WG / 2u; k > 0u; k = k / 2u) {
-        if (t < k) { sh[t] = sh[t] + sh[t + k]; }
-        workgroupBarrier();
+    if (t < 16u) {
+        var a: real = 0.0;
+        for (var j = 0u; j < 16u; j++) { a += sh[16u * t + j]; }
+        sh[16u * t] = a;
     }
-    let total = sh[0];
+    workgroupBarrier();
+    var total: real = 0.0;
+    for (var j = 0u; j < 16u; j++) { total += sh[16u * j]; }
     workgroupBarrier();
     return total;
 }

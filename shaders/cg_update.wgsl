@@ -7,8 +7,8 @@
 // α: with terms = 0, α = scal[ia] and −α = scal[ib]. With terms > 0 every
 // workgroup takes α itself (the fused CG iteration, no scalar kernel
 // between): σ = p · Ap from partials[0 .. terms) (thread t sums entries
-// t, t + WG, … in order, then the fixed tree, so every workgroup gets the
-// same σ), ρ = scal[rho], α = ρ / σ. Unless the solve is done
+// t, t + WG, … in order, then the two-level sum of `dot`, so every
+// workgroup gets the same σ), ρ = scal[rho], α = ρ / σ. Unless the solve is done
 // (scal[done] ≠ 0), a ρ or σ that is not > 0 is a breakdown: workgroup 0
 // records (ρ, σ, ia) at scal[bad..bad + 3] and sets scal[broke] = 1 (which
 // `cg_direction` turns into done = 2). Done or broken, x, r and z stay as
@@ -38,7 +38,8 @@ const PER: u32 = 8u;
 var<workgroup> sy: array<real, 256>;
 var<workgroup> sz: array<real, 256>;
 
-// Σ partials[0 .. terms) in the fixed order of the header, in sy[0].
+// Σ partials[0 .. terms) in the fixed order of the header (every thread
+// gets it).
 fn sum_terms(t: u32) -> real {
     var s: real = 0.0;
     for (var i = t; i < prm.terms; i += WG) {
@@ -46,11 +47,14 @@ fn sum_terms(t: u32) -> real {
     }
     sy[t] = s;
     workgroupBarrier();
-    for (var k = WG / 2u; k > 0u; k = k / 2u) {
-        if (t < k) { sy[t] = sy[t] + sy[t + k]; }
-        workgroupBarrier();
+    if (t < 16u) {
+        var a: real = 0.0;
+        for (var j = 0u; j < 16u; j++) { a += sy[16u * t + j]; }
+        sy[16u * t] = a;
     }
-    let total = sy[0];
+    workgroupBarrier();
+    var total: real = 0.0;
+    for (var j = 0u; j < 16u; j++) { total += sy[16u * j]; }
     workgroupBarrier();
     return total;
 }
@@ -113,15 +117,25 @@ fn main(
     sy[t] = a;
     sz[t] = b;
     workgroupBarrier();
-    for (var k = WG / 2u; k > 0u; k = k / 2u) {
-        if (t < k) {
-            sy[t] = sy[t] + sy[t + k];
-            sz[t] = sz[t] + sz[t + k];
+    if (t < 16u) {
+        var ay: real = 0.0;
+        var az: real = 0.0;
+        for (var j = 0u; j < 16u; j++) {
+            ay += sy[16u * t + j];
+            az += sz[16u * t + j];
         }
-        workgroupBarrier();
+        sy[16u * t] = ay;
+        sz[16u * t] = az;
     }
+    workgroupBarrier();
     if (t == 0u) {
-        partials[prm.base + group] = sy[0];
-        partials[prm.base + prm.groups + group] = sz[0];
+        var ay: real = 0.0;
+        var az: real = 0.0;
+        for (var j = 0u; j < 16u; j++) {
+            ay += sy[16u * j];
+            az += sz[16u * j];
+        }
+        partials[prm.base + group] = ay;
+        partials[prm.base + prm.groups + group] = az;
     }
 }

@@ -1,4 +1,4 @@
-// dot: first pass of x · y. Workgroup g owns the chunk [g·WG·PER, (g+1)·WG·PER); thread t sums entries t, t + WG, … of it in order, then a fixed binary tree over the threads gives partials[base + g]. `reduce` finishes. The tree depends on n only: reproducible.
+// dot: first pass of x · y. Workgroup g owns the chunk [g·WG·PER, (g+1)·WG·PER); thread t sums entries t, t + WG, … of it in order, then the fixed two-level sum over the threads (threads t < 16 add sh[16t .. 16t + 16) in order, thread 0 adds those 16 in order) gives partials[base + g]. `reduce` finishes. The order depends on n only: reproducible.
 // A vector beyond one binding runs in windows of whole chunks (src/gpu/windows.rs): x, y bound from the window's start, base = its first group, so the partials are those of one unsplit run.
 // CPU mirror: `cgfem_gpu::gpu::mirror::dot` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
@@ -31,9 +31,15 @@ fn main(
     }
     sh[t] = s;
     workgroupBarrier();
-    for (var k = WG / 2u; k > 0u; k = k / 2u) {
-        if (t < k) { sh[t] = sh[t] + sh[t + k]; }
-        workgroupBarrier();
+    if (t < 16u) {
+        var a: real = 0.0;
+        for (var j = 0u; j < 16u; j++) { a += sh[16u * t + j]; }
+        sh[16u * t] = a;
     }
-    if (t == 0u) { partials[prm.base + group] = sh[0]; }
+    workgroupBarrier();
+    if (t == 0u) {
+        var a: real = 0.0;
+        for (var j = 0u; j < 16u; j++) { a += sh[16u * j]; }
+        partials[prm.base + group] = a;
+    }
 }

@@ -37,15 +37,25 @@ fn main(
     sy[t] = a;
     sz[t] = b;
     workgroupBarrier();
-    for (var k = WG / 2u; k > 0u; k = k / 2u) {
-        if (t < k) {
-            sy[t] = sy[t] + sy[t + k];
-            sz[t] = sz[t] + sz[t + k];
+    if (t < 16u) {
+        var ay: real = 0.0;
+        var az: real = 0.0;
+        for (var j = 0u; j < 16u; j++) {
+            ay += sy[16u * t + j];
+            az += sz[16u * t + j];
         }
-        workgroupBarrier();
+        sy[16u * t] = ay;
+        sz[16u * t] = az;
     }
+    workgroupBarrier();
     if (t == 0u) {
-        partials[prm.base + group] = sy[0];
-        partials[prm.total + prm.base + group] = sz[0];
+        var ay: real = 0.0;
+        var az: real = 0.0;
+        for (var j = 0u; j < 16u; j++) {
+            ay += sy[16u * j];
+            az += sz[16u * j];
+        }
+        partials[prm.base + group] = ay;
+        partials[prm.total + prm.base + group] = az;
     }
 }

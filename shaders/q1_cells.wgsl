@@ -23,7 +23,7 @@ alias real = f64;
 // Keep in sync with `Q1Params` in src/gpu/kernels.rs.
 struct Q1Params {
     n_segments: u32, n_boundary: u32, n_cut: u32, n_cells: u32,
-    stride: u32, dot: u32, pad1: u32, pad2: u32,
+    stride: u32, pad0: u32, pad1: u32, pad2: u32,
 }
 // Keep in sync with `FORM_LEN` in src/fem/q1_forms.rs, `PARTIAL_LEN` and
 // `NO_PARTIAL` in src/gpu/q1_terms.rs.

@@ -10,9 +10,11 @@
 // - else: boundary nodes (g − n_segments) SEG + t, each the sum of its 8
 //   cells' triples in z (a missing cell links to a zero triple).
 // Each invocation writes only its own node: no atomics.
-// With dot = 1 the workgroup also sums x · y over its nodes (each thread its
-// node's three products, then a fixed tree) into partials[g], for CG's
-// p · Ap (`cg_update` reduces the partials; src/gpu/device_krylov.rs).
+// The dot variant (`Kernel::Q1NodesDot`, DOT = true) also sums x · y over
+// the workgroup's nodes into partials[g] (each thread its node's three
+// products, then thread 0 over the threads in order: one barrier), for CG's
+// p · Ap (`cg_update` reduces the partials; src/gpu/device_krylov.rs). The
+// plain kernel has no barrier (a barrier costs llvmpipe dearly).
 // CPU mirror: `cgfem_gpu::gpu::mirror::q1_nodes` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
@@ -20,11 +22,13 @@ alias real = f64;
 // Keep in sync with `Q1Params` in src/gpu/kernels.rs.
 struct Q1Params {
     n_segments: u32, n_boundary: u32, n_cut: u32, n_cells: u32,
-    stride: u32, dot: u32, pad1: u32, pad2: u32,
+    stride: u32, pad0: u32, pad1: u32, pad2: u32,
 }
 // Keep in sync with `SEG`, `SEGMENT_WORDS` in src/gpu/q1_terms.rs.
 const SEG: u32 = 64u;
 const SEGMENT_WORDS: u32 = 12u;
+// The dot variant swaps this line (src/gpu/kernels.rs, `DOT_LINE`).
+const DOT: bool = false;
 
 @group(0) @binding(0) var<uniform> prm: Q1Params;
 @group(0) @binding(1) var<uniform> stencil: array<vec4<real>, 61>;
@@ -85,14 +89,14 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     } else {
         c = boundary_node((g - prm.n_segments) * SEG + t);
     }
-    if (prm.dot == 1u) {
+    if (DOT) {
         sh[t] = c;
         workgroupBarrier();
-        for (var k = SEG / 2u; k > 0u; k = k / 2u) {
-            if (t < k) { sh[t] = sh[t] + sh[t + k]; }
-            workgroupBarrier();
-        }
         let groups = prm.n_segments + (prm.n_boundary + SEG - 1u) / SEG;
-        if (t == 0u && g < groups) { partials[g] = sh[0]; }
+        if (t == 0u && g < groups) {
+            var s: real = 0.0;
+            for (var k = 0u; k < SEG; k++) { s += sh[k]; }
+            partials[g] = s;
+        }
     }
 }

@@ -1,4 +1,4 @@
-// reduce: second pass of `dot`/`dot2`, one workgroup: for each of the `comps` components c, thread t sums partials[c·n + t + WG·j] over j in order, a fixed tree over the threads gives scal[out + c].
+// reduce: second pass of `dot`/`dot2`, one workgroup: for each of the `comps` components c, thread t sums partials[c·n + t + WG·j] over j in order, the two-level sum of `dot` over the threads gives scal[out + c].
 // CPU mirror: `cgfem_gpu::gpu::mirror::reduce` (same name, same binding order).
 // Written for `real = f64`; the host swaps the alias line to build the f32 twin.
 alias real = f64;
@@ -22,11 +22,17 @@ fn main(@builtin(local_invocation_index) t: u32) {
         }
         sh[t] = s;
         workgroupBarrier();
-        for (var k = WG / 2u; k > 0u; k = k / 2u) {
-            if (t < k) { sh[t] = sh[t] + sh[t + k]; }
-            workgroupBarrier();
+        if (t < 16u) {
+            var a: real = 0.0;
+            for (var j = 0u; j < 16u; j++) { a += sh[16u * t + j]; }
+            sh[16u * t] = a;
         }
-        if (t == 0u) { scal[prm.out + c] = sh[0]; }
+        workgroupBarrier();
+        if (t == 0u) {
+            var a: real = 0.0;
+            for (var j = 0u; j < 16u; j++) { a += sh[16u * j]; }
+            scal[prm.out + c] = a;
+        }
         workgroupBarrier();
     }
 }

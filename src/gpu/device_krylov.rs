@@ -16,6 +16,11 @@
 //! culprit for the host's [`Error::Breakdown`]; non-finite values show in the
 //! `‖r‖²` read back. Not kept: the per-iteration residual history (one entry
 //! per batch) and the Lanczos coefficients of CG.
+//!
+//! Where the operator runs on the Q1 plan and the vectors fit one binding,
+//! CG's iteration is recorded in four dispatches instead of ten
+//! ([`super::fused_cg`], [`DeviceOptions::fuse`]): the second passes of the
+//! dots and the scalar kernels are folded into the kernels around them.
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
@@ -23,7 +28,8 @@ use crate::solver::{breakdown, drive, Cycles, Precond};
 use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
 use super::backend::{GpuBackend, GpuVector};
-use super::kernels::{reduction_groups, DirectionParams, Kernel, ScalParams, UpdateParams};
+use super::fused_cg::{record_fused_cg, CgSlots};
+use super::kernels::{reduction_groups, Kernel, ScalParams};
 use super::operator::GpuOperator;
 use super::q1_operator::Q1Device;
 
@@ -150,22 +156,6 @@ fn describe(name: &str, v: f64, positive: Option<&str>) -> String {
     }
 }
 
-/// The device scalars of the fused CG iteration: ρ alternates between
-/// `rho[0]` (read at even iterations) and `rho[1]`; α and −α at `alpha`,
-/// `alpha + 1`.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct CgSlots {
-    pub tol2: u32,
-    pub done: u32,
-    pub iters: u32,
-    pub rho: [u32; 2],
-    pub alpha: u32,
-    pub beta: u32,
-    pub rr: u32,
-    pub bad: u32,
-    pub broke: u32,
-}
-
 /// The slots of [`solve_device`]'s CG.
 const CG_SLOTS: CgSlots = CgSlots {
     tol2: TOL2,
@@ -178,74 +168,6 @@ const CG_SLOTS: CgSlots = CgSlots {
     bad: BAD,
     broke: BROKE,
 };
-
-/// The params of iteration `k`'s `cg_update` and `cg_direction` over `n`
-/// entries with `terms` partials of `p · Ap` at the start of the partials
-/// and `cg_update`'s pairs after them.
-pub(super) fn fused_params(
-    s: &CgSlots,
-    k: usize,
-    n: usize,
-    terms: u32,
-    precond: bool,
-) -> (UpdateParams, DirectionParams) {
-    let (rho_old, rho_new) = (s.rho[k % 2], s.rho[(k + 1) % 2]);
-    let groups = reduction_groups(n as u32);
-    let step = UpdateParams {
-        n: n as u32,
-        groups,
-        ia: s.alpha,
-        ib: s.alpha + 1,
-        precond: u32::from(precond),
-        terms,
-        rho: rho_old,
-        done: s.done,
-        bad: s.bad,
-        broke: s.broke,
-        base: terms,
-        ..Default::default()
-    };
-    let direction = DirectionParams {
-        n: n as u32,
-        groups,
-        terms: groups,
-        base: terms,
-        rr: s.rr,
-        rho_old,
-        rho_new,
-        beta: s.beta,
-        done: s.done,
-        iters: s.iters,
-        tol2: s.tol2,
-        bad: s.bad,
-        broke: s.broke,
-        ..Default::default()
-    };
-    (step, direction)
-}
-
-/// Records CG's iteration `k` in four dispatches: `q1_cells`, `q1_nodes`
-/// with `p · Ap`'s partials, `cg_update` (α from them), `cg_direction`
-/// (`p = z + β p` and the check) over the `n` entries of the vectors; `z`
-/// is `d ∘ r` where `d` is given, else `r` stands in for it. `partials`
-/// holds `q1.node_groups()` and then twice `reduction_groups(n)` entries.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn record_fused_cg(
-    be: &GpuBackend,
-    enc: &mut wgpu::CommandEncoder,
-    q1: &Q1Device,
-    partials: &wgpu::Buffer,
-    slots: &CgSlots,
-    (k, n): (usize, usize),
-    [p, q, x, r, z]: [&wgpu::Buffer; 5],
-    d: Option<&wgpu::Buffer>,
-) {
-    let (step, direction) = fused_params(slots, k, n, q1.node_groups(), d.is_some());
-    q1.record_dot(be, enc, p, q, partials);
-    be.record_cg_step(enc, n, [p, q, x, r, z], d, step, partials);
-    let zr = if d.is_some() { z } else { r };
-    be.record_cg_direction(enc, n, direction, partials, [zr, p]);
-}
 
 /// What one cycle needs.
 struct Cycle<'a, 'o> {

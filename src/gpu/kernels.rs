@@ -130,9 +130,8 @@ pub struct DirectionParams {
 }
 
 /// Params of `q1_cells` and `q1_nodes`: interior segments, boundary nodes,
-/// cut cells, cut + rim cells, the 2D row stride (in workgroups for
-/// `q1_nodes`, invocations for `q1_cells`), and `dot` (1: `q1_nodes` also
-/// writes each workgroup's `x · y` to its partials).
+/// cut cells, cut + rim cells, and the 2D row stride (in workgroups for
+/// `q1_nodes`, invocations for `q1_cells`).
 /// Keep in sync with `Q1Params` in q1_cells.wgsl, q1_nodes.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -142,7 +141,7 @@ pub struct Q1Params {
     pub n_cut: u32,
     pub n_cells: u32,
     pub stride: u32,
-    pub dot: u32,
+    pub pad0: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -204,6 +203,7 @@ pub enum Kernel {
     Apply,
     Q1Cells,
     Q1Nodes,
+    Q1NodesDot,
     ScalarRatio,
     KrylovCheck,
     ChebyshevUpdate,
@@ -216,7 +216,7 @@ pub enum Kernel {
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 25] = [
+    pub const ALL: [Kernel; 26] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -234,6 +234,7 @@ impl Kernel {
         Kernel::Apply,
         Kernel::Q1Cells,
         Kernel::Q1Nodes,
+        Kernel::Q1NodesDot,
         Kernel::ScalarRatio,
         Kernel::KrylovCheck,
         Kernel::ChebyshevUpdate,
@@ -263,7 +264,7 @@ impl Kernel {
             Kernel::Reduce => "reduce",
             Kernel::Apply => "apply",
             Kernel::Q1Cells => "q1_cells",
-            Kernel::Q1Nodes => "q1_nodes",
+            Kernel::Q1Nodes | Kernel::Q1NodesDot => "q1_nodes",
             Kernel::ScalarRatio => "scalar_ratio",
             Kernel::KrylovCheck => "krylov_check",
             Kernel::ChebyshevUpdate => "chebyshev_update",
@@ -310,7 +311,7 @@ impl Kernel {
             Kernel::Reduce => include_str!("../../shaders/reduce.wgsl"),
             Kernel::Apply => include_str!("../../shaders/apply.wgsl"),
             Kernel::Q1Cells => include_str!("../../shaders/q1_cells.wgsl"),
-            Kernel::Q1Nodes => include_str!("../../shaders/q1_nodes.wgsl"),
+            Kernel::Q1Nodes | Kernel::Q1NodesDot => include_str!("../../shaders/q1_nodes.wgsl"),
             Kernel::ScalarRatio => include_str!("../../shaders/scalar_ratio.wgsl"),
             Kernel::KrylovCheck => include_str!("../../shaders/krylov_check.wgsl"),
             Kernel::ChebyshevUpdate => include_str!("../../shaders/chebyshev_update.wgsl"),
@@ -323,11 +324,15 @@ impl Kernel {
     }
 
     /// The WGSL source for `precision`, unrolled bodies generated
-    /// ([`super::q1_terms::expand`]).
+    /// ([`super::q1_terms::expand`]); `q1_nodes`' dot variant with its
+    /// [`DOT_LINE`] swapped.
     pub fn source(self, precision: Precision) -> String {
-        let src = super::q1_terms::expand(self.source_f64());
+        let mut src = super::q1_terms::expand(self.source_f64());
+        if self == Kernel::Q1NodesDot {
+            src = src.replacen(DOT_LINE, "const DOT: bool = true;", 1);
+        }
         match precision {
-            Precision::F64 => src.to_string(),
+            Precision::F64 => src,
             Precision::F32 => src.replacen(ALIAS_F64, "alias real = f32;", 1),
         }
     }
@@ -335,6 +340,10 @@ impl Kernel {
 
 /// The line every shader declares its float type with.
 pub const ALIAS_F64: &str = "alias real = f64;";
+
+/// The line of `q1_nodes.wgsl` that [`Kernel::Q1NodesDot`] swaps for `true`
+/// (the same kernel, also summing `x · y` per workgroup).
+pub const DOT_LINE: &str = "const DOT: bool = false;";
 
 /// Workgroup counts `(x, y)` and the row stride (in invocations) for `n`
 /// invocations in workgroups of `wg`, at most `max_dim` per dimension.

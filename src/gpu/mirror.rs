@@ -89,10 +89,22 @@ pub fn bicgstab_update_p(prm: &VecParams, scal: &[f64], r: &[f64], v: &[f64], p:
     }
 }
 
-/// The workgroup's fixed binary tree: `sh[t] += sh[t + k]` for
-/// `k = WG/2, WG/4, …, 1`; the sum lands in `sh[0]`.
+/// The workgroup's fixed two-level sum of its `WG` = 256 values: threads
+/// `t < 16` add `sh[16 t .. 16 t + 16]` in order into `sh[16 t]`, then those
+/// 16 are added in order (two barriers in the shaders, not eight).
 pub(super) fn tree(sh: &mut [f64]) -> f64 {
-    tree_of(&mut sh[..WG as usize])
+    for t in 0..16 {
+        let mut a = 0.0;
+        for j in 0..16 {
+            a += sh[16 * t + j];
+        }
+        sh[16 * t] = a;
+    }
+    let mut total = 0.0;
+    for j in 0..16 {
+        total += sh[16 * j];
+    }
+    total
 }
 
 /// First pass of `x · y` over one window: `partials[base + g]` for each of its
@@ -293,9 +305,9 @@ pub fn q1_cells(
 
 /// `y = A x` at every active node from the interior stencil (`stencil`, the
 /// uniform's values) over each segment's neighbour rows, and for the
-/// boundary nodes the sum of their 8 linked triples of `z`. With `dot`,
-/// `partials[g]` is workgroup `g`'s `x · y` (the tree over its [`SEG`]
-/// threads).
+/// boundary nodes the sum of their 8 linked triples of `z`. With
+/// `partials` (the dot variant), `partials[g]` is workgroup `g`'s `x · y`
+/// (its [`SEG`] threads' sums added in order).
 #[allow(clippy::too_many_arguments)]
 pub fn q1_nodes(
     prm: &Q1Params,
@@ -306,7 +318,7 @@ pub fn q1_nodes(
     z: &[f64],
     x: &[f64],
     y: &mut [f64],
-    partials: &mut [f64],
+    mut partials: Option<&mut [f64]>,
 ) {
     let terms = stencil_terms();
     let seg = SEG;
@@ -327,8 +339,8 @@ pub fn q1_nodes(
             }
             sh[t] = x[3 * a] * acc[0] + x[3 * a + 1] * acc[1] + x[3 * a + 2] * acc[2];
         }
-        if prm.dot == 1 {
-            partials[g] = tree_of(&mut sh);
+        if let Some(partials) = partials.as_deref_mut() {
+            partials[g] = in_order(&sh);
         }
     }
     let n_boundary = prm.n_boundary as usize;
@@ -354,21 +366,17 @@ pub fn q1_nodes(
             }
             sh[t] = c;
         }
-        if prm.dot == 1 {
-            partials[g] = tree_of(&mut sh);
+        if let Some(partials) = partials.as_deref_mut() {
+            partials[g] = in_order(&sh);
         }
     }
 }
 
-/// The fixed binary tree of a workgroup of `sh.len()` threads (a power of
-/// two): `sh[t] += sh[t + k]` for `k = len/2, …, 1`.
-fn tree_of(sh: &mut [f64]) -> f64 {
-    let mut k = sh.len() / 2;
-    while k > 0 {
-        for t in 0..k {
-            sh[t] += sh[t + k];
-        }
-        k /= 2;
+/// `Σ sh[t]` added in the order of `t` (thread 0's loop in `q1_nodes`).
+fn in_order(sh: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for v in sh {
+        s += v;
     }
-    sh[0]
+    s
 }

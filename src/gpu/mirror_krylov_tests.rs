@@ -5,8 +5,9 @@
 //! breakdown; the fused kernels on the device against these mirrors; and
 //! device CG fused against CG kernel by kernel.
 
-use super::device_krylov::{fused_params, record_fused_cg, solve_device, CgSlots, DeviceOptions};
-use super::kernels::{reduction_groups, Q1Params, RedParams, ScalParams};
+use super::device_krylov::{solve_device, DeviceOptions};
+use super::fused_cg::{fused_params, record_fused_cg, CgSlots};
+use super::kernels::{reduction_groups, RedParams, ScalParams};
 use super::kernels::{UpdateParams, VecParams};
 use super::mirror;
 use super::mirror_krylov::{cg_direction, cg_update, krylov_check, scalar_ratio};
@@ -90,13 +91,7 @@ impl Plan {
             &mut z,
         );
         let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
-        let mut spare = [];
-        let prm = Q1Params {
-            dot: u32::from(partials.is_some()),
-            ..a.params
-        };
-        let partials = partials.unwrap_or(&mut spare);
-        mirror::q1_nodes(&prm, &a.stencil, segs, bnd, links, &z, x, y, partials);
+        mirror::q1_nodes(&a.params, &a.stencil, segs, bnd, links, &z, x, y, partials);
     }
 
     fn node_groups(&self) -> u32 {

@@ -2,7 +2,8 @@
 //! ([`context`]), the kernels of `shaders/` ([`kernels`]) and their CPU mirrors
 //! ([`mirror`]; the device-scalar Krylov kernels' in [`mirror_krylov`]), the [`crate::backend::Backend`] implementation with the
 //! operator resident on the device ([`backend`], [`operator`]), the
-//! device-scalar CG/CGS/BiCGStab and the fused CG iteration ([`device_krylov`]), the multigrid V-cycle
+//! device-scalar CG/CGS/BiCGStab ([`device_krylov`]; CG's iteration in four
+//! dispatches, [`fused_cg`]), the multigrid V-cycle
 //! ([`multigrid`], its kernels' mirrors in [`mirror_multigrid`]), f32 inner solves inside f64 defect
 //! correction ([`defect`]), the linear solver the fixed-point loop calls
 //! ([`linear`]), and the windows that bind arrays larger than one storage
@@ -12,6 +13,7 @@ pub mod backend;
 pub mod context;
 pub mod defect;
 pub mod device_krylov;
+pub mod fused_cg;
 pub mod kernels;
 pub mod linear;
 pub mod mirror;

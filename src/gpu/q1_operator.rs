@@ -286,7 +286,7 @@ impl Q1Device {
         dot: Option<&wgpu::Buffer>,
     ) {
         let p = self.params;
-        // Not written without `dot`: the backend's partials stand in.
+        // The plain `q1_nodes` declares the partials but does not write them.
         let spare = be.partials(1);
         let (id, binds, (gx, gy, stride)) = match kernel {
             Q1Kernel::Cells => (
@@ -300,9 +300,8 @@ impl Q1Device {
                 ],
                 grid_2d(p.n_cells, APPLY_WG, be.max_dim()),
             ),
-            Q1Kernel::Nodes => (
-                Kernel::Q1Nodes,
-                vec![
+            Q1Kernel::Nodes => {
+                let mut binds = vec![
                     whole(&self.stencil),
                     whole(&self.segments),
                     whole(&self.boundary),
@@ -310,16 +309,16 @@ impl Q1Device {
                     whole(&self.z),
                     whole(x),
                     whole(y),
-                    whole(dot.unwrap_or(&spare)),
-                ],
-                grid_2d(self.node_groups(), 1, be.max_dim()),
-            ),
+                ];
+                binds.push(whole(dot.unwrap_or(&spare)));
+                let id = match dot {
+                    Some(_) => Kernel::Q1NodesDot,
+                    None => Kernel::Q1Nodes,
+                };
+                (id, binds, grid_2d(self.node_groups(), 1, be.max_dim()))
+            }
         };
-        let prm = Q1Params {
-            stride,
-            dot: u32::from(dot.is_some()),
-            ..p
-        };
+        let prm = Q1Params { stride, ..p };
         be.record(enc, id, bytemuck::bytes_of(&prm), &binds, (gx, gy));
     }
 }

@@ -460,9 +460,8 @@ fn q1_apply_matches(ctx: &GpuContext, be: &GpuBackend, setup: &Setup, x: &[f64],
     let z = as_device(ctx, z);
     let mut want = vec![0.0; n];
     let (segs, bnd, links) = (&a.segments, &a.boundary, &a.links);
-    let mut spare = [];
     mirror::q1_nodes(
-        &a.params, &stencil, segs, bnd, links, &z, x, &mut want, &mut spare,
+        &a.params, &stencil, segs, bnd, links, &z, x, &mut want, None,
     );
     assert_close("q1 apply", &y, &want, tol);
     let mut host = vec![0.0; n];
