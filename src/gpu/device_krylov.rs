@@ -28,10 +28,9 @@ use crate::solver::{breakdown, drive, Cycles, Precond};
 use crate::solver::{KrylovMethod, KrylovOptions, KrylovStats, Preconditioner};
 
 use super::backend::{GpuBackend, GpuVector};
-use super::fused_cg::{record_fused_cg, CgSlots};
+use super::fused_cg::{CgSlots, FusedCg};
 use super::kernels::{reduction_groups, Kernel, ScalParams};
 use super::operator::GpuOperator;
-use super::q1_operator::Q1Device;
 
 /// Slots of the device scalars (next to the backend's host slots 0..4).
 const TOL2: u32 = 8;
@@ -292,7 +291,7 @@ impl Cycle<'_, '_> {
             be.record_dot(&mut enc, n, &[&r.buf, zr], RHO);
         }
         be.submit(enc);
-        let fused = self.fused(method);
+        let fused = self.fused(method, x, r, [&p, &q, &z]);
         let start = stats.iterations;
         let mut k = 0;
         loop {
@@ -301,10 +300,7 @@ impl Cycle<'_, '_> {
             for _ in 0..self.every.min(left) {
                 match method {
                     KrylovMethod::Cg => match &fused {
-                        Some((q1, partials)) => {
-                            let vecs = [&p, &q, &z];
-                            self.cg_fused_iteration(&mut enc, (q1, partials), k, x, r, vecs);
-                        }
+                        Some(fused) => fused.record(be, &mut enc, k),
                         None => self.cg_iteration(&mut enc, x, r, [&p, &q, &z]),
                     },
                     KrylovMethod::Cgs => {
@@ -377,32 +373,28 @@ impl Cycle<'_, '_> {
         be.record_vec(enc, Kernel::Xpay, n, (BETA, 0), &[&be.scal, zr, &p.buf]);
     }
 
-    /// The Q1 plan and the partials of the fused CG iteration (the plan's
-    /// `q1_nodes` partials, then `cg_update`'s pairs), where CG runs fused.
-    fn fused(&self, method: KrylovMethod) -> Option<(&Q1Device, GpuVector)> {
+    /// CG's iteration in four dispatches over these vectors, where the
+    /// operator runs on the Q1 plan and the vectors fit one window (and
+    /// [`DeviceOptions::fuse`]); its partials: the plan's `q1_nodes`
+    /// partials, then `cg_update`'s pairs.
+    fn fused(
+        &self,
+        method: KrylovMethod,
+        x: &GpuVector,
+        r: &GpuVector,
+        [p, q, z]: [&GpuVector; 3],
+    ) -> Option<FusedCg> {
         let q1 = self.op.q1()?;
         let fits = self.n > 0 && self.n <= self.be.vector_window();
         if !(self.fuse && fits && method == KrylovMethod::Cg) {
             return None;
         }
         let len = q1.node_groups() + 2 * reduction_groups(self.n as u32);
-        Some((q1, self.be.zeros(len as usize)))
-    }
-
-    /// One CG iteration in four dispatches ([`DeviceOptions::fuse`]).
-    fn cg_fused_iteration(
-        &self,
-        enc: &mut wgpu::CommandEncoder,
-        (q1, partials): (&Q1Device, &GpuVector),
-        k: usize,
-        x: &GpuVector,
-        r: &GpuVector,
-        [p, q, z]: [&GpuVector; 3],
-    ) {
+        let partials = self.be.zeros(len as usize);
         let d = self.pre.inverse_diagonal().map(|inv| &inv.buf);
         let bufs = [&p.buf, &q.buf, &x.buf, &r.buf, &z.buf];
-        let kn = (k, self.n);
-        record_fused_cg(self.be, enc, q1, &partials.buf, &CG_SLOTS, kn, bufs, d);
+        let pb = &partials.buf;
+        Some(FusedCg::new(self.be, q1, pb, &CG_SLOTS, self.n, bufs, d))
     }
 
     /// One CGS iteration (see `crate::solver` for the formulas).

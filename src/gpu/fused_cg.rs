@@ -1,4 +1,5 @@
-//! CG's iteration in four dispatches on the device ([`record_fused_cg`]):
+//! CG's iteration in four dispatches on the device ([`FusedCg`]), their
+//! bind groups made once per solve:
 //! `q1_cells`; `q1_nodes`' dot variant, which also sums `p · Ap` per
 //! workgroup; `cg_update`, whose every workgroup reduces those sums itself to
 //! take α (no scalar kernel between), steps `x`, `r`, `z` and sums
@@ -12,6 +13,7 @@
 use super::backend::GpuBackend;
 use super::kernels::{reduction_groups, DirectionParams, UpdateParams};
 use super::q1_operator::Q1Device;
+use super::record::Prepared;
 
 /// The device scalars of the fused CG iteration: ρ alternates between
 /// `rho[0]` (read at even iterations) and `rho[1]`; α and −α at `alpha`,
@@ -74,25 +76,48 @@ pub(super) fn fused_params(
     (step, direction)
 }
 
-/// Records CG's iteration `k` in four dispatches: `q1_cells`, `q1_nodes`
-/// with `p · Ap`'s partials, `cg_update` (α from them), `cg_direction`
-/// (`p = z + β p` and the check) over the `n` entries of the vectors; `z`
-/// is `d ∘ r` where `d` is given, else `r` stands in for it. `partials`
-/// holds `q1.node_groups()` and then twice `reduction_groups(n)` entries.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn record_fused_cg(
-    be: &GpuBackend,
-    enc: &mut wgpu::CommandEncoder,
-    q1: &Q1Device,
-    partials: &wgpu::Buffer,
-    slots: &CgSlots,
-    (k, n): (usize, usize),
-    [p, q, x, r, z]: [&wgpu::Buffer; 5],
-    d: Option<&wgpu::Buffer>,
-) {
-    let (step, direction) = fused_params(slots, k, n, q1.node_groups(), d.is_some());
-    q1.record_dot(be, enc, p, q, partials);
-    be.record_cg_step(enc, n, [p, q, x, r, z], d, step, partials);
-    let zr = if d.is_some() { z } else { r };
-    be.record_cg_direction(enc, n, direction, partials, [zr, p]);
+/// CG's iteration in four dispatches, prepared once for a solve's vectors
+/// and recorded any number of times: `q1_cells`, `q1_nodes` with `p · Ap`'s
+/// partials, `cg_update` (α from them), `cg_direction` (`p = z + β p` and
+/// the check), for each parity of ρ's slots.
+pub(super) struct FusedCg {
+    iterations: [[Prepared; 4]; 2],
+}
+
+impl FusedCg {
+    /// The iteration over the `n` entries of the vectors `[p, q, x, r, z]`;
+    /// `z` is `d ∘ r` where `d` is given, else `r` stands in for it.
+    /// `partials` holds `q1.node_groups()` and then twice
+    /// `reduction_groups(n)` entries.
+    pub(super) fn new(
+        be: &GpuBackend,
+        q1: &Q1Device,
+        partials: &wgpu::Buffer,
+        slots: &CgSlots,
+        n: usize,
+        [p, q, x, r, z]: [&wgpu::Buffer; 5],
+        d: Option<&wgpu::Buffer>,
+    ) -> FusedCg {
+        let zr = if d.is_some() { z } else { r };
+        let parity = |k: usize| {
+            let (step, direction) = fused_params(slots, k, n, q1.node_groups(), d.is_some());
+            let [cells, nodes] = q1.prepare_dot(be, p, q, partials);
+            [
+                cells,
+                nodes,
+                be.prepare_cg_step(n, [p, q, x, r, z], d, step, partials),
+                be.prepare_cg_direction(n, direction, partials, [zr, p]),
+            ]
+        };
+        FusedCg {
+            iterations: [parity(0), parity(1)],
+        }
+    }
+
+    /// Records iteration `k`.
+    pub(super) fn record(&self, be: &GpuBackend, enc: &mut wgpu::CommandEncoder, k: usize) {
+        for prepared in &self.iterations[k % 2] {
+            be.record_prepared(enc, prepared);
+        }
+    }
 }

@@ -6,7 +6,7 @@
 //! device CG fused against CG kernel by kernel.
 
 use super::device_krylov::{solve_device, DeviceOptions};
-use super::fused_cg::{fused_params, record_fused_cg, CgSlots};
+use super::fused_cg::{fused_params, CgSlots, FusedCg};
 use super::kernels::{reduction_groups, RedParams, ScalParams};
 use super::kernels::{UpdateParams, VecParams};
 use super::mirror;
@@ -333,6 +333,9 @@ fn fused_cg_kernels_match_their_mirrors_f64_and_f32() {
         let gq = be.zeros(n);
         let len = plan.node_groups() + 2 * reduction_groups(n as u32);
         let partials = be.zeros(len as usize);
+        let bufs = [&gp.buf, &gq.buf, &gx.buf, &gr.buf, &gz.buf];
+        let pb = &partials.buf;
+        let iteration = FusedCg::new(&be, q1, pb, &SLOTS, n, bufs, Some(&gd.buf));
         for k in 0..3 {
             let mut m = State {
                 scal: be.read_slots(0, 16),
@@ -342,9 +345,7 @@ fn fused_cg_kernels_match_their_mirrors_f64_and_f32() {
                 p: be.download(&gp),
             };
             let mut enc = be.encoder();
-            let bufs = [&gp.buf, &gq.buf, &gx.buf, &gr.buf, &gz.buf];
-            let (kn, pb) = ((k, n), &partials.buf);
-            record_fused_cg(&be, &mut enc, q1, pb, &SLOTS, kn, bufs, Some(&gd.buf));
+            iteration.record(&be, &mut enc, k);
             be.submit(enc);
             fused(&mirrored, &d, k, &mut m);
             let what = |v: &str| format!("{precision:?} iteration {k}: {v}");

@@ -25,7 +25,7 @@ use crate::fem::stencil::{Run, Stencil};
 use super::backend::{GpuBackend, GpuVector};
 use super::kernels::{grid_2d, Kernel, Q1Params, APPLY_WG};
 use super::q1_terms::{NO_PARTIAL, PARTIAL_LEN, SEG, SEGMENT_WORDS, STENCIL_LEN};
-use super::record::whole;
+use super::record::{whole, Prepared};
 use crate::fem::q1_forms::FORM_LEN;
 
 /// One of the plan's two kernels (the bench times them apart).
@@ -260,18 +260,20 @@ impl Q1Device {
         self.params.n_segments + self.params.n_boundary.div_ceil(SEG as u32)
     }
 
-    /// Records `y = A x` as [`Q1Device::record`] does, and `x · y`'s
-    /// per-workgroup sums in `partials[..node_groups()]` (CG's `p · Ap`).
-    pub(super) fn record_dot(
+    /// The dispatches of `y = A x` as [`Q1Device::record`] records them,
+    /// prepared, `q1_nodes`' dot variant writing `x · y`'s per-workgroup sums
+    /// to `partials[..node_groups()]` (CG's `p · Ap`).
+    pub(super) fn prepare_dot(
         &self,
         be: &GpuBackend,
-        enc: &mut wgpu::CommandEncoder,
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
         partials: &wgpu::Buffer,
-    ) {
-        self.record_kernel(be, enc, Q1Kernel::Cells, x, y, None);
-        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y, Some(partials));
+    ) -> [Prepared; 2] {
+        [
+            self.prepare_kernel(be, Q1Kernel::Cells, x, y, None),
+            self.prepare_kernel(be, Q1Kernel::Nodes, x, y, Some(partials)),
+        ]
     }
 
     /// Records one of the plan's kernels; `q1_nodes` writes its partials of
@@ -285,6 +287,19 @@ impl Q1Device {
         y: &wgpu::Buffer,
         dot: Option<&wgpu::Buffer>,
     ) {
+        let prepared = self.prepare_kernel(be, kernel, x, y, dot);
+        be.record_prepared(enc, &prepared);
+    }
+
+    /// One of the plan's kernels, prepared ([`Q1Device::record_kernel`]).
+    fn prepare_kernel(
+        &self,
+        be: &GpuBackend,
+        kernel: Q1Kernel,
+        x: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+        dot: Option<&wgpu::Buffer>,
+    ) -> Prepared {
         let p = self.params;
         // The plain `q1_nodes` declares the partials but does not write them.
         let spare = be.partials(1);
@@ -319,6 +334,6 @@ impl Q1Device {
             }
         };
         let prm = Q1Params { stride, ..p };
-        be.record(enc, id, bytemuck::bytes_of(&prm), &binds, (gx, gy));
+        be.prepare(id, bytemuck::bytes_of(&prm), &binds, (gx, gy))
     }
 }

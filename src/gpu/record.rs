@@ -28,6 +28,13 @@ pub(super) fn window(b: &wgpu::Buffer, r: Range<u64>, bytes: u64) -> wgpu::Bindi
     })
 }
 
+/// A dispatch made once and recorded many times ([`GpuBackend::prepare`]).
+pub(super) struct Prepared {
+    kernel: Kernel,
+    bind: wgpu::BindGroup,
+    groups: (u32, u32),
+}
+
 impl GpuBackend {
     /// Records `kernel` with `params` at binding 0 and `binds` at 1, 2, …
     /// over `groups` workgroups.
@@ -39,14 +46,26 @@ impl GpuBackend {
         binds: &[wgpu::BindingResource<'_>],
         groups: (u32, u32),
     ) {
-        self.dispatches.set(self.dispatches.get() + 1);
+        let prepared = self.prepare(kernel, params, binds, groups);
+        self.record_prepared(enc, &prepared);
+    }
+
+    /// `kernel`'s dispatch made ready to record any number of times: its
+    /// params in a uniform buffer and its bind group.
+    pub(super) fn prepare(
+        &self,
+        kernel: Kernel,
+        params: &[u8],
+        binds: &[wgpu::BindingResource<'_>],
+        groups: (u32, u32),
+    ) -> Prepared {
         let dev = &self.ctx.device;
         let uniform = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("params"),
             contents: params,
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let (pipeline, layout) = self.ctx.pipelines.get(kernel);
+        let (_, layout) = self.ctx.pipelines.get(kernel);
         let mut entries = vec![wgpu::BindGroupEntry {
             binding: 0,
             resource: uniform.as_entire_binding(),
@@ -62,13 +81,24 @@ impl GpuBackend {
             layout,
             entries: &entries,
         });
+        Prepared {
+            kernel,
+            bind,
+            groups,
+        }
+    }
+
+    /// Records a prepared dispatch.
+    pub(super) fn record_prepared(&self, enc: &mut wgpu::CommandEncoder, p: &Prepared) {
+        self.dispatches.set(self.dispatches.get() + 1);
+        let (pipeline, _) = self.ctx.pipelines.get(p.kernel);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(kernel.name()),
+            label: Some(p.kernel.name()),
             timestamp_writes: None,
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups(groups.0, groups.1, 1);
+        pass.set_bind_group(0, &p.bind, &[]);
+        pass.dispatch_workgroups(p.groups.0, p.groups.1, 1);
     }
 
     /// Runs a one-invocation kernel (`scalar_ratio`, `krylov_check`) on the
@@ -247,11 +277,24 @@ impl GpuBackend {
         &self,
         enc: &mut wgpu::CommandEncoder,
         n: usize,
-        [p, q, x, r, z]: [&wgpu::Buffer; 5],
+        bufs: [&wgpu::Buffer; 5],
         d: Option<&wgpu::Buffer>,
         prm: UpdateParams,
         partials: &wgpu::Buffer,
     ) {
+        let prepared = self.prepare_cg_step(n, bufs, d, prm, partials);
+        self.record_prepared(enc, &prepared);
+    }
+
+    /// [`GpuBackend::record_cg_step`]'s dispatch, prepared.
+    pub(super) fn prepare_cg_step(
+        &self,
+        n: usize,
+        [p, q, x, r, z]: [&wgpu::Buffer; 5],
+        d: Option<&wgpu::Buffer>,
+        prm: UpdateParams,
+        partials: &wgpu::Buffer,
+    ) -> Prepared {
         let groups = reduction_groups(n as u32);
         let prm = UpdateParams {
             n: n as u32,
@@ -273,19 +316,19 @@ impl GpuBackend {
             whole(partials),
         ];
         let bytes = bytemuck::bytes_of(&prm);
-        self.record(enc, Kernel::CgUpdate, bytes, &binds, (gx, gy));
+        self.prepare(Kernel::CgUpdate, bytes, &binds, (gx, gy))
     }
 
-    /// Records `cg_direction` over `n` entries (one window): `p = z + β p`
-    /// from the partials `cg_update` left in `partials`, and the check.
-    pub(super) fn record_cg_direction(
+    /// `cg_direction`'s dispatch over `n` entries (one window), prepared:
+    /// `p = z + β p` from the partials `cg_update` left in `partials`, and
+    /// the check.
+    pub(super) fn prepare_cg_direction(
         &self,
-        enc: &mut wgpu::CommandEncoder,
         n: usize,
         prm: DirectionParams,
         partials: &wgpu::Buffer,
         [z, p]: [&wgpu::Buffer; 2],
-    ) {
+    ) -> Prepared {
         let groups = reduction_groups(n as u32);
         let prm = DirectionParams {
             n: n as u32,
@@ -295,7 +338,7 @@ impl GpuBackend {
         let (gx, gy, _) = grid_2d(groups, 1, self.max_dim());
         let binds = [whole(&self.scal), whole(partials), whole(z), whole(p)];
         let bytes = bytemuck::bytes_of(&prm);
-        self.record(enc, Kernel::CgDirection, bytes, &binds, (gx, gy));
+        self.prepare(Kernel::CgDirection, bytes, &binds, (gx, gy))
     }
 
     /// The partial-sums buffer, grown to at least `entries`.
