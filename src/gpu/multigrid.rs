@@ -17,6 +17,12 @@
 //!
 //! Every array of the cycle is bound whole: a level vector or index map
 //! beyond one storage binding is [`Error::DeviceTooSmall`].
+//!
+//! A [`DeviceCycle`] keeps what its first application recorded (each
+//! dispatch's bind group and params, the clears) and replays it when it is
+//! applied again to the same vectors `r` and `z`, as a Krylov solve does
+//! every iteration: the cycle's order of steps depends on the hierarchy
+//! only. Not where the coarsest level is solved on the host.
 
 use std::cell::RefCell;
 use std::sync::Mutex;
@@ -27,7 +33,7 @@ use rayon::prelude::*;
 use super::backend::{GpuBackend, GpuVector};
 use super::kernels::{grid_2d, GatherParams, Kernel, WG};
 use super::operator::GpuOperator;
-use super::record::whole;
+use super::record::{whole, Prepared};
 use crate::backend::{Backend, LinearOperator};
 use crate::condition::sparse::Cholesky;
 use crate::error::{Error, Result};
@@ -202,6 +208,8 @@ impl<'h> DeviceMultigrid<'h> {
             fine,
             mg: self,
             enc: RefCell::new(None),
+            capture: RefCell::new(None),
+            tape: RefCell::new(None),
         };
         if self.work.borrow().len() != self.coarse.len() {
             *self.work.borrow_mut() = LevelWork::all(&cycle);
@@ -264,6 +272,23 @@ pub struct DeviceCycle<'a> {
     fine: &'a GpuOperator<'a>,
     mg: &'a DeviceMultigrid<'a>,
     enc: RefCell<Option<wgpu::CommandEncoder>>,
+    /// The steps of the application being recorded, while one is.
+    capture: RefCell<Option<Vec<Step>>>,
+    /// The steps of the last application and its `r`, `z`.
+    tape: RefCell<Option<Tape>>,
+}
+
+/// One recorded step of a cycle.
+enum Step {
+    Dispatch(Prepared),
+    Clear(wgpu::Buffer),
+}
+
+/// A cycle's steps for the vectors `r`, `z` it was applied to.
+struct Tape {
+    r: wgpu::Buffer,
+    z: wgpu::Buffer,
+    steps: Vec<Step>,
 }
 
 impl DeviceCycle<'_> {
@@ -274,10 +299,25 @@ impl DeviceCycle<'_> {
         }
     }
 
-    /// Records with `f` into the open encoder (opened if none is).
-    fn record(&self, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
+    /// Records `steps` into the open encoder (opened if none is), and keeps
+    /// them where the application is being captured.
+    fn record(&self, steps: Vec<Step>) {
         let mut enc = self.enc.borrow_mut();
-        f(enc.get_or_insert_with(|| self.be.encoder()));
+        let enc = enc.get_or_insert_with(|| self.be.encoder());
+        for step in &steps {
+            match step {
+                Step::Dispatch(p) => self.be.record_prepared(enc, p),
+                Step::Clear(b) => enc.clear_buffer(b, 0, None),
+            }
+        }
+        if let Some(capture) = self.capture.borrow_mut().as_mut() {
+            capture.extend(steps);
+        }
+    }
+
+    /// Records prepared dispatches.
+    fn dispatch(&self, prepared: impl IntoIterator<Item = Prepared>) {
+        self.record(prepared.into_iter().map(Step::Dispatch).collect());
     }
 
     /// Submits what is recorded.
@@ -294,16 +334,14 @@ impl DeviceCycle<'_> {
         }
         let (x, y, stride) = grid_2d(prm.n, WG, self.be.max_dim());
         let prm = GatherParams { stride, ..prm };
-        self.record(|enc| {
-            self.be
-                .record(enc, kernel, bytemuck::bytes_of(&prm), binds, (x, y))
-        });
+        let bytes = bytemuck::bytes_of(&prm);
+        self.dispatch([self.be.prepare(kernel, bytes, binds, (x, y))]);
     }
 
     /// Records an element-wise kernel over `n` entries, its scalars at slots
     /// `slots` of `scalars`.
     fn vector(&self, kernel: Kernel, n: usize, slots: (u32, u32), bufs: &[&wgpu::Buffer]) {
-        self.record(|enc| self.be.record_vec(enc, kernel, n, slots, bufs));
+        self.dispatch(self.be.prepare_vec(kernel, n, slots, bufs));
     }
 
     /// The slot of `−1` in `level`'s constants.
@@ -344,9 +382,29 @@ impl DeviceCycle<'_> {
 
 impl ApplyInverse<GpuBackend> for DeviceCycle<'_> {
     fn apply_inverse(&self, r: &GpuVector, z: &mut GpuVector) {
+        if let Some(tape) = self.tape.borrow().as_ref() {
+            if tape.r == r.buf && tape.z == z.buf {
+                let mut enc = self.be.encoder();
+                for step in &tape.steps {
+                    match step {
+                        Step::Dispatch(p) => self.be.record_prepared(&mut enc, p),
+                        Step::Clear(b) => enc.clear_buffer(b, 0, None),
+                    }
+                }
+                self.be.submit(enc);
+                return;
+            }
+        }
+        let replayable = matches!(self.mg.coarsest, Coarsest::Dense { .. });
+        *self.capture.borrow_mut() = replayable.then(Vec::new);
         let mut work = self.mg.work.borrow_mut();
         vcycle(self, 0, r, z, &mut work);
         self.flush();
+        *self.tape.borrow_mut() = self.capture.take().map(|steps| Tape {
+            r: r.buf.clone(),
+            z: z.buf.clone(),
+            steps,
+        });
     }
 }
 
@@ -366,7 +424,7 @@ impl CycleOps for DeviceCycle<'_> {
     }
 
     fn apply(&self, level: usize, x: &GpuVector, y: &mut GpuVector) {
-        self.record(|enc| self.op(level).record_apply(self.be, enc, &x.buf, &y.buf));
+        self.dispatch(self.op(level).prepare_apply(self.be, &x.buf, &y.buf));
     }
 
     fn precondition(&self, level: usize, r: &GpuVector, z: &mut GpuVector) {
@@ -426,7 +484,7 @@ impl CycleOps for DeviceCycle<'_> {
     }
 
     fn fill_zero(&self, x: &mut GpuVector) {
-        self.record(|enc| enc.clear_buffer(&x.buf, 0, None));
+        self.record(vec![Step::Clear(x.buf.clone())]);
     }
 
     fn restrict(&self, level: usize, fine: &GpuVector, coarse: &mut GpuVector) {

@@ -282,7 +282,9 @@ fn multigrid_kernels_match_their_mirrors_f64_and_f32() {
 }
 
 /// One V-cycle on the device equals the CPU's (the coarsest solve by the
-/// dense inverse against the Cholesky factor: round-off apart).
+/// dense inverse against the Cholesky factor: round-off apart), recorded on
+/// its first application, replayed on the next to the same vectors (new
+/// values in `r`), recorded again for another `z`.
 #[test]
 fn device_v_cycle_equals_the_cpu_v_cycle() {
     let Some(ctx) = super::context_or_skip(PrecisionChoice::F64) else {
@@ -291,14 +293,28 @@ fn device_v_cycle_equals_the_cpu_v_cycle() {
     let be = GpuBackend::new(ctx);
     for setup in setups() {
         let (fine, h) = (&setup.op, hierarchy(&setup));
-        let r = scrambled(fine.nrows(), 9);
-        let mut want = vec![0.0; fine.nrows()];
-        Multigrid::new(fine, h).apply(&r, &mut want);
+        let n = fine.nrows();
         let gop = GpuOperator::new(&be, fine).unwrap();
         let dm = DeviceMultigrid::new(&be, fine, h).unwrap();
-        let mut z = be.zeros(fine.nrows());
-        dm.cycle(&be, &gop).apply_inverse(&be.upload(&r), &mut z);
-        assert_close("V-cycle", &be.download(&z), &want, 1e-11);
+        let cycle = dm.cycle(&be, &gop);
+        let (mut rv, mut z, mut other) = (be.zeros(n), be.zeros(n), be.zeros(n));
+        let mut dispatches = Vec::new();
+        for (seed, fresh) in [(9, false), (4, false), (7, true)] {
+            let r = scrambled(n, seed);
+            let mut want = vec![0.0; n];
+            Multigrid::new(fine, h).apply(&r, &mut want);
+            be.copy(&be.upload(&r), &mut rv);
+            let out = if fresh { &mut other } else { &mut z };
+            let before = be.dispatches();
+            cycle.apply_inverse(&rv, out);
+            dispatches.push(be.dispatches() - before);
+            let what = format!("V-cycle, r from seed {seed}, new z: {fresh}");
+            assert_close(&what, &be.download(out), &want, 1e-11);
+        }
+        assert!(
+            dispatches.iter().all(|&d| d == dispatches[0]),
+            "{dispatches:?}"
+        );
     }
 }
 

@@ -27,7 +27,7 @@ use crate::fem::operator::ElasticOperator;
 use super::backend::GpuBackend;
 use super::kernels::{grid_2d, ApplyParams, Kernel, APPLY_WG};
 use super::q1_operator::Q1Device;
-use super::record::{whole, window};
+use super::record::{whole, window, Prepared};
 use super::windows::{apply_windows, own_slots, ApplyWindow, Lattice};
 
 /// One buffer of own matrices: slots `[lo, hi)`.
@@ -223,21 +223,28 @@ impl<'o> GpuOperator<'o> {
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
     ) {
+        for p in self.prepare_apply(be, x, y) {
+            be.record_prepared(enc, &p);
+        }
+    }
+
+    /// [`GpuOperator::record_apply`]'s dispatches, prepared.
+    pub(super) fn prepare_apply(
+        &self,
+        be: &GpuBackend,
+        x: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+    ) -> Vec<Prepared> {
         match &self.path {
-            Path::Q1(q1) => q1.record(be, enc, x, y),
-            Path::Generic(g) => g.record(be, enc, x, y),
+            Path::Q1(q1) => q1.prepare(be, x, y).into(),
+            Path::Generic(g) => g.prepare(be, x, y),
         }
     }
 }
 
 impl Generic {
-    fn record(
-        &self,
-        be: &GpuBackend,
-        enc: &mut wgpu::CommandEncoder,
-        x: &wgpu::Buffer,
-        y: &wgpu::Buffer,
-    ) {
+    fn prepare(&self, be: &GpuBackend, x: &wgpu::Buffer, y: &wgpu::Buffer) -> Vec<Prepared> {
+        let mut out = Vec::new();
         let max_dim = be.context().limits.max_compute_workgroups_per_dimension;
         let bytes = be.precision().bytes();
         let u64s = |r: &std::ops::Range<u32>, k: u64| k * r.start as u64..k * r.end as u64;
@@ -266,8 +273,10 @@ impl Generic {
                     window(x, u64s(&w.x, 3), bytes),
                     window(y, u64s(&w.nodes, 3), bytes),
                 ];
-                be.record(enc, Kernel::Apply, bytemuck::bytes_of(&p), &binds, (gx, gy));
+                let bytes = bytemuck::bytes_of(&p);
+                out.push(be.prepare(Kernel::Apply, bytes, &binds, (gx, gy)));
             }
         }
+        out
     }
 }

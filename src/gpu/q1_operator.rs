@@ -242,16 +242,17 @@ impl Q1Device {
         vectors + segments + cut + cells + boundary
     }
 
-    /// Records `y = A x`: `q1_cells`, then `q1_nodes`.
-    pub(super) fn record(
+    /// `y = A x`'s dispatches, prepared: `q1_cells`, then `q1_nodes`.
+    pub(super) fn prepare(
         &self,
         be: &GpuBackend,
-        enc: &mut wgpu::CommandEncoder,
         x: &wgpu::Buffer,
         y: &wgpu::Buffer,
-    ) {
-        self.record_kernel(be, enc, Q1Kernel::Cells, x, y, None);
-        self.record_kernel(be, enc, Q1Kernel::Nodes, x, y, None);
+    ) -> [Prepared; 2] {
+        [
+            self.prepare_kernel(be, Q1Kernel::Cells, x, y, None),
+            self.prepare_kernel(be, Q1Kernel::Nodes, x, y, None),
+        ]
     }
 
     /// Workgroups of `q1_nodes`: one per segment, then one per [`SEG`]
@@ -260,7 +261,7 @@ impl Q1Device {
         self.params.n_segments + self.params.n_boundary.div_ceil(SEG as u32)
     }
 
-    /// The dispatches of `y = A x` as [`Q1Device::record`] records them,
+    /// The dispatches of `y = A x` as [`Q1Device::prepare`] makes them,
     /// prepared, `q1_nodes`' dot variant writing `x · y`'s per-workgroup sums
     /// to `partials[..node_groups()]` (CG's `p · Ap`).
     pub(super) fn prepare_dot(

@@ -155,9 +155,23 @@ impl GpuBackend {
         enc: &mut wgpu::CommandEncoder,
         kernel: Kernel,
         n: usize,
-        (ia, ib): (u32, u32),
+        slots: (u32, u32),
         bufs: &[&wgpu::Buffer],
     ) {
+        for p in self.prepare_vec(kernel, n, slots, bufs) {
+            self.record_prepared(enc, &p);
+        }
+    }
+
+    /// [`GpuBackend::record_vec`]'s dispatches (one per window), prepared.
+    pub(super) fn prepare_vec(
+        &self,
+        kernel: Kernel,
+        n: usize,
+        (ia, ib): (u32, u32),
+        bufs: &[&wgpu::Buffer],
+    ) -> Vec<Prepared> {
+        let mut out = Vec::new();
         for r in vector_windows(n, self.vector_window()) {
             let len = (r.end - r.start) as u32;
             let (x, y, stride) = grid_2d(len, WG, self.max_dim());
@@ -168,8 +182,9 @@ impl GpuBackend {
                 stride,
             };
             let binds = self.vector_binds(kernel, bufs, &r);
-            self.record(enc, kernel, bytemuck::bytes_of(&p), &binds, (x, y));
+            out.push(self.prepare(kernel, bytemuck::bytes_of(&p), &binds, (x, y)));
         }
+        out
     }
 
     /// Records `dot` (`vecs = [x, y]`) or `dot2` (`[x, y, z]`) over `n`
