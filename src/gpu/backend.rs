@@ -47,6 +47,9 @@ pub struct GpuBackend {
     pub(super) bindings: BindingLimits,
     /// Kernels recorded so far ([`GpuBackend::dispatches`]).
     pub(super) dispatches: Cell<u64>,
+    /// The dispatches recorded since [`GpuBackend::begin_capture`], while
+    /// a capture is on.
+    pub(super) capture: RefCell<Option<Vec<super::record::Prepared>>>,
     /// Staging buffers of [`GpuBackend::write_vector`] and
     /// [`GpuBackend::read_vector`].
     pub(super) staging: RefCell<super::staging::Staging>,
@@ -85,6 +88,7 @@ impl GpuBackend {
             partials: RefCell::new(None),
             bindings,
             dispatches: Cell::new(0),
+            capture: RefCell::new(None),
             staging: RefCell::default(),
         }
     }

@@ -21,6 +21,9 @@
 //! CG's iteration is recorded in four dispatches instead of ten
 //! ([`super::fused_cg`], [`DeviceOptions::fuse`]): the second passes of the
 //! dots and the scalar kernels are folded into the kernels around them.
+//! Otherwise the first iteration's dispatches are kept as recorded
+//! (uniforms and bind groups included) and the next iterations replay them:
+//! an iteration's dispatches and their slots are the same every time.
 
 use crate::backend::Backend;
 use crate::error::{Error, Result};
@@ -31,6 +34,7 @@ use super::backend::{GpuBackend, GpuVector};
 use super::fused_cg::{CgSlots, FusedCg};
 use super::kernels::{reduction_groups, Kernel, ScalParams};
 use super::operator::GpuOperator;
+use super::record::Prepared;
 
 /// Slots of the device scalars (next to the backend's host slots 0..4).
 const TOL2: u32 = 8;
@@ -292,22 +296,30 @@ impl Cycle<'_, '_> {
         }
         be.submit(enc);
         let fused = self.fused(method, x, r, [&p, &q, &z]);
+        // The other iterations: the first one's dispatches, replayed.
+        let mut tape: Option<Vec<Prepared>> = None;
         let start = stats.iterations;
         let mut k = 0;
         loop {
             let left = self.opts.max_iterations - stats.iterations;
             let mut enc = be.encoder();
             for _ in 0..self.every.min(left) {
-                match method {
-                    KrylovMethod::Cg => match &fused {
-                        Some(fused) => fused.record(be, &mut enc, k),
-                        None => self.cg_iteration(&mut enc, x, r, [&p, &q, &z]),
-                    },
-                    KrylovMethod::Cgs => {
-                        self.cgs_iteration(&mut enc, x, r, [&rt, &u, &p, &q, &v, &z])
-                    }
-                    KrylovMethod::BiCgStab => {
-                        self.bicgstab_iteration(&mut enc, x, r, [&rt, &p, &v, &q, &z, &u])
+                match (&fused, &tape) {
+                    (Some(fused), _) => fused.record(be, &mut enc, k),
+                    (None, Some(tape)) => tape.iter().for_each(|p| be.record_prepared(&mut enc, p)),
+                    (None, None) => {
+                        be.begin_capture();
+                        match method {
+                            KrylovMethod::Cg => self.cg_iteration(&mut enc, x, r, [&p, &q, &z]),
+                            KrylovMethod::Cgs => {
+                                self.cgs_iteration(&mut enc, x, r, [&rt, &u, &p, &q, &v, &z])
+                            }
+                            KrylovMethod::BiCgStab => {
+                                let vecs = [&rt, &p, &v, &q, &z, &u];
+                                self.bicgstab_iteration(&mut enc, x, r, vecs)
+                            }
+                        }
+                        tape = Some(be.end_capture());
                     }
                 }
                 k += 1;

@@ -29,6 +29,7 @@ pub(super) fn window(b: &wgpu::Buffer, r: Range<u64>, bytes: u64) -> wgpu::Bindi
 }
 
 /// A dispatch made once and recorded many times ([`GpuBackend::prepare`]).
+#[derive(Clone)]
 pub(super) struct Prepared {
     kernel: Kernel,
     bind: wgpu::BindGroup,
@@ -88,9 +89,23 @@ impl GpuBackend {
         }
     }
 
-    /// Records a prepared dispatch.
+    /// Keeps every dispatch recorded from now until [`GpuBackend::end_capture`]
+    /// (a Krylov iteration, replayed by the next ones).
+    pub(super) fn begin_capture(&self) {
+        *self.capture.borrow_mut() = Some(Vec::new());
+    }
+
+    /// The dispatches recorded since [`GpuBackend::begin_capture`].
+    pub(super) fn end_capture(&self) -> Vec<Prepared> {
+        self.capture.take().unwrap_or_default()
+    }
+
+    /// Records a prepared dispatch (and keeps it while a capture is on).
     pub(super) fn record_prepared(&self, enc: &mut wgpu::CommandEncoder, p: &Prepared) {
         self.dispatches.set(self.dispatches.get() + 1);
+        if let Some(capture) = self.capture.borrow_mut().as_mut() {
+            capture.push(p.clone());
+        }
         let (pipeline, _) = self.ctx.pipelines.get(p.kernel);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(p.kernel.name()),
