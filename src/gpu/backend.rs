@@ -47,9 +47,9 @@ pub struct GpuBackend {
     pub(super) bindings: BindingLimits,
     /// Kernels recorded so far ([`GpuBackend::dispatches`]).
     pub(super) dispatches: Cell<u64>,
-    /// The dispatches recorded since [`GpuBackend::begin_capture`], while
-    /// a capture is on.
-    pub(super) capture: RefCell<Option<Vec<super::record::Prepared>>>,
+    /// The steps recorded since [`GpuBackend::begin_capture`], while a
+    /// capture is on.
+    pub(super) capture: RefCell<Option<Vec<super::record::Step>>>,
     /// Staging buffers of [`GpuBackend::write_vector`] and
     /// [`GpuBackend::read_vector`].
     pub(super) staging: RefCell<super::staging::Staging>,

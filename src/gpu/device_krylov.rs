@@ -34,7 +34,7 @@ use super::backend::{GpuBackend, GpuVector};
 use super::fused_cg::{CgSlots, FusedCg};
 use super::kernels::{reduction_groups, Kernel, ScalParams};
 use super::operator::GpuOperator;
-use super::record::Prepared;
+use super::record::Step;
 
 /// Slots of the device scalars (next to the backend's host slots 0..4).
 const TOL2: u32 = 8;
@@ -297,7 +297,7 @@ impl Cycle<'_, '_> {
         be.submit(enc);
         let fused = self.fused(method, x, r, [&p, &q, &z]);
         // The other iterations: the first one's dispatches, replayed.
-        let mut tape: Option<Vec<Prepared>> = None;
+        let mut tape: Option<Vec<Step>> = None;
         let start = stats.iterations;
         let mut k = 0;
         loop {
@@ -306,7 +306,7 @@ impl Cycle<'_, '_> {
             for _ in 0..self.every.min(left) {
                 match (&fused, &tape) {
                     (Some(fused), _) => fused.record(be, &mut enc, k),
-                    (None, Some(tape)) => tape.iter().for_each(|p| be.record_prepared(&mut enc, p)),
+                    (None, Some(tape)) => be.replay(&mut enc, tape),
                     (None, None) => {
                         be.begin_capture();
                         match method {

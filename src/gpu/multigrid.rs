@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use super::backend::{GpuBackend, GpuVector};
 use super::kernels::{grid_2d, GatherParams, Kernel, WG};
 use super::operator::GpuOperator;
-use super::record::{whole, Prepared};
+use super::record::{whole, Step};
 use crate::backend::{Backend, LinearOperator};
 use crate::condition::sparse::Cholesky;
 use crate::error::{Error, Result};
@@ -208,7 +208,6 @@ impl<'h> DeviceMultigrid<'h> {
             fine,
             mg: self,
             enc: RefCell::new(None),
-            capture: RefCell::new(None),
             tape: RefCell::new(None),
         };
         if self.work.borrow().len() != self.coarse.len() {
@@ -272,16 +271,8 @@ pub struct DeviceCycle<'a> {
     fine: &'a GpuOperator<'a>,
     mg: &'a DeviceMultigrid<'a>,
     enc: RefCell<Option<wgpu::CommandEncoder>>,
-    /// The steps of the application being recorded, while one is.
-    capture: RefCell<Option<Vec<Step>>>,
     /// The steps of the last application and its `r`, `z`.
     tape: RefCell<Option<Tape>>,
-}
-
-/// One recorded step of a cycle.
-enum Step {
-    Dispatch(Prepared),
-    Clear(wgpu::Buffer),
 }
 
 /// A cycle's steps for the vectors `r`, `z` it was applied to.
@@ -299,25 +290,10 @@ impl DeviceCycle<'_> {
         }
     }
 
-    /// Records `steps` into the open encoder (opened if none is), and keeps
-    /// them where the application is being captured.
-    fn record(&self, steps: Vec<Step>) {
+    /// Records with `f` into the open encoder (opened if none is).
+    fn record(&self, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
         let mut enc = self.enc.borrow_mut();
-        let enc = enc.get_or_insert_with(|| self.be.encoder());
-        for step in &steps {
-            match step {
-                Step::Dispatch(p) => self.be.record_prepared(enc, p),
-                Step::Clear(b) => enc.clear_buffer(b, 0, None),
-            }
-        }
-        if let Some(capture) = self.capture.borrow_mut().as_mut() {
-            capture.extend(steps);
-        }
-    }
-
-    /// Records prepared dispatches.
-    fn dispatch(&self, prepared: impl IntoIterator<Item = Prepared>) {
-        self.record(prepared.into_iter().map(Step::Dispatch).collect());
+        f(enc.get_or_insert_with(|| self.be.encoder()));
     }
 
     /// Submits what is recorded.
@@ -335,13 +311,13 @@ impl DeviceCycle<'_> {
         let (x, y, stride) = grid_2d(prm.n, WG, self.be.max_dim());
         let prm = GatherParams { stride, ..prm };
         let bytes = bytemuck::bytes_of(&prm);
-        self.dispatch([self.be.prepare(kernel, bytes, binds, (x, y))]);
+        self.record(|enc| self.be.record(enc, kernel, bytes, binds, (x, y)));
     }
 
     /// Records an element-wise kernel over `n` entries, its scalars at slots
     /// `slots` of `scalars`.
     fn vector(&self, kernel: Kernel, n: usize, slots: (u32, u32), bufs: &[&wgpu::Buffer]) {
-        self.dispatch(self.be.prepare_vec(kernel, n, slots, bufs));
+        self.record(|enc| self.be.record_vec(enc, kernel, n, slots, bufs));
     }
 
     /// The slot of `−1` in `level`'s constants.
@@ -385,25 +361,22 @@ impl ApplyInverse<GpuBackend> for DeviceCycle<'_> {
         if let Some(tape) = self.tape.borrow().as_ref() {
             if tape.r == r.buf && tape.z == z.buf {
                 let mut enc = self.be.encoder();
-                for step in &tape.steps {
-                    match step {
-                        Step::Dispatch(p) => self.be.record_prepared(&mut enc, p),
-                        Step::Clear(b) => enc.clear_buffer(b, 0, None),
-                    }
-                }
+                self.be.replay(&mut enc, &tape.steps);
                 self.be.submit(enc);
                 return;
             }
         }
         let replayable = matches!(self.mg.coarsest, Coarsest::Dense { .. });
-        *self.capture.borrow_mut() = replayable.then(Vec::new);
+        if replayable {
+            self.be.begin_capture();
+        }
         let mut work = self.mg.work.borrow_mut();
         vcycle(self, 0, r, z, &mut work);
         self.flush();
-        *self.tape.borrow_mut() = self.capture.take().map(|steps| Tape {
+        *self.tape.borrow_mut() = replayable.then(|| Tape {
             r: r.buf.clone(),
             z: z.buf.clone(),
-            steps,
+            steps: self.be.end_capture(),
         });
     }
 }
@@ -424,7 +397,7 @@ impl CycleOps for DeviceCycle<'_> {
     }
 
     fn apply(&self, level: usize, x: &GpuVector, y: &mut GpuVector) {
-        self.dispatch(self.op(level).prepare_apply(self.be, &x.buf, &y.buf));
+        self.record(|enc| self.op(level).record_apply(self.be, enc, &x.buf, &y.buf));
     }
 
     fn precondition(&self, level: usize, r: &GpuVector, z: &mut GpuVector) {
@@ -484,7 +457,7 @@ impl CycleOps for DeviceCycle<'_> {
     }
 
     fn fill_zero(&self, x: &mut GpuVector) {
-        self.record(vec![Step::Clear(x.buf.clone())]);
+        self.record(|enc| self.be.record_clear(enc, &x.buf));
     }
 
     fn restrict(&self, level: usize, fine: &GpuVector, coarse: &mut GpuVector) {

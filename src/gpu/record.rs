@@ -28,6 +28,13 @@ pub(super) fn window(b: &wgpu::Buffer, r: Range<u64>, bytes: u64) -> wgpu::Bindi
     })
 }
 
+/// A recorded step that can be recorded again: a prepared dispatch, or a
+/// buffer cleared ([`GpuBackend::begin_capture`]).
+pub(super) enum Step {
+    Dispatch(Prepared),
+    Clear(wgpu::Buffer),
+}
+
 /// A dispatch made once and recorded many times ([`GpuBackend::prepare`]).
 #[derive(Clone)]
 pub(super) struct Prepared {
@@ -89,22 +96,40 @@ impl GpuBackend {
         }
     }
 
-    /// Keeps every dispatch recorded from now until [`GpuBackend::end_capture`]
-    /// (a Krylov iteration, replayed by the next ones).
+    /// Keeps every step recorded from now until [`GpuBackend::end_capture`]
+    /// (a Krylov iteration or a V-cycle, replayed by the next ones).
     pub(super) fn begin_capture(&self) {
         *self.capture.borrow_mut() = Some(Vec::new());
     }
 
-    /// The dispatches recorded since [`GpuBackend::begin_capture`].
-    pub(super) fn end_capture(&self) -> Vec<Prepared> {
+    /// The steps recorded since [`GpuBackend::begin_capture`].
+    pub(super) fn end_capture(&self) -> Vec<Step> {
         self.capture.take().unwrap_or_default()
+    }
+
+    /// Records captured steps again.
+    pub(super) fn replay(&self, enc: &mut wgpu::CommandEncoder, steps: &[Step]) {
+        for step in steps {
+            match step {
+                Step::Dispatch(p) => self.record_prepared(enc, p),
+                Step::Clear(b) => self.record_clear(enc, b),
+            }
+        }
+    }
+
+    /// Records zeroing `buf` (and keeps it while a capture is on).
+    pub(super) fn record_clear(&self, enc: &mut wgpu::CommandEncoder, buf: &wgpu::Buffer) {
+        enc.clear_buffer(buf, 0, None);
+        if let Some(capture) = self.capture.borrow_mut().as_mut() {
+            capture.push(Step::Clear(buf.clone()));
+        }
     }
 
     /// Records a prepared dispatch (and keeps it while a capture is on).
     pub(super) fn record_prepared(&self, enc: &mut wgpu::CommandEncoder, p: &Prepared) {
         self.dispatches.set(self.dispatches.get() + 1);
         if let Some(capture) = self.capture.borrow_mut().as_mut() {
-            capture.push(p.clone());
+            capture.push(Step::Dispatch(p.clone()));
         }
         let (pipeline, _) = self.ctx.pipelines.get(p.kernel);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
