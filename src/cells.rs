@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use crate::grid::Grid;
+use crate::grid::{CellBox, Grid};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::quadrature::saye::{box_rule, BoxRule, SurfacePoint, VolumePoint};
 
@@ -112,6 +112,22 @@ impl Cells {
         q: usize,
         progress: &dyn Progress,
     ) -> Result<Cells> {
+        Cells::classify_in(grid, geometry, q, &grid.all_cells(), progress)
+    }
+
+    /// [`Cells::classify_with_progress`] over the cells of `window` only:
+    /// every other cell is outside (a rank's cells and its ghost layers).
+    /// Each cell in the window gets the kind and rule it gets in the whole
+    /// grid's classification, except where a negligible cut cell would
+    /// merge into a neighbour outside the window ([`merge`]). A window that
+    /// meets no solid is not an error; the whole grid is.
+    pub fn classify_in(
+        grid: &Grid,
+        geometry: &Geometry,
+        q: usize,
+        window: &CellBox,
+        progress: &dyn Progress,
+    ) -> Result<Cells> {
         let gbox = grid.bounding_box();
         if geometry.bounding_box().intersection(&gbox).is_empty() {
             return Err(Error::GeometryOutsideGrid {
@@ -122,8 +138,20 @@ impl Cells {
         let mut kinds = vec![CellKind::Outside; grid.num_cells()];
         let mut candidates = Vec::new();
         match geometry.mesh() {
-            Some(mesh) => candidates = flood::classify(grid, mesh, &mut kinds),
-            None => descend(grid, geometry, [0; 3], grid.n, &mut kinds, &mut candidates),
+            Some(mesh) => {
+                candidates = flood::classify(grid, mesh, &mut kinds);
+                if *window != grid.all_cells() {
+                    keep_window(grid, window, &mut kinds, &mut candidates);
+                }
+            }
+            None => descend(
+                grid,
+                geometry,
+                window.lo,
+                window.hi,
+                &mut kinds,
+                &mut candidates,
+            ),
         }
         candidates.sort_unstable();
         let phase = Phase::Quadrature;
@@ -188,12 +216,33 @@ impl Cells {
             .iter()
             .filter(|k| **k == CellKind::Inside)
             .count();
-        if cells.num_inside == 0 && cells.cut.is_empty() {
+        let whole = *window == grid.all_cells();
+        if whole && cells.num_inside == 0 && cells.cut.is_empty() {
             return Err(Error::EmptyGeometry {
                 what: format!("no cell of the level-{} grid meets the solid", grid.level),
             });
         }
         Ok(cells)
+    }
+
+    /// The kinds of `grid`'s cells without their rules: the cells that
+    /// classification would give a rule (the candidates) are marked cut.
+    /// For weighing work ([`crate::distributed::partition`]) before the
+    /// cells are shared out.
+    pub fn rough_kinds(grid: &Grid, geometry: &Geometry) -> Vec<CellKind> {
+        let mut kinds = vec![CellKind::Outside; grid.num_cells()];
+        let candidates = match geometry.mesh() {
+            Some(mesh) => flood::classify(grid, mesh, &mut kinds),
+            None => {
+                let mut candidates = Vec::new();
+                descend(grid, geometry, [0; 3], grid.n, &mut kinds, &mut candidates);
+                candidates
+            }
+        };
+        for c in candidates {
+            kinds[c] = CellKind::Cut;
+        }
+        kinds
     }
 
     /// Position of `cell` in [`Cells::cut`], if it is cut (binary search: the
@@ -300,6 +349,17 @@ impl Cells {
 
 /// Classifies the block `lo ≤ ijk < hi` by interval bounds, splitting it until
 /// it is decided or a single candidate cell.
+/// Marks the cells outside `window` outside and drops them from the
+/// candidates.
+fn keep_window(grid: &Grid, window: &CellBox, kinds: &mut [CellKind], candidates: &mut Vec<usize>) {
+    for (c, kind) in kinds.iter_mut().enumerate() {
+        if !window.contains(grid.cell_ijk(c)) {
+            *kind = CellKind::Outside;
+        }
+    }
+    candidates.retain(|&c| window.contains(grid.cell_ijk(c)));
+}
+
 fn descend(
     grid: &Grid,
     g: &Geometry,

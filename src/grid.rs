@@ -16,6 +16,39 @@ use crate::spatial::Aabb;
 /// Highest level accepted at all (the memory budget usually stops earlier).
 pub const MAX_LEVEL: u32 = 12;
 
+/// The cells `lo ≤ ijk < hi` of a grid: a rank's brick, or the window of
+/// cells it classifies (its brick and ghost layers).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CellBox {
+    pub lo: [usize; 3],
+    pub hi: [usize; 3],
+}
+
+impl CellBox {
+    /// Whether cell `ijk` lies in the box.
+    pub fn contains(&self, ijk: [usize; 3]) -> bool {
+        (0..3).all(|a| self.lo[a] <= ijk[a] && ijk[a] < self.hi[a])
+    }
+
+    /// The box grown by `layers` cells on every side, within `0..n`.
+    pub fn grown(&self, layers: usize, n: [usize; 3]) -> CellBox {
+        CellBox {
+            lo: self.lo.map(|v| v.saturating_sub(layers)),
+            hi: [0, 1, 2].map(|a| (self.hi[a] + layers).min(n[a])),
+        }
+    }
+
+    /// Whether the two boxes share a cell.
+    pub fn meets(&self, other: &CellBox) -> bool {
+        (0..3).all(|a| self.lo[a].max(other.lo[a]) < self.hi[a].min(other.hi[a]))
+    }
+
+    /// Number of cells in the box.
+    pub fn num_cells(&self) -> usize {
+        (0..3).map(|a| self.hi[a] - self.lo[a]).product()
+    }
+}
+
 /// A regular grid of cubic cells.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
@@ -83,6 +116,14 @@ impl Grid {
 
     pub fn num_cells(&self) -> usize {
         self.n[0] * self.n[1] * self.n[2]
+    }
+
+    /// All the grid's cells as a box.
+    pub fn all_cells(&self) -> CellBox {
+        CellBox {
+            lo: [0; 3],
+            hi: self.n,
+        }
     }
 
     pub fn cell_index(&self, ijk: [usize; 3]) -> usize {

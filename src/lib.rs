@@ -6,14 +6,14 @@
 //!
 //! | layer | modules |
 //! |---|---|
-//! | utilities | [`error`], [`progress`] |
+//! | utilities | [`error`], [`progress`], [`comm`] |
 //! | geometry utilities and writers | [`spatial`], [`output`], [`vtu`], [`plot`], [`expr`] |
 //! | geometry and cut cells | [`mesh`], [`geometry`], [`quadrature`], [`element`], [`grid`], [`cells`], [`recovery`] |
 //! | discretisation | [`discrete`] |
 //! | linear algebra | [`backend`], [`solver`], [`condition`] |
 //! | the case model | [`case`] |
 //! | physics | [`fem`], [`contact`], [`multigrid`] |
-//! | drivers and devices | [`driver`], [`gpu`], [`hyper`] |
+//! | drivers and devices | [`driver`], [`distributed`], [`gpu`], [`hyper`] |
 //! | runs and reports | [`report`], [`bodies`], [`inspect`], [`bench`], [`reproduce`] |
 // Kernels are written with explicit index loops, to read side by side with
 // their WGSL twins and the formulas they implement.
@@ -24,6 +24,7 @@
 
 pub mod error;
 pub mod progress;
+pub mod comm;
 
 pub mod spatial;
 pub mod output;
@@ -52,6 +53,7 @@ pub mod contact;
 pub mod multigrid;
 
 pub mod driver;
+pub mod distributed;
 pub mod gpu;
 pub mod hyper;
 

@@ -59,7 +59,7 @@ use serde::Deserialize;
 use crate::cells::{cut_rule_points, Cells};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use crate::grid::Grid;
+use crate::grid::{CellBox, Grid};
 use crate::solver::{KrylovMethod, Preconditioner};
 use crate::spatial::Aabb;
 pub use body::{
@@ -302,7 +302,20 @@ impl Case {
         grid: &Grid,
         progress: &dyn crate::progress::Progress,
     ) -> Result<Cells> {
-        self.classify_body(0, grid, &self.body().geometry, progress)
+        self.classify_in(grid, &grid.all_cells(), progress)
+    }
+
+    /// [`Case::classify_with_progress`] over the cells of `window` only
+    /// ([`Cells::classify_in`]).
+    pub fn classify_in(
+        &self,
+        grid: &Grid,
+        window: &CellBox,
+        progress: &dyn crate::progress::Progress,
+    ) -> Result<Cells> {
+        let solid = &self.body().geometry;
+        Cells::classify_in(grid, solid, self.rule_points_of(0), window, progress)
+            .map_err(|e| self.classify_error(0, e))
     }
 
     /// Classifies `grid` against body `i`'s `solid` (its geometry, clipped
@@ -315,13 +328,17 @@ impl Case {
         solid: &Geometry,
         progress: &dyn crate::progress::Progress,
     ) -> Result<Cells> {
-        Cells::classify_with_progress(grid, solid, self.rule_points_of(i), progress).map_err(|e| {
-            let key = match e {
-                Error::GeometryOutsideGrid { .. } => "grid.box_min",
-                _ => "geometry",
-            };
-            self.bad(&self.body_key(i, key), e.to_string())
-        })
+        Cells::classify_with_progress(grid, solid, self.rule_points_of(i), progress)
+            .map_err(|e| self.classify_error(i, e))
+    }
+
+    /// A classification's error, reported against body `i`'s keys.
+    fn classify_error(&self, i: usize, e: Error) -> Error {
+        let key = match e {
+            Error::GeometryOutsideGrid { .. } => "grid.box_min",
+            _ => "geometry",
+        };
+        self.bad(&self.body_key(i, key), e.to_string())
     }
 
     pub(crate) fn bad(&self, key: &str, reason: String) -> Error {

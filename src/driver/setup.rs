@@ -19,7 +19,7 @@ use crate::fem::operator::ElasticOperator;
 use crate::fem::problem::Problem;
 use crate::fem::rhs::{dirichlet_points, fixed_rhs, DirichletPoint};
 use crate::geometry::Geometry;
-use crate::grid::{machine_memory_bytes, Grid};
+use crate::grid::{machine_memory_bytes, CellBox, Grid};
 use crate::multigrid::{Hierarchy, MultigridOptions};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::solver::Preconditioner;
@@ -78,12 +78,35 @@ impl Setup {
         level: Option<u32>,
         progress: &dyn Progress,
     ) -> Result<Setup> {
+        Setup::build(case, level, None, progress)
+    }
+
+    /// The set-up of the cells of `window` only, as one rank of a
+    /// distributed run holds it ([`crate::distributed`]): every other cell
+    /// is outside, so the operator's rows and the right-hand side's entries
+    /// are the whole grid's wherever all of a node's cells are in the
+    /// window. No multigrid hierarchy is built, whatever the case asks.
+    pub fn in_window(
+        case: &Case,
+        level: Option<u32>,
+        window: &CellBox,
+        progress: &dyn Progress,
+    ) -> Result<Setup> {
+        Setup::build(case, level, Some(window), progress)
+    }
+
+    fn build(
+        case: &Case,
+        level: Option<u32>,
+        window: Option<&CellBox>,
+        progress: &dyn Progress,
+    ) -> Result<Setup> {
         case.require_linear()?;
         let grid = case.grid(level)?;
         let _span = tracing::info_span!("setup", level = grid.level).entered();
         case.check_memory(&grid, machine_memory_bytes())?;
         let t = Instant::now();
-        let cells = case.classify_with_progress(&grid, progress)?;
+        let cells = case.classify_in(&grid, window.unwrap_or(&grid.all_cells()), progress)?;
         let mut timings = vec![("quadrature".to_string(), t.elapsed().as_secs_f64())];
         tracing::info!(
             cut = cells.cut.len(),
@@ -165,6 +188,7 @@ impl Setup {
             "assembled the operator and right-hand side"
         );
         let multigrid = match case.spec.solver.preconditioner {
+            _ if window.is_some() => None,
             Preconditioner::Multigrid | Preconditioner::Auto => {
                 // The coarsest level's factor needs a held body.
                 if let Some(e) = &unheld {

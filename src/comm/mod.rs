@@ -1,0 +1,42 @@
+//! How the ranks of a distributed run talk: the [`Comm`] trait that the
+//! distributed linear algebra ([`crate::distributed`]) is written against,
+//! and its transports: [`Serial`] (one rank), [`threads`] (ranks as threads
+//! of one process, for tests and for checking a decomposition without MPI)
+//! and, with the `mpi` feature, MPI through the `mpi` crate (`mpi` module).
+//!
+//! Every operation is collective in the MPI sense: the ranks that take part
+//! call it in the same order. Reductions are summed in rank order after a
+//! gather, so every rank gets the same bits and a run is reproducible at a
+//! given rank count.
+
+mod serial;
+pub mod threads;
+
+#[cfg(feature = "mpi")]
+pub mod mpi;
+
+pub use serial::Serial;
+
+/// The messages of a distributed run.
+pub trait Comm {
+    /// This rank, `0..size()`.
+    fn rank(&self) -> usize;
+    /// Number of ranks.
+    fn size(&self) -> usize;
+    /// Every rank's `values`, in rank order (lengths may differ).
+    fn all_gather(&self, values: &[f64]) -> Vec<Vec<f64>>;
+    /// Point to point: sends `sends[i].1` to rank `sends[i].0` and returns
+    /// what each rank `recvs[i].0` sends here, `recvs[i].1` numbers long, in
+    /// the order of `recvs`. Every rank named in `recvs` names this rank in
+    /// its `sends`, with that many numbers.
+    fn exchange(&self, sends: &[(usize, Vec<f64>)], recvs: &[(usize, usize)]) -> Vec<Vec<f64>>;
+
+    /// `values` summed entry by entry over the ranks, in rank order (the
+    /// same bits on every rank).
+    fn sum(&self, values: &mut [f64]) {
+        let all = self.all_gather(values);
+        for (i, v) in values.iter_mut().enumerate() {
+            *v = all.iter().map(|r| r[i]).fold(0.0, |a, b| a + b);
+        }
+    }
+}

@@ -1,0 +1,81 @@
+//! The MPI transport (feature `mpi`), through the `mpi` crate: one process
+//! per rank, `MPI_COMM_WORLD`.
+
+use mpi::datatype::PartitionMut;
+use mpi::environment::Universe;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+
+use super::Comm;
+
+/// `MPI_COMM_WORLD`; MPI is finalised when it is dropped.
+pub struct Mpi {
+    world: SimpleCommunicator,
+    _universe: Universe,
+}
+
+impl Mpi {
+    /// Initialises MPI; `None` when it was initialised already.
+    pub fn init() -> Option<Mpi> {
+        let universe = mpi::initialize()?;
+        Some(Mpi {
+            world: universe.world(),
+            _universe: universe,
+        })
+    }
+}
+
+impl Comm for Mpi {
+    fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    fn all_gather(&self, values: &[f64]) -> Vec<Vec<f64>> {
+        let size = self.size();
+        let mut counts = vec![0 as Count; size];
+        self.world
+            .all_gather_into(&(values.len() as Count), &mut counts[..]);
+        let displs: Vec<Count> = counts
+            .iter()
+            .scan(0, |acc, &c| {
+                let start = *acc;
+                *acc += c;
+                Some(start)
+            })
+            .collect();
+        let total = counts.iter().sum::<Count>() as usize;
+        let mut buf = vec![0.0; total];
+        {
+            let mut partition = PartitionMut::new(&mut buf[..], &counts[..], &displs[..]);
+            self.world.all_gather_varcount_into(values, &mut partition);
+        }
+        (0..size)
+            .map(|r| {
+                let start = displs[r] as usize;
+                buf[start..start + counts[r] as usize].to_vec()
+            })
+            .collect()
+    }
+
+    fn exchange(&self, sends: &[(usize, Vec<f64>)], recvs: &[(usize, usize)]) -> Vec<Vec<f64>> {
+        let mut out: Vec<Vec<f64>> = recvs.iter().map(|&(_, len)| vec![0.0; len]).collect();
+        mpi::request::multiple_scope(sends.len() + recvs.len(), |scope, requests| {
+            for (buf, &(r, _)) in out.iter_mut().zip(recvs) {
+                let from = self.world.process_at_rank(r as i32);
+                requests.add(from.immediate_receive_into(scope, &mut buf[..]));
+            }
+            for (r, data) in sends {
+                let to = self.world.process_at_rank(*r as i32);
+                requests.add(to.immediate_send(scope, &data[..]));
+            }
+            let mut done = Vec::new();
+            requests.wait_all(&mut done);
+        });
+        out
+    }
+}

@@ -1,0 +1,205 @@
+//! The distributed set-up and solve against one rank's: the same owned
+//! rows, the same right-hand side and the same Jacobi-CG solution on 2, 3
+//! and 4 ranks (threads), on the sphere and the bracket.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use super::*;
+use crate::backend::{Backend, CpuBackend, LinearOperator};
+use crate::comm::threads;
+use crate::progress::Silent;
+use crate::solver::{solve, KrylovMethod, KrylovOptions, Preconditioner};
+
+fn case(name: &str) -> Case {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(name);
+    Case::from_file(&path).unwrap()
+}
+
+/// A smooth, nonzero field of the lattice node and component.
+fn field(node: u32, comp: usize) -> f64 {
+    (0.37 * node as f64 + 1.3 * comp as f64).sin() + 0.5
+}
+
+/// The whole grid's vector as lattice node → its three entries.
+fn by_node(setup: &Setup, v: &[f64]) -> HashMap<u32, [f64; 3]> {
+    let nodes = &setup.op.dofs.active_to_node;
+    nodes
+        .iter()
+        .enumerate()
+        .map(|(a, &n)| (n, [v[3 * a], v[3 * a + 1], v[3 * a + 2]]))
+        .collect()
+}
+
+/// A rank's owned entries as (lattice node, its three entries).
+fn owned(rs: &RankSetup, v: &[f64]) -> Vec<(u32, [f64; 3])> {
+    let nodes = &rs.setup.op.dofs.active_to_node;
+    (0..nodes.len())
+        .filter(|&a| rs.halo.owns(a))
+        .map(|a| (nodes[a], [v[3 * a], v[3 * a + 1], v[3 * a + 2]]))
+        .collect()
+}
+
+/// Largest difference between the ranks' owned entries and the whole
+/// grid's, relative to the whole grid's largest; and whether every active
+/// node is owned by exactly one rank.
+fn compare(whole: &HashMap<u32, [f64; 3]>, ranks: &[Vec<(u32, [f64; 3])>]) -> (f64, bool) {
+    let scale = whole
+        .values()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let mut seen = HashMap::new();
+    let mut diff = 0.0_f64;
+    for (n, v) in ranks.iter().flatten() {
+        *seen.entry(*n).or_insert(0) += 1;
+        let w = whole
+            .get(n)
+            .expect("an owned node is active in the whole grid");
+        for c in 0..3 {
+            diff = diff.max((v[c] - w[c]).abs() / scale);
+        }
+    }
+    let once = seen.len() == whole.len() && seen.values().all(|&k| k == 1);
+    (diff, once)
+}
+
+const JACOBI_CG: KrylovOptions = KrylovOptions {
+    method: KrylovMethod::Cg,
+    preconditioner: Preconditioner::Jacobi,
+    rel_tol: 1e-12,
+    max_iterations: 20_000,
+};
+
+#[test]
+fn bricks_cover_the_grid_once_and_share_the_work() {
+    let case = case("sphere.toml");
+    let grid = case.grid(Some(5)).unwrap();
+    let work = partition::cell_work(&Cells::rough_kinds(&grid, &case.body().geometry));
+    for parts in 1..=7 {
+        let bricks = partition::bricks(&grid, &work, parts, ALIGN).unwrap();
+        assert_eq!(bricks.len(), parts);
+        let mut load = vec![0.0; parts];
+        for c in 0..grid.num_cells() {
+            let ijk = grid.cell_ijk(c);
+            let holders: Vec<usize> = (0..parts).filter(|&r| bricks[r].contains(ijk)).collect();
+            assert_eq!(holders.len(), 1, "cell {ijk:?} in bricks {holders:?}");
+            load[holders[0]] += work[c];
+        }
+        let mean = load.iter().sum::<f64>() / parts as f64;
+        let worst = load.iter().fold(0.0_f64, |m, &l| m.max(l)) / mean;
+        assert!(
+            worst < 1.1,
+            "{parts} bricks: the heaviest has {worst} × the mean"
+        );
+    }
+}
+
+#[test]
+fn too_many_ranks_for_the_grid_is_an_error() {
+    let case = case("sphere.toml");
+    let grid = case.grid(Some(1)).unwrap();
+    let work = vec![1.0; grid.num_cells()];
+    assert!(matches!(
+        partition::bricks(&grid, &work, 9, ALIGN),
+        Err(Error::InvalidGrid { .. })
+    ));
+}
+
+/// The ranks' owned rows of the operator, its diagonal and the fixed
+/// right-hand side equal the whole grid's on `name` at `level`.
+fn owned_rows_equal_the_whole_grids(name: &str, level: u32) {
+    let case = case(name);
+    let whole = Setup::new(&case, Some(level)).unwrap();
+    let x: Vec<f64> = (0..whole.op.nrows())
+        .map(|d| field(whole.op.dofs.active_to_node[d / 3], d % 3))
+        .collect();
+    let mut y = vec![0.0; x.len()];
+    whole.op.apply(&x, &mut y);
+    let (ay, ab, ad) = (
+        by_node(&whole, &y),
+        by_node(&whole, &whole.fixed_rhs),
+        by_node(&whole, &whole.op.diagonal()),
+    );
+    for ranks in [2, 3, 4] {
+        let got = threads::run(ranks, |comm| {
+            let rs = RankSetup::new(&case, Some(level), comm, &Silent).unwrap();
+            let dofs = &rs.setup.op.dofs;
+            // The ghosts start at zero: the apply brings them.
+            let mut x: Vec<f64> = (0..rs.setup.op.nrows())
+                .map(|d| field(dofs.active_to_node[d / 3], d % 3))
+                .collect();
+            rs.halo.zero_ghosts(&mut x);
+            let be = DistBackend::new(comm);
+            let op = DistOperator::new(&rs.setup.op, &rs.halo);
+            let mut y = be.zeros(x.len());
+            be.apply(&op, &x, &mut y);
+            let d = be.diagonal(&op);
+            (owned(&rs, &y), owned(&rs, &rs.fixed_rhs()), owned(&rs, &d))
+        });
+        let (ys, bs, ds): (Vec<_>, Vec<_>, Vec<_>) = got.into_iter().fold(
+            (vec![], vec![], vec![]),
+            |(mut a, mut b, mut c), (y, f, d)| {
+                a.push(y);
+                b.push(f);
+                c.push(d);
+                (a, b, c)
+            },
+        );
+        for (what, whole, ranks_v) in [("A x", &ay, &ys), ("rhs", &ab, &bs), ("diag", &ad, &ds)] {
+            let (diff, once) = compare(whole, ranks_v);
+            assert!(once, "{name}, {ranks} ranks: a node is not owned once");
+            assert!(
+                diff < 1e-13,
+                "{name}, {ranks} ranks: {what} differs by {diff:e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn owned_rows_equal_the_whole_grids_on_the_sphere() {
+    owned_rows_equal_the_whole_grids("sphere.toml", 4);
+}
+
+#[test]
+fn owned_rows_equal_the_whole_grids_on_the_bracket() {
+    owned_rows_equal_the_whole_grids("bracket.toml", 4);
+}
+
+#[test]
+fn jacobi_cg_on_several_ranks_solves_as_one() {
+    let case = case("sphere.toml");
+    let whole = Setup::new(&case, Some(4)).unwrap();
+    let cpu = CpuBackend::new();
+    let mut u = vec![0.0; whole.op.nrows()];
+    let op: &dyn LinearOperator = &whole.op;
+    let one = solve(&cpu, op, None, &whole.fixed_rhs, &mut u, &JACOBI_CG).unwrap();
+    let wu = by_node(&whole, &u);
+    for ranks in [1, 2, 3, 4] {
+        let got = threads::run(ranks, |comm| {
+            let rs = RankSetup::new(&case, Some(4), comm, &Silent).unwrap();
+            let be = DistBackend::new(comm);
+            let op = DistOperator::new(&rs.setup.op, &rs.halo);
+            let b = rs.fixed_rhs();
+            let mut u = be.zeros(b.len());
+            let stats = solve(&be, &op, None, &b, &mut u, &JACOBI_CG).unwrap();
+            (owned(&rs, &u), stats.iterations)
+        });
+        let (values, iterations): (Vec<_>, Vec<_>) = got.into_iter().unzip();
+        assert!(iterations.iter().all(|&k| k == iterations[0]));
+        assert!(
+            iterations[0].abs_diff(one.iterations) <= 1,
+            "{ranks} ranks: {} iterations, one rank {}",
+            iterations[0],
+            one.iterations
+        );
+        let (diff, once) = compare(&wu, &values);
+        assert!(once);
+        assert!(
+            diff < 1e-9,
+            "{ranks} ranks: the solutions differ by {diff:e}"
+        );
+    }
+}
