@@ -19,6 +19,7 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::discrete::field::interpolate;
 use cgfem_gpu::driver::recovery::{recover_stress, recovered_tractions, traction_patch_nodes};
 use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::share::Whole;
 use cgfem_gpu::driver::stabilisation::{recover_displacement, s_rhs};
 
 fn best_of<T>(reps: usize, mut f: impl FnMut() -> T) -> f64 {
@@ -69,7 +70,16 @@ fn main() {
         let s = best_of(3, || {
             let rec =
                 recover_displacement(&setup, &u, omega_star, Some(&displacement_plans)).unwrap();
-            s_rhs(&setup, &setup.omega_star, &u, &rec, setup.s_factor, true).unwrap()
+            s_rhs(
+                &setup,
+                &setup.omega_star,
+                &u,
+                &rec,
+                setup.s_factor,
+                true,
+                &Whole,
+            )
+            .unwrap()
         });
         let (cut, path_cells) = (setup.cells.cut.len(), setup.omega_star.len());
         println!(

@@ -110,6 +110,9 @@ pub enum Error {
     /// The run was stopped (Ctrl-C) at a fixed-point iteration boundary.
     #[error("interrupted after {iterations} fixed-point iterations")]
     Interrupted { iterations: usize },
+    /// A distributed run failed on another rank (that rank names why).
+    #[error("distributed run: {what}")]
+    Distributed { what: String },
     /// A load step of the nonlinear (Newton) solver failed after every
     /// allowed cut of its increment; the last converged step is kept.
     #[error(
@@ -136,6 +139,7 @@ impl Error {
             Error::MaxIterations { .. }
             | Error::Breakdown { .. }
             | Error::Recovery { .. }
+            | Error::Distributed { .. }
             | Error::LoadStepFailed { .. } => 3,
             Error::Plot { .. } | Error::Gpu { .. } | Error::Bench { .. } => 1,
             _ => 2,

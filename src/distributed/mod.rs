@@ -7,14 +7,17 @@
 //! unchanged over the rank's [`backend::DistBackend`], whose dot products
 //! are summed over the ranks ([`crate::comm`]).
 //!
-//! Built so far: the set-up and the Krylov solve with the operator (and
-//! Jacobi). The recovered right-hand side, the multigrid levels, the output
-//! and the check that every piece of the body is held are not distributed
-//! yet, so no run of the program takes this path.
+//! Built so far: the set-up, the pieces of the body across the ranks
+//! ([`pieces`]) and the solve with the recovered load and the S-term
+//! ([`solve`]), Krylov with Jacobi. The multigrid levels, the reactions and
+//! error norms, the output and the check that every piece of the body is
+//! held are not distributed yet, so no run of the program takes this path.
 
 pub mod backend;
 pub mod halo;
 pub mod partition;
+pub mod pieces;
+pub mod solve;
 
 #[cfg(test)]
 mod tests;
@@ -30,9 +33,12 @@ use crate::progress::Progress;
 pub use backend::{DistBackend, DistOperator};
 pub use halo::Halo;
 
-/// Cells of ghost layers around a brick: the apply needs one; the merges of
-/// negligible cut cells into a neighbour reach one more.
-pub const GHOST_LAYERS: usize = 2;
+/// Cells of ghost layers around a brick. An owned node's rows take its
+/// cells (one layer); its recovered load takes the patches of those cells'
+/// vertices, up to [`crate::recovery::SprOptions`]' three rings (three
+/// more); and the cells at the window's edge may lack a negligible
+/// neighbour merged into them (one more).
+pub const GHOST_LAYERS: usize = 5;
 
 /// Bricks' cut planes fall on multiples of this many cells.
 pub const ALIGN: usize = 1;
@@ -60,7 +66,12 @@ impl RankSetup {
         let work = partition::cell_work(&kinds);
         let bricks = partition::bricks(&grid, &work, comm.size(), ALIGN)?;
         let window = bricks[comm.rank()].grown(GHOST_LAYERS, grid.n);
-        let setup = Setup::in_window(case, level, &window, progress)?;
+        let mut setup = Setup::in_window(case, level, &window, progress)?;
+        let windows: Vec<CellBox> = bricks
+            .iter()
+            .map(|b| b.grown(GHOST_LAYERS, grid.n))
+            .collect();
+        pieces::join(comm, &grid, &windows, &mut setup.pieces);
         if setup.op.dofs.has_copies() {
             return Err(Error::UnsupportedOnBackend {
                 backend: format!("distributed ({} ranks)", comm.size()),

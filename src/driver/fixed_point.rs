@@ -99,29 +99,29 @@ pub fn fixed_point_with_progress(
         Ok(())
     };
     let mut krylov = opts.krylov.clone();
-    let mut run_solve =
-        |rhs: &[f64], u: &mut Vec<f64>, tol: f64, report: &mut FixedPointReport| -> Result<()> {
-            krylov.rel_tol = tol;
-            recorded_solve(solver, rhs, u, &krylov, report, progress)
-        };
+    let mut run_solve = |solver: &mut dyn LinearSolver,
+                         rhs: &[f64],
+                         u: &mut Vec<f64>,
+                         tol: f64,
+                         report: &mut FixedPointReport|
+     -> Result<()> {
+        krylov.rel_tol = tol;
+        recorded_solve(solver, rhs, u, &krylov, report, progress)
+    };
     let mut u = vec![0.0; fixed.len()];
     let mut tau = opts.krylov.rel_tol;
     stop(report)?;
-    run_solve(fixed, &mut u, tau, report)?;
+    run_solve(solver, fixed, &mut u, tau, report)?;
     for k in 1..=opts.max_iterations {
         stop(report)?;
         let _span = tracing::info_span!("fixed_point", iteration = k).entered();
         let extra = recorded_recovery(recovered, &u, report, progress)?;
         let rhs: Vec<f64> = fixed.iter().zip(&extra).map(|(a, b)| a + b).collect();
         let mut next = u.clone();
-        run_solve(&rhs, &mut next, tau, report)?;
-        let diff: f64 = next
-            .iter()
-            .zip(&u)
-            .map(|(a, b)| (a - b).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let norm: f64 = next.iter().map(|a| a * a).sum::<f64>().sqrt();
+        run_solve(solver, &rhs, &mut next, tau, report)?;
+        let change: Vec<f64> = next.iter().zip(&u).map(|(a, b)| a - b).collect();
+        let diff = solver.dot(&change, &change).sqrt();
+        let norm = solver.dot(&next, &next).sqrt();
         let eps = if norm > 0.0 { diff / norm } else { 0.0 };
         report.iterations += 1;
         report.eps_history.push(eps);

@@ -8,6 +8,7 @@ use crate::backend::{CpuBackend, LinearOperator};
 use crate::driver::setup::Setup;
 use crate::error::Result;
 use crate::multigrid::Multigrid;
+use crate::solver::fgmres::local_dot;
 use crate::solver::{
     solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner, TimedInverse,
 };
@@ -21,6 +22,12 @@ pub trait LinearSolver {
     /// solver times them on the host (`None`: not timed, or no V-cycle).
     fn v_cycles(&self) -> Option<(usize, f64)> {
         None
+    }
+
+    /// `a · b` over the whole body (the solver of one rank of several sums
+    /// its part over the ranks).
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        local_dot(a, b)
     }
 }
 

@@ -11,6 +11,7 @@ pub mod outer_krylov;
 pub mod output;
 pub mod recovery;
 pub mod setup;
+pub mod share;
 pub mod solve;
 pub mod stabilisation;
 pub mod surface_output;

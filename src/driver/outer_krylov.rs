@@ -188,6 +188,10 @@ impl FlexibleSystem for Outer<'_, '_> {
         Ok(())
     }
 
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        self.solver.dot(a, b)
+    }
+
     fn after_direction(&mut self, iterations: usize, eps: f64) {
         self.report.iterations = self.start + iterations;
         self.report.eps_history.push(eps);

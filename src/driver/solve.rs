@@ -10,6 +10,7 @@ use super::linear::{CpuSolver, LinearSolver};
 use super::outer_krylov::fgmres_fixed_point;
 use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
 use super::setup::Setup;
+use super::share::{CellShare, Whole};
 use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
@@ -155,6 +156,8 @@ pub fn solve_with_progress(
 /// ring search, the stability checks and the factorisations.
 pub struct RecoveredLoad<'a> {
     setup: &'a Setup,
+    /// The cells this rank counts in the S-term's fits.
+    share: &'a dyn CellShare,
     /// The [`traction_patch_nodes`].
     nodes: Vec<usize>,
     stress_plans: OnceLock<FitPlans>,
@@ -163,8 +166,15 @@ pub struct RecoveredLoad<'a> {
 
 impl<'a> RecoveredLoad<'a> {
     pub fn new(setup: &'a Setup) -> Self {
+        RecoveredLoad::shared(setup, &Whole)
+    }
+
+    /// The recovered load of one rank's set-up, its S-term's fits over the
+    /// cells `share` counts, summed over the ranks.
+    pub fn shared(setup: &'a Setup, share: &'a dyn CellShare) -> Self {
         RecoveredLoad {
             setup,
+            share,
             nodes: traction_patch_nodes(setup),
             stress_plans: OnceLock::new(),
             displacement_plans: OnceLock::new(),
@@ -190,6 +200,7 @@ impl<'a> RecoveredLoad<'a> {
                 &s,
                 setup.s_factor,
                 setup.s_balanced,
+                self.share,
             )?;
             for (a, b) in f.iter_mut().zip(&fs) {
                 *a += b;

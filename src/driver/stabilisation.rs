@@ -28,6 +28,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::recovery::{sample_positions, vertex_nodes_of};
 use super::setup::Setup;
+use super::share::CellShare;
 use crate::discrete::field::CellField;
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
@@ -244,7 +245,8 @@ where
 /// `R a` is the rigid-body part of `u_h − S` on Ω* (see [`RigidFit`]) when
 /// `balanced` (the S-term then puts no net force or moment on any piece of
 /// the body), and
-/// zero otherwise (the paper's `F_S`).
+/// zero otherwise (the paper's `F_S`). The fit of each piece adds up the
+/// cells that `share` counts, summed over the ranks.
 pub fn s_rhs(
     setup: &Setup,
     omega_star: &[usize],
@@ -252,6 +254,7 @@ pub fn s_rhs(
     s: &Recovered<3>,
     factor: f64,
     balanced: bool,
+    share: &dyn CellShare,
 ) -> Result<Vec<f64>> {
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
@@ -259,27 +262,28 @@ pub fn s_rhs(
     // One projection per piece of the body: the pieces share no node, so
     // each must be balanced on its own.
     let of_cell = &setup.pieces.of_cell;
-    let mut per_piece = vec![Vec::new(); setup.pieces.count];
-    for &c in omega_star {
-        per_piece[of_cell[c] as usize].push(c);
-    }
-    let mut fits: Vec<RigidFit> = per_piece
-        .iter()
-        .map(|cells| RigidFit::about(centroid(grid, cells), grid.h))
-        .collect();
+    let mut fits = piece_fits(setup, omega_star, share);
     let mut values = Vec::with_capacity(omega_star.len() * rule.len());
     for &c in omega_star {
         let fit = &mut fits[of_cell[c] as usize];
         let lo = grid.cell_box(c).lo;
         let blend = s.cell_blend(c)?;
         let field = CellField::new(grid, dofs, u, c);
+        let counted = share.counts(c);
         for (xi, w) in &rule {
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
             let sx = blend.eval(x);
-            let ux = field.value_and_gradient(x).0;
-            fit.add(x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a]));
+            if counted {
+                let ux = field.value_and_gradient(x).0;
+                fit.add(x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a]));
+            }
             values.push((c, x, w * vol, sx));
         }
+    }
+    let mut sums: Vec<f64> = fits.iter().flat_map(RigidFit::sums).collect();
+    share.sum(&mut sums);
+    for (fit, s) in fits.iter_mut().zip(sums.chunks_exact(42)) {
+        fit.set_sums(s);
     }
     let a: Vec<[f64; 6]> = match balanced {
         true => fits.iter().map(RigidFit::solve).collect(),
@@ -295,14 +299,25 @@ pub fn s_rhs(
     Ok(rhs)
 }
 
-/// The mean of the centres of `cells`.
-fn centroid(grid: &crate::grid::Grid, cells: &[usize]) -> [f64; 3] {
-    let mut x0 = [0.0; 3];
-    for &c in cells {
+/// An empty rigid-body fit per piece, about the mean of the centres of the
+/// piece's cells of Ω* (summed over the ranks).
+fn piece_fits(setup: &Setup, omega_star: &[usize], share: &dyn CellShare) -> Vec<RigidFit> {
+    let (grid, of_cell) = (&setup.grid, &setup.pieces.of_cell);
+    // Per piece: the sum of the centres, and the count.
+    let mut sums = vec![0.0; 4 * setup.pieces.count];
+    for &c in omega_star.iter().filter(|&&c| share.counts(c)) {
         let lo = grid.cell_box(c).lo;
+        let p = 4 * of_cell[c] as usize;
         for a in 0..3 {
-            x0[a] += (lo[a] + 0.5 * grid.h) / cells.len() as f64;
+            sums[p + a] += lo[a] + 0.5 * grid.h;
         }
+        sums[p + 3] += 1.0;
     }
-    x0
+    share.sum(&mut sums);
+    sums.chunks_exact(4)
+        .map(|s| {
+            let x0 = [0, 1, 2].map(|a| if s[3] > 0.0 { s[a] / s[3] } else { 0.0 });
+            RigidFit::about(x0, grid.h)
+        })
+        .collect()
 }

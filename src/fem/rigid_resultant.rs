@@ -89,6 +89,19 @@ impl RigidFit {
         }
     }
 
+    /// The sums `G` and `m` of the points added, flat (for adding up the
+    /// fits of several ranks).
+    pub fn sums(&self) -> Vec<f64> {
+        self.g.iter().chain(self.m.iter()).copied().collect()
+    }
+
+    /// Replaces the sums by `sums` (as [`RigidFit::sums`] gives them).
+    pub fn set_sums(&mut self, sums: &[f64]) {
+        let (g, m) = sums.split_at(36);
+        self.g.iter_mut().zip(g).for_each(|(a, b)| *a = *b);
+        self.m.iter_mut().zip(m).for_each(|(a, b)| *a = *b);
+    }
+
     /// The coefficients `a = G⁻¹ m` (zero when `G` is singular: no points).
     pub fn solve(&self) -> [f64; 6] {
         match self.g.cholesky() {

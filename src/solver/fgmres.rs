@@ -29,6 +29,9 @@ pub trait FlexibleSystem {
     /// Called after each direction with the iterations so far and the
     /// relative residual estimate `|g_{j+1}| / ‖b‖`.
     fn after_direction(&mut self, iterations: usize, estimate: f64);
+    /// `a · b` over the whole system ([`local_dot`] where the vectors are
+    /// whole; summed over the ranks where each holds a part).
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64;
 }
 
 /// Tolerance, iteration cap and restart length.
@@ -62,7 +65,7 @@ pub fn fgmres(
     method: &str,
 ) -> Result<FgmresOutcome> {
     let mut x = vec![0.0; b.len()];
-    let b_norm = norm(b);
+    let b_norm = norm(system, b);
     if b_norm == 0.0 {
         return Ok(FgmresOutcome {
             x,
@@ -84,7 +87,7 @@ pub fn fgmres(
         // where its estimate says converged, to confirm it.
         let mx = system.apply(&x)?;
         r = b.iter().zip(&mx).map(|(f, m)| f - m).collect();
-        r_norm = norm(&r);
+        r_norm = norm(system, &r);
         if r_norm <= target {
             return Ok(FgmresOutcome {
                 x,
@@ -135,14 +138,14 @@ fn cycle(
         let mut column = vec![0.0; j + 2];
         for _ in 0..2 {
             for (i, vi) in v.iter().enumerate() {
-                let c = dot(&w, vi);
+                let c = system.dot(&w, vi);
                 column[i] += c;
                 for (a, b) in w.iter_mut().zip(vi) {
                     *a -= c * b;
                 }
             }
         }
-        let w_norm = norm(&w);
+        let w_norm = norm(system, &w);
         column[j + 1] = w_norm;
         estimate = h.push(column);
         *iterations += 1;
@@ -221,10 +224,11 @@ impl Hessenberg {
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// `a · b`, summed in order.
+pub fn local_dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-fn norm(a: &[f64]) -> f64 {
-    dot(a, a).sqrt()
+fn norm(system: &dyn FlexibleSystem, a: &[f64]) -> f64 {
+    system.dot(a, a).sqrt()
 }

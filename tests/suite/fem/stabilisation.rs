@@ -4,6 +4,7 @@
 use cgfem_gpu::case::Case;
 use cgfem_gpu::condition::{condition_number, ConditionOptions};
 use cgfem_gpu::driver::setup::Setup;
+use cgfem_gpu::driver::share::Whole;
 
 fn sphere_kappa(k2: f64) -> (f64, bool, usize) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sphere.toml");
@@ -260,8 +261,26 @@ fn the_s_term_puts_no_net_force_or_moment_on_the_body() {
     );
     let u = interpolate(grid, dofs, &field);
     let s = recover_displacement(&setup, &u, &setup.omega_star, None).unwrap();
-    let fs = s_rhs(&setup, &setup.omega_star, &u, &s, setup.s_factor, true).unwrap();
-    let fs_paper = s_rhs(&setup, &setup.omega_star, &u, &s, setup.s_factor, false).unwrap();
+    let fs = s_rhs(
+        &setup,
+        &setup.omega_star,
+        &u,
+        &s,
+        setup.s_factor,
+        true,
+        &Whole,
+    )
+    .unwrap();
+    let fs_paper = s_rhs(
+        &setup,
+        &setup.omega_star,
+        &u,
+        &s,
+        setup.s_factor,
+        false,
+        &Whole,
+    )
+    .unwrap();
     let centre = [40.0, 20.0, 30.0];
     let rigid = |k: usize, x: [f64; 3]| -> [f64; 3] {
         let r = [0, 1, 2].map(|a| x[a] - centre[a]);

@@ -1,0 +1,178 @@
+//! The linear path's solve on one rank of several: the outer strategies of
+//! [`crate::driver`] (FGMRES or the paper's fixed point) over the rank's
+//! [`RankSolver`] and [`RankOperator`], with the recovered load of the
+//! rank's window ([`RecoveredLoad::shared`]): the displacement's ghosts are
+//! brought from their owners first, so the recovery's patches around the
+//! owned unknowns see the whole grid's values, and the S-term's rigid-body
+//! fits add up each rank's brick ([`BrickShare`]).
+
+use super::backend::{DistBackend, DistOperator};
+use super::RankSetup;
+use crate::backend::{Backend, LinearOperator};
+use crate::case::physics::{OuterMethod, SolverSpec};
+use crate::comm::Comm;
+use crate::driver::fixed_point::{fixed_point_with_progress, FixedPointReport};
+use crate::driver::linear::LinearSolver;
+use crate::driver::outer_krylov::fgmres_fixed_point;
+use crate::driver::share::CellShare;
+use crate::driver::solve::{fixed_point_options, RecoveredLoad};
+use crate::error::{Error, Result};
+use crate::grid::{CellBox, Grid};
+use crate::progress::Progress;
+use crate::solver::{solve, KrylovOptions, KrylovStats, Preconditioner};
+
+/// A rank counts the cells of its brick.
+pub struct BrickShare<'a> {
+    grid: &'a Grid,
+    brick: CellBox,
+    comm: &'a dyn Comm,
+}
+
+impl CellShare for BrickShare<'_> {
+    fn counts(&self, cell: usize) -> bool {
+        self.brick.contains(self.grid.cell_ijk(cell))
+    }
+
+    fn sum(&self, values: &mut [f64]) {
+        self.comm.sum(values)
+    }
+}
+
+/// The rank's Krylov solves: its [`DistBackend`] with Jacobi (the
+/// multigrid levels are not distributed yet: `auto` and `multigrid` take
+/// Jacobi).
+pub struct RankSolver<'a> {
+    be: DistBackend<'a>,
+    op: DistOperator<'a>,
+    diag: Vec<f64>,
+}
+
+impl<'a> RankSolver<'a> {
+    pub fn new(rs: &'a RankSetup, comm: &'a dyn Comm) -> Self {
+        let be = DistBackend::new(comm);
+        let op = DistOperator::new(&rs.setup.op, &rs.halo);
+        let diag = be.diagonal(&op);
+        RankSolver { be, op, diag }
+    }
+}
+
+impl LinearSolver for RankSolver<'_> {
+    fn solve(
+        &mut self,
+        rhs: &[f64],
+        u: &mut Vec<f64>,
+        opts: &KrylovOptions,
+    ) -> Result<KrylovStats> {
+        let opts = KrylovOptions {
+            preconditioner: match opts.preconditioner {
+                Preconditioner::None => Preconditioner::None,
+                _ => Preconditioner::Jacobi,
+            },
+            ..opts.clone()
+        };
+        solve(
+            &self.be,
+            &self.op,
+            Some(&self.diag),
+            &rhs.to_vec(),
+            u,
+            &opts,
+        )
+    }
+
+    fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        self.be.dot(&a.to_vec(), &b.to_vec())
+    }
+}
+
+/// The rank's operator as the outer loop applies it (`M z = A z − …`).
+pub struct RankOperator<'a> {
+    be: DistBackend<'a>,
+    op: DistOperator<'a>,
+}
+
+impl<'a> RankOperator<'a> {
+    pub fn new(rs: &'a RankSetup, comm: &'a dyn Comm) -> Self {
+        RankOperator {
+            be: DistBackend::new(comm),
+            op: DistOperator::new(&rs.setup.op, &rs.halo),
+        }
+    }
+}
+
+impl LinearOperator for RankOperator<'_> {
+    fn nrows(&self) -> usize {
+        self.be.nrows(&self.op)
+    }
+
+    /// Collective.
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        let mut out = vec![0.0; y.len()];
+        self.be.apply(&self.op, &x.to_vec(), &mut out);
+        y.copy_from_slice(&out);
+    }
+
+    fn diagonal(&self) -> Vec<f64> {
+        self.be.diagonal(&self.op)
+    }
+}
+
+/// Solves the rank's share of the case (the fixed point of the recovered
+/// load, as [`crate::driver::solve::solve_with_progress`] does on one
+/// rank); returns the rank's unknowns with the ghosts' values filled in.
+/// An error on any rank is an error on every rank. Collective.
+pub fn solve_rank(
+    rs: &RankSetup,
+    spec: &SolverSpec,
+    comm: &dyn Comm,
+    report: &mut FixedPointReport,
+    progress: &dyn Progress,
+) -> Result<Vec<f64>> {
+    let setup = &rs.setup;
+    let share = BrickShare {
+        grid: &setup.grid,
+        brick: rs.bricks[comm.rank()],
+        comm,
+    };
+    let load = RecoveredLoad::shared(setup, &share);
+    let mut recovered = |u: &[f64]| {
+        let mut full = u.to_vec();
+        rs.halo.fill_ghosts(comm, &mut full);
+        let mut f = agree(comm, load.at(&full))?;
+        rs.halo.zero_ghosts(&mut f);
+        Ok(f)
+    };
+    let opts = fixed_point_options(spec);
+    let fixed = rs.fixed_rhs();
+    let mut solver = RankSolver::new(rs, comm);
+    let mut u = match spec.outer {
+        OuterMethod::Fgmres => fgmres_fixed_point(
+            &mut solver,
+            &RankOperator::new(rs, comm),
+            &fixed,
+            &mut recovered,
+            &opts,
+            report,
+            progress,
+        )?,
+        OuterMethod::Picard => {
+            fixed_point_with_progress(&mut solver, &fixed, &mut recovered, &opts, report, progress)?
+        }
+    };
+    rs.halo.fill_ghosts(comm, &mut u);
+    Ok(u)
+}
+
+/// `local` where every rank succeeded; otherwise this rank's error, or one
+/// naming the failure of another rank. Collective.
+fn agree<T>(comm: &dyn Comm, local: Result<T>) -> Result<T> {
+    let mut failed = [f64::from(u8::from(local.is_err()))];
+    comm.sum(&mut failed);
+    match (local, failed[0] > 0.0) {
+        (Ok(v), false) => Ok(v),
+        (Err(e), _) => Err(e),
+        (Ok(_), true) => Err(Error::Distributed {
+            what: "another rank failed; its error is in its own output".into(),
+        }),
+    }
+}
