@@ -90,8 +90,9 @@ pub struct Cells {
     pub sample_start: Vec<usize>,
     pub samples: Vec<[f64; 3]>,
     pub num_inside: usize,
-    /// Cut cells of negligible volume merged into a neighbour ([`merge`]).
-    pub merged: usize,
+    /// Cut cells of negligible volume merged into a neighbour ([`merge`]),
+    /// ascending.
+    pub merged: Vec<usize>,
     /// Cut cells, ascending, whose rule is the first-order repaired one of
     /// a mesh with defects ([`crate::quadrature::repaired`]).
     pub repaired: Vec<usize>,

@@ -280,6 +280,17 @@ impl Grid {
     }
 }
 
+/// Peak resident memory of the process in bytes (`VmHWM` of
+/// `/proc/self/status`), or 0 where that is not available.
+pub fn peak_resident_bytes() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        .map_or(0, |kb| kb * 1024)
+}
+
 /// Physical memory of this machine (Linux `/proc/meminfo`), or 16 GiB when it
 /// cannot be read: the default memory budget.
 pub fn machine_memory_bytes() -> u64 {

@@ -13,8 +13,8 @@
 //! | linear algebra | [`backend`], [`solver`], [`condition`] |
 //! | the case model | [`case`] |
 //! | physics | [`fem`], [`contact`], [`multigrid`] |
-//! | drivers and devices | [`driver`], [`distributed`], [`gpu`], [`hyper`] |
-//! | runs and reports | [`report`], [`bodies`], [`inspect`], [`bench`], [`reproduce`] |
+//! | drivers and devices | [`driver`], [`gpu`], [`hyper`] |
+//! | runs and reports | [`report`], [`distributed`], [`bodies`], [`inspect`], [`bench`], [`reproduce`] |
 // Kernels are written with explicit index loops, to read side by side with
 // their WGSL twins and the formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -53,11 +53,11 @@ pub mod contact;
 pub mod multigrid;
 
 pub mod driver;
-pub mod distributed;
 pub mod gpu;
 pub mod hyper;
 
 pub mod report;
+pub mod distributed;
 pub mod bodies;
 pub mod inspect;
 pub mod bench;

@@ -23,16 +23,7 @@ pub fn seconds_per_call(budget: f64, mut f: impl FnMut()) -> f64 {
     best
 }
 
-/// Peak resident memory of the process in bytes (`VmHWM` of
-/// `/proc/self/status`), or 0 where that is not available.
-pub fn peak_resident_bytes() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-        .map_or(0, |kb| kb * 1024)
-}
+pub use crate::grid::peak_resident_bytes;
 
 /// Resets the peak resident memory to the current one (Linux: writing `5` to
 /// `/proc/self/clear_refs`), so that the next [`peak_resident_bytes`] is the

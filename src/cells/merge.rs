@@ -38,14 +38,14 @@ pub const NEGLIGIBLE_FRACTION: f64 = 1e-10;
 /// Merges the negligible cells of `entries` (cut-cell candidates with their
 /// rules, ascending by cell) into their hosts; `kinds` is updated (merged cells
 /// become outside, inside cells next to a merged one become cut). Returns the
-/// number of merged cells.
+/// merged cells, ascending.
 pub(super) fn merge_negligible(
     grid: &Grid,
     g: &Geometry,
     q: usize,
     kinds: &mut [CellKind],
     entries: &mut Vec<(usize, BoxRule)>,
-) -> usize {
+) -> Vec<usize> {
     let cell_volume = grid.h.powi(3);
     let negligible =
         |r: &BoxRule| r.volume.iter().map(|p| p.w).sum::<f64>() < NEGLIGIBLE_FRACTION * cell_volume;
@@ -59,7 +59,7 @@ pub(super) fn merge_negligible(
         .enumerate()
         .map(|(i, (c, _))| (*c, i))
         .collect();
-    let mut merged = 0;
+    let mut merged = Vec::new();
     for (m, rule) in small {
         let mut best: Option<(usize, f64)> = None;
         for axis in 0..3 {
@@ -87,10 +87,11 @@ pub(super) fn merge_negligible(
             let host = &mut entries[slot].1;
             host.volume.extend(rule.volume);
             host.surface.extend(rule.surface);
-            merged += 1;
+            merged.push(m);
         }
     }
     entries.sort_unstable_by_key(|(c, _)| *c);
+    merged.sort_unstable();
     merged
 }
 

@@ -224,12 +224,45 @@ pub fn error_norms(
     lambda: f64,
     mu: f64,
 ) -> ErrorNorms {
-    let [e] = error_norms_of(grid, cells, dofs, [u_h], exact, lambda, mu);
+    let [e] = error_norms_of(grid, cells, dofs, [u_h], exact, lambda, mu, &|_| true);
+    ErrorNorms::from_sums(e)
+}
+
+/// The sums under [`error_norms`]' roots over the cells `counts` takes:
+/// `[‖u − u_h‖²_E, ‖u‖²_E, ‖u − u_h‖²_L2, ‖u‖²_L2]` (the sums of a rank's
+/// cells, to be added over the ranks; [`ErrorNorms::from_sums`]).
+#[allow(clippy::too_many_arguments)]
+pub fn error_sums(
+    grid: &Grid,
+    cells: &Cells,
+    dofs: &DofMap,
+    u_h: &[f64],
+    exact: &VectorExpr,
+    lambda: f64,
+    mu: f64,
+    counts: &(dyn Fn(usize) -> bool + Sync),
+) -> [f64; 4] {
+    let [e] = error_norms_of(grid, cells, dofs, [u_h], exact, lambda, mu, counts);
     e
 }
 
-/// [`error_norms`] of `N` fields in one pass: the exact field and its
+impl ErrorNorms {
+    /// The norms from their sums ([`error_sums`]).
+    pub fn from_sums(s: [f64; 4]) -> ErrorNorms {
+        // `NaN.max(0.0)` is 0 in Rust: keep a NaN a NaN (null in the report).
+        let root = |v: f64| if v.is_nan() { v } else { v.max(0.0).sqrt() };
+        ErrorNorms {
+            energy: root(s[0]),
+            energy_relative: root(s[0] / s[1]),
+            l2: s[2].sqrt(),
+            l2_relative: (s[2] / s[3]).sqrt(),
+        }
+    }
+}
+
+/// [`error_sums`] of `N` fields in one pass: the exact field and its
 /// gradient are evaluated once per quadrature point for all of them.
+#[allow(clippy::too_many_arguments)]
 fn error_norms_of<const N: usize>(
     grid: &Grid,
     cells: &Cells,
@@ -238,7 +271,8 @@ fn error_norms_of<const N: usize>(
     exact: &VectorExpr,
     lambda: f64,
     mu: f64,
-) -> [ErrorNorms; N] {
+    counts: &(dyn Fn(usize) -> bool + Sync),
+) -> [[f64; 4]; N] {
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
     let shapes = ShapeTable::new(dofs.order, &rule, grid.h).0;
     let tape = exact.tape();
@@ -269,7 +303,7 @@ fn error_norms_of<const N: usize>(
     };
     let zero = [[0.0; 4]; N];
     let inside: Vec<usize> = (0..grid.num_cells())
-        .filter(|&c| cells.kinds[c] == CellKind::Inside)
+        .filter(|&c| cells.kinds[c] == CellKind::Inside && counts(c))
         .collect();
     let inside = inside
         .par_chunks(NORM_GROUP)
@@ -292,7 +326,9 @@ fn error_norms_of<const N: usize>(
             })
         })
         .reduce(|| zero, add);
-    let cut: Vec<usize> = (0..cells.cut.len()).collect();
+    let cut: Vec<usize> = (0..cells.cut.len())
+        .filter(|&i| counts(cells.cut[i]))
+        .collect();
     let cut = cut
         .par_chunks(NORM_GROUP)
         .map(|group| {
@@ -311,14 +347,7 @@ fn error_norms_of<const N: usize>(
             })
         })
         .reduce(|| zero, add);
-    // `NaN.max(0.0)` is 0 in Rust: keep a NaN a NaN (null in the report).
-    let root = |v: f64| if v.is_nan() { v } else { v.max(0.0).sqrt() };
-    add(inside, cut).map(|s| ErrorNorms {
-        energy: root(s[0]),
-        energy_relative: root(s[0] / s[1]),
-        l2: s[2].sqrt(),
-        l2_relative: (s[2] / s[3]).sqrt(),
-    })
+    add(inside, cut)
 }
 
 /// Cells whose quadrature points [`error_norms_of`] evaluates the exact field
@@ -366,7 +395,8 @@ pub fn solution_and_interpolant_errors(
         let solution = error_norms(grid, cells, dofs, u_h, exact, lambda, mu);
         return (solution, Err(why));
     }
-    let [solution, e] = error_norms_of(grid, cells, dofs, [u_h, &ui], exact, lambda, mu);
+    let sums = error_norms_of(grid, cells, dofs, [u_h, &ui], exact, lambda, mu, &|_| true);
+    let [solution, e] = sums.map(ErrorNorms::from_sums);
     let all = [e.energy, e.energy_relative, e.l2, e.l2_relative];
     if all.iter().any(|v| !v.is_finite()) {
         let why = format!(

@@ -8,6 +8,7 @@
 use super::partition::owner;
 use crate::comm::Comm;
 use crate::discrete::dofs::DofMap;
+use crate::element::ElementOrder;
 use crate::grid::{CellBox, Grid};
 
 /// A rank's owned and ghost nodes, and what it sends and receives to bring
@@ -24,16 +25,18 @@ pub struct Halo {
     recvs: Vec<(usize, Vec<u32>)>,
 }
 
-/// The cell that decides the owner of lattice node `node` (of `dofs.order`).
-fn owner_cell(grid: &Grid, dofs: &DofMap, node: usize) -> [usize; 3] {
-    let p = dofs.order.degree();
-    let per_axis = grid.nodes_per_axis(dofs.order);
+/// The cell (index) that decides the owner of lattice node `node` of
+/// elements of `order`: the cell whose lowest corner it is, or the last
+/// along an axis.
+pub fn owner_cell(grid: &Grid, order: ElementOrder, node: usize) -> usize {
+    let p = order.degree();
+    let per_axis = grid.nodes_per_axis(order);
     let l = [
         node % per_axis[0],
         (node / per_axis[0]) % per_axis[1],
         node / (per_axis[0] * per_axis[1]),
     ];
-    [0, 1, 2].map(|a| (l[a] / p).min(grid.n[a] - 1))
+    grid.cell_index([0, 1, 2].map(|a| (l[a] / p).min(grid.n[a] - 1)))
 }
 
 impl Halo {
@@ -56,7 +59,8 @@ impl Halo {
         let mut asks: Vec<Vec<u32>> = vec![Vec::new(); comm.size()];
         let mut ghosts = Vec::new();
         for (a, &node) in dofs.active_to_node.iter().enumerate() {
-            let r = owner(bricks, owner_cell(grid, dofs, node as usize));
+            let cell = owner_cell(grid, dofs.order, node as usize);
+            let r = owner(bricks, grid.cell_ijk(cell));
             if r == me {
                 owned[a] = true;
             } else {

@@ -17,6 +17,7 @@ pub mod backend;
 pub mod halo;
 pub mod partition;
 pub mod pieces;
+pub mod run;
 pub mod solve;
 
 #[cfg(test)]
@@ -66,7 +67,7 @@ impl RankSetup {
         let work = partition::cell_work(&kinds);
         let bricks = partition::bricks(&grid, &work, comm.size(), ALIGN)?;
         let window = bricks[comm.rank()].grown(GHOST_LAYERS, grid.n);
-        let mut setup = Setup::in_window(case, level, &window, progress)?;
+        let mut setup = agree(comm, Setup::in_window(case, level, &window, progress))?;
         let windows: Vec<CellBox> = bricks
             .iter()
             .map(|b| b.grown(GHOST_LAYERS, grid.n))
@@ -93,5 +94,20 @@ impl RankSetup {
         let mut b = self.setup.fixed_rhs.clone();
         self.halo.zero_ghosts(&mut b);
         b
+    }
+}
+
+/// `local` where every rank succeeded; otherwise this rank's error, or one
+/// saying that another rank failed. Collective: every rank calls it where a
+/// rank's own step may fail, so that none waits for a rank that gave up.
+pub(crate) fn agree<T>(comm: &dyn Comm, local: Result<T>) -> Result<T> {
+    let mut failed = [f64::from(u8::from(local.is_err()))];
+    comm.sum(&mut failed);
+    match (local, failed[0] > 0.0) {
+        (Ok(v), false) => Ok(v),
+        (Err(e), _) => Err(e),
+        (Ok(_), true) => Err(Error::Distributed {
+            what: "another rank failed; its error is in its own output".into(),
+        }),
     }
 }

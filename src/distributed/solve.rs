@@ -7,16 +7,18 @@
 //! fits add up each rank's brick ([`BrickShare`]).
 
 use super::backend::{DistBackend, DistOperator};
-use super::RankSetup;
+use super::{agree, RankSetup};
 use crate::backend::{Backend, LinearOperator};
-use crate::case::physics::{OuterMethod, SolverSpec};
+use crate::case::physics::OuterMethod;
+use crate::case::Case;
 use crate::comm::Comm;
+use crate::discrete::field::{error_sums, ErrorNorms};
 use crate::driver::fixed_point::{fixed_point_with_progress, FixedPointReport};
 use crate::driver::linear::LinearSolver;
 use crate::driver::outer_krylov::fgmres_fixed_point;
 use crate::driver::share::CellShare;
 use crate::driver::solve::{fixed_point_options, RecoveredLoad};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::grid::{CellBox, Grid};
 use crate::progress::Progress;
 use crate::solver::{solve, KrylovOptions, KrylovStats, Preconditioner};
@@ -117,17 +119,31 @@ impl LinearOperator for RankOperator<'_> {
     }
 }
 
+/// What a rank's solve gives.
+pub struct RankSolution {
+    /// The rank's unknowns, the ghosts' values filled in.
+    pub u: Vec<f64>,
+    /// `Σ_q w_q λ_q` over the Dirichlet points of each boundary tag (by
+    /// tag, `None` for a tag with no Dirichlet point), summed over the
+    /// ranks.
+    pub reactions: Vec<Option<[f64; 3]>>,
+    /// The error norms against the case's exact solution, where it has one
+    /// (over the whole body).
+    pub error: Option<ErrorNorms>,
+}
+
 /// Solves the rank's share of the case (the fixed point of the recovered
 /// load, as [`crate::driver::solve::solve_with_progress`] does on one
-/// rank); returns the rank's unknowns with the ghosts' values filled in.
-/// An error on any rank is an error on every rank. Collective.
+/// rank), then recovers the reactions and takes the error norms, each
+/// summed over the ranks. An error on any rank is an error on every rank.
+/// Collective.
 pub fn solve_rank(
     rs: &RankSetup,
-    spec: &SolverSpec,
+    case: &Case,
     comm: &dyn Comm,
     report: &mut FixedPointReport,
     progress: &dyn Progress,
-) -> Result<Vec<f64>> {
+) -> Result<RankSolution> {
     let setup = &rs.setup;
     let share = BrickShare {
         grid: &setup.grid,
@@ -142,6 +158,7 @@ pub fn solve_rank(
         rs.halo.zero_ghosts(&mut f);
         Ok(f)
     };
+    let spec = &case.spec.solver;
     let opts = fixed_point_options(spec);
     let fixed = rs.fixed_rhs();
     let mut solver = RankSolver::new(rs, comm);
@@ -160,19 +177,35 @@ pub fn solve_rank(
         }
     };
     rs.halo.fill_ghosts(comm, &mut u);
-    Ok(u)
-}
-
-/// `local` where every rank succeeded; otherwise this rank's error, or one
-/// naming the failure of another rank. Collective.
-fn agree<T>(comm: &dyn Comm, local: Result<T>) -> Result<T> {
-    let mut failed = [f64::from(u8::from(local.is_err()))];
-    comm.sum(&mut failed);
-    match (local, failed[0] > 0.0) {
-        (Ok(v), false) => Ok(v),
-        (Err(e), _) => Err(e),
-        (Ok(_), true) => Err(Error::Distributed {
-            what: "another rank failed; its error is in its own output".into(),
-        }),
+    let reactions = agree(comm, load.reactions(&u))?.reactions;
+    let tags = case.body().geometry.tag_names().len();
+    // Per tag: the force and the number of points.
+    let mut by_tag = vec![0.0; 4 * tags];
+    for (p, r) in setup.dirichlet.iter().zip(&reactions) {
+        if share.counts(p.cell) {
+            let t = 4 * p.tag as usize;
+            for k in 0..3 {
+                by_tag[t + k] += p.w * r[k];
+            }
+            by_tag[t + 3] += 1.0;
+        }
     }
+    comm.sum(&mut by_tag);
+    let error = setup.problem.exact.as_ref().map(|exact| {
+        let (grid, cells, dofs) = (&setup.grid, &setup.cells, &setup.op.dofs);
+        let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
+        let brick = rs.bricks[comm.rank()];
+        let counts = |c: usize| brick.contains(grid.cell_ijk(c));
+        let mut sums = error_sums(grid, cells, dofs, &u, exact, lambda, mu, &counts);
+        comm.sum(&mut sums);
+        ErrorNorms::from_sums(sums)
+    });
+    Ok(RankSolution {
+        u,
+        reactions: by_tag
+            .chunks_exact(4)
+            .map(|f| (f[3] > 0.0).then_some([f[0], f[1], f[2]]))
+            .collect(),
+        error,
+    })
 }

@@ -8,6 +8,7 @@ use std::path::Path;
 use super::*;
 use crate::backend::{Backend, CpuBackend, LinearOperator};
 use crate::comm::threads;
+use crate::discrete::field::error_norms;
 use crate::progress::Silent;
 use crate::solver::{solve, KrylovMethod, KrylovOptions, Preconditioner};
 
@@ -229,16 +230,66 @@ fn fixed_point_on_ranks_equals_one_rank(name: &str, level: u32) {
     let mut report = crate::driver::fixed_point::FixedPointReport::default();
     let one = crate::driver::solve::solve(&whole, spec, &mut report).unwrap();
     let wu = by_node(&whole, &one.u);
+    let tags = case.body().geometry.tag_names().len();
+    let mut whole_reactions = vec![None; tags];
+    for (p, r) in whole.dirichlet.iter().zip(&one.reactions) {
+        let f: &mut [f64; 3] = whole_reactions[p.tag as usize].get_or_insert([0.0; 3]);
+        for k in 0..3 {
+            f[k] += p.w * r[k];
+        }
+    }
+    let force_scale = whole_reactions
+        .iter()
+        .flatten()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let whole_error = whole.problem.exact.as_ref().map(|exact| {
+        let (l, m) = (whole.problem.lambda, whole.problem.mu);
+        error_norms(
+            &whole.grid,
+            &whole.cells,
+            &whole.op.dofs,
+            &one.u,
+            exact,
+            l,
+            m,
+        )
+    });
     for ranks in [2, 3, 4] {
         let got = threads::run(ranks, |comm| {
             let rs = RankSetup::new(&case, Some(level), comm, &Silent).unwrap();
             let mut r = crate::driver::fixed_point::FixedPointReport::default();
-            let u = solve::solve_rank(&rs, spec, comm, &mut r, &Silent).unwrap();
-            (owned(&rs, &u), r)
+            let sol = solve::solve_rank(&rs, &case, comm, &mut r, &Silent).unwrap();
+            (owned(&rs, &sol.u), (r, sol.reactions, sol.error))
         });
         let (values, reports): (Vec<_>, Vec<_>) = got.into_iter().unzip();
         let total: usize = report.iterations_per_solve.iter().sum();
-        for r in &reports {
+        for (r, reactions, error) in &reports {
+            assert_eq!(reactions.len(), whole_reactions.len());
+            for (a, b) in reactions.iter().zip(&whole_reactions) {
+                assert_eq!(
+                    a.is_some(),
+                    b.is_some(),
+                    "{name}, {ranks} ranks: a Dirichlet part"
+                );
+                for (a, b) in a.iter().flatten().zip(b.iter().flatten()) {
+                    let off = (a - b).abs() / force_scale;
+                    assert!(
+                        off <= 1e-9,
+                        "{name}, {ranks} ranks: reaction {a} against {b}"
+                    );
+                }
+            }
+            if let (Some(a), Some(b)) = (error, &whole_error) {
+                let rel = (a.energy - b.energy).abs() / b.energy;
+                assert!(
+                    rel < 1e-10,
+                    "{name}, {ranks} ranks: energy error {} against {}",
+                    a.energy,
+                    b.energy
+                );
+            }
+            assert_eq!(error.is_some(), whole_error.is_some());
             assert_eq!(
                 r.iterations, report.iterations,
                 "{name}, {ranks} ranks: outer"
@@ -266,4 +317,70 @@ fn fixed_point_on_ranks_equals_one_rank_on_the_sphere() {
 #[test]
 fn fixed_point_on_ranks_equals_one_rank_on_the_bracket() {
     fixed_point_on_ranks_equals_one_rank("bracket.toml", 4);
+}
+
+/// The report of a run on 3 ranks counts and measures the body as one
+/// rank's set-up does, and has a row per rank whose owned unknowns add up
+/// to the body's.
+#[test]
+fn a_run_on_ranks_reports_the_body_as_one_rank() {
+    let case = jacobi_case("bracket.toml");
+    let whole = Setup::new(&case, Some(4)).unwrap();
+    let body = case.body();
+    let one = crate::report::BodyReport::new(
+        &body.spec.name,
+        body.model,
+        body.spec.element,
+        &body.geometry,
+        &whole.grid,
+        &whole.cells,
+        false,
+    );
+    let reports = threads::run(3, |comm| {
+        let (mut report, result) = run::run(&case, Some(4), comm, &Silent);
+        // Each rank's own seconds.
+        report.timings.clear();
+        (report, result)
+    });
+    for (report, result) in &reports {
+        result.as_ref().unwrap();
+        assert_eq!(report, &reports[0].0, "every rank has the same report");
+        let row = &report.bodies[0];
+        let (a, b) = (&row.cells, &one.cells);
+        assert_eq!(
+            (
+                a.inside,
+                a.cut,
+                a.outside,
+                a.merged,
+                a.repaired,
+                a.glued_nodes
+            ),
+            (
+                b.inside,
+                b.cut,
+                b.outside,
+                b.merged,
+                b.repaired,
+                b.glued_nodes
+            )
+        );
+        assert_eq!(a.pathological, Some(whole.omega_star.len()));
+        assert_eq!(row.dofs, whole.op.dofs.ndofs());
+        assert_eq!(report.dofs, whole.op.dofs.ndofs());
+        let rel = |x: f64, y: f64| (x - y).abs() / y.abs();
+        assert!(rel(row.domain.volume, one.domain.volume) < 1e-12);
+        for (tag, area) in &one.domain.boundary_area_by_tag {
+            let got = row.domain.boundary_area_by_tag[tag];
+            assert!(
+                (got - area).abs() <= 1e-12 * one.domain.boundary_area,
+                "{tag}"
+            );
+        }
+        assert_eq!(report.ranks.len(), 3);
+        let owned: usize = report.ranks.iter().map(|r| r.owned_dofs).sum();
+        assert_eq!(owned, whole.op.dofs.ndofs());
+        assert!(report.ranks.iter().all(|r| r.halo_bytes_per_apply > 0));
+        assert_eq!(report.reactions.len(), 1, "the bolt holes' reaction");
+    }
 }

@@ -32,6 +32,16 @@ pub struct Solution {
     pub stress: Recovered<6>,
 }
 
+/// What the solution's recovery gives at the Dirichlet points.
+pub struct Reactions {
+    /// Recovered traction `t̂` at each Dirichlet point.
+    pub t_hat: Vec<[f64; 3]>,
+    /// Reaction `λ_q` at each Dirichlet point.
+    pub reactions: Vec<[f64; 3]>,
+    /// The stress recovered on the traction's patches.
+    pub stress: Recovered<6>,
+}
+
 /// The loop settings of a case's `[solver]` table.
 pub fn fixed_point_options(spec: &SolverSpec) -> FixedPointOptions {
     FixedPointOptions {
@@ -109,30 +119,18 @@ pub fn solve_with_progress(
         phase: Phase::Recovery,
         total: None,
     });
-    let recovered =
-        recover_stress(setup, &u, &load.nodes, Some(&load.stress_plans)).and_then(|sigma| {
-            let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
-            let extra = setup.flux.dirichlet_densities(
-                &setup.grid,
-                &setup.cells,
-                &sigma,
-                &setup.dirichlet,
-            )?;
-            Ok((t_hat, extra, sigma))
-        });
+    let recovered = load.reactions(&u);
     progress.event(&Event::Finish {
         phase: Phase::Recovery,
     });
     report.recovery_seconds += t.elapsed().as_secs_f64();
     report.recoveries += 1;
     report.v_cycles = solver.v_cycles();
-    let (t_hat, extra, stress) = recovered?;
-    let mut reactions = reactions(setup, &u, &t_hat);
-    for (r, e) in reactions.iter_mut().zip(&extra) {
-        for k in 0..3 {
-            r[k] += e[k];
-        }
-    }
+    let Reactions {
+        t_hat,
+        reactions,
+        stress,
+    } = recovered?;
     tracing::info!(
         points = t_hat.len(),
         "recovered the tractions and reactions"
@@ -179,6 +177,30 @@ impl<'a> RecoveredLoad<'a> {
             stress_plans: OnceLock::new(),
             displacement_plans: OnceLock::new(),
         }
+    }
+
+    /// The recovered traction `t̂` and the reaction at each Dirichlet point
+    /// for the solution `u`, with the stress recovered on the traction's
+    /// patches.
+    pub fn reactions(&self, u: &[f64]) -> Result<Reactions> {
+        let setup = self.setup;
+        let sigma = recover_stress(setup, u, &self.nodes, Some(&self.stress_plans))?;
+        let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
+        let extra =
+            setup
+                .flux
+                .dirichlet_densities(&setup.grid, &setup.cells, &sigma, &setup.dirichlet)?;
+        let mut reactions = reactions(setup, u, &t_hat);
+        for (r, e) in reactions.iter_mut().zip(&extra) {
+            for k in 0..3 {
+                r[k] += e[k];
+            }
+        }
+        Ok(Reactions {
+            t_hat,
+            reactions,
+            stress: sigma,
+        })
     }
 
     /// `F_T(u) (+ F_S(u))`.

@@ -59,6 +59,13 @@ pub struct CellCounts {
 }
 
 impl CellCounts {
+    /// Keeps the glued vertices that `keep` takes (a rank's own).
+    pub fn keep_glued(&mut self, grid: &Grid, keep: impl Fn(usize) -> bool) {
+        self.glued.retain(|&v| keep(v));
+        self.glued_nodes = self.glued.len();
+        self.glued_box = nodes_box(grid, &self.glued).map(|b| [b.lo, b.hi]);
+    }
+
     /// Records the vertices that `dofs` copies: they are split, no longer
     /// glued.
     pub fn record_split(&mut self, grid: &Grid, dofs: &DofMap) {
@@ -164,6 +171,29 @@ pub struct Report {
     pub reactions: Vec<newton::ReactionRow>,
     /// Seconds per phase.
     pub timings: BTreeMap<String, f64>,
+    /// A run on several ranks: each rank's share.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub ranks: Vec<RankRow>,
+}
+
+/// One rank of a distributed run.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct RankRow {
+    pub rank: usize,
+    /// The rank's brick of cells, `[lo, hi)` by cell index.
+    pub brick: [[usize; 3]; 2],
+    /// Inside and cut cells of the brick.
+    pub inside: usize,
+    pub cut: usize,
+    /// Unknowns owned, and held as ghosts (brought from their owners).
+    pub owned_dofs: usize,
+    pub ghost_dofs: usize,
+    /// Bytes received in one ghost exchange (one operator apply).
+    pub halo_bytes_per_apply: usize,
+    pub setup_seconds: f64,
+    pub solve_seconds: f64,
+    /// Peak resident memory of the rank's process.
+    pub peak_bytes: u64,
 }
 
 impl Report {
@@ -200,6 +230,7 @@ impl Report {
             contact: Vec::new(),
             reactions: Vec::new(),
             timings: BTreeMap::new(),
+            ranks: Vec::new(),
         }
     }
 
@@ -299,7 +330,7 @@ impl BodyReport {
                 cut: cells.cut.len(),
                 outside,
                 pathological: None,
-                merged: cells.merged,
+                merged: cells.merged.len(),
                 repaired: cells.repaired.len(),
                 repaired_box: (!cells.repaired.is_empty()).then(|| {
                     let b = cells

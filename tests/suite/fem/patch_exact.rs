@@ -279,7 +279,7 @@ fn run_patch_tests(element: &str, level: u32, seed: u64) {
                 "{what}: energy error {:.2e}, {} cut cells ({} merged), {} fixed-point iterations",
                 e,
                 setup.cells.cut.len(),
-                setup.cells.merged,
+                setup.cells.merged.len(),
                 report.iterations
             );
             assert!(report.converged, "{what}: fixed point did not converge");

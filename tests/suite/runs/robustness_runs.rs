@@ -321,13 +321,13 @@ fn run(p: &Placement) -> Result<Outcome, String> {
             "solve: {e} ({}; {} cut cells, {} merged, {} pathological)",
             fixed_point_summary(&report),
             setup.cells.cut.len(),
-            setup.cells.merged,
+            setup.cells.merged.len(),
             setup.omega_star.len()
         )
     })?;
     let mut out = Outcome {
         cut: setup.cells.cut.len(),
-        merged: setup.cells.merged,
+        merged: setup.cells.merged.len(),
         pathological: setup.omega_star.len(),
         floored: report.floored_diagonal_entries,
         fixed_point: report.iterations,
