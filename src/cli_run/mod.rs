@@ -8,6 +8,8 @@
 //! files written beside it under `outputs` — and the ParaView files that
 //! `--output` selects, each atomically.
 
+#[cfg(feature = "mpi")]
+mod distributed;
 mod linear;
 mod newton;
 
@@ -113,6 +115,17 @@ pub fn run_case(
             reason: "--out names a file, not a folder".into(),
         }
         .into());
+    }
+    #[cfg(feature = "mpi")]
+    {
+        use cgfem_gpu::comm::Comm;
+        // Started by mpirun on several ranks (one rank: the run below).
+        if let Some(comm) = cgfem_gpu::comm::mpi::Mpi::init().filter(|c| c.size() > 1) {
+            if condition && comm.rank() == 0 {
+                println!("note: --condition needs the whole operator on one rank; not computed");
+            }
+            return distributed::run(&case, level, &dir, outputs, device, &comm, progress);
+        }
     }
     match &case.path {
         SolutionPath::Linear => {

@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use super::halo::owner_cell;
-use super::solve::{solve_rank, RankSolution};
+use super::solve::{ranks_preconditioner, solve_rank, RankSolution};
 use super::RankSetup;
 use crate::case::Case;
 use crate::cells::CellKind;
@@ -19,7 +19,6 @@ use crate::grid::peak_resident_bytes;
 use crate::progress::Progress;
 use crate::report::newton::ReactionRow;
 use crate::report::{BodyReport, FixedPoint, Krylov, RankRow, Report};
-use crate::solver::Preconditioner;
 
 /// Runs `case` at `level` (default: the case's) on `comm`'s ranks: the
 /// report (the same on every rank), and whether the run succeeded (the
@@ -71,10 +70,7 @@ fn run_into(
     let spec = &case.spec.solver;
     report.krylov = Some(Krylov {
         method: spec.method.name().into(),
-        preconditioner: match spec.preconditioner {
-            Preconditioner::None => "none".into(),
-            _ => "jacobi".into(),
-        },
+        preconditioner: format!("{:?}", ranks_preconditioner(spec.preconditioner)).to_lowercase(),
         iterations_per_solve: fp.iterations_per_solve.clone(),
         total_iterations: fp.total_iterations,
         final_relative_residual: fp.final_relative_residual,

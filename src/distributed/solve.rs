@@ -17,7 +17,7 @@ use crate::driver::fixed_point::{fixed_point_with_progress, FixedPointReport};
 use crate::driver::linear::LinearSolver;
 use crate::driver::outer_krylov::fgmres_fixed_point;
 use crate::driver::share::CellShare;
-use crate::driver::solve::{fixed_point_options, RecoveredLoad};
+use crate::driver::solve::{fixed_point_options, solve_once, RecoveredLoad};
 use crate::error::Result;
 use crate::grid::{CellBox, Grid};
 use crate::progress::Progress;
@@ -58,6 +58,15 @@ impl<'a> RankSolver<'a> {
     }
 }
 
+/// The preconditioner the ranks take for the one a case asks: Jacobi,
+/// unless it asks for none (the multigrid levels are not distributed yet).
+pub fn ranks_preconditioner(asked: Preconditioner) -> Preconditioner {
+    match asked {
+        Preconditioner::None => Preconditioner::None,
+        _ => Preconditioner::Jacobi,
+    }
+}
+
 impl LinearSolver for RankSolver<'_> {
     fn solve(
         &mut self,
@@ -66,10 +75,7 @@ impl LinearSolver for RankSolver<'_> {
         opts: &KrylovOptions,
     ) -> Result<KrylovStats> {
         let opts = KrylovOptions {
-            preconditioner: match opts.preconditioner {
-                Preconditioner::None => Preconditioner::None,
-                _ => Preconditioner::Jacobi,
-            },
+            preconditioner: ranks_preconditioner(opts.preconditioner),
             ..opts.clone()
         };
         solve(
@@ -158,11 +164,15 @@ pub fn solve_rank(
         rs.halo.zero_ghosts(&mut f);
         Ok(f)
     };
-    let spec = &case.spec.solver;
-    let opts = fixed_point_options(spec);
+    // The ranks precondition with Jacobi: the inner solves' default
+    // tolerance is Jacobi's.
+    let mut spec = case.spec.solver.clone();
+    spec.preconditioner = ranks_preconditioner(spec.preconditioner);
+    let opts = fixed_point_options(&spec);
     let fixed = rs.fixed_rhs();
     let mut solver = RankSolver::new(rs, comm);
     let mut u = match spec.outer {
+        _ if load.is_zero() => solve_once(&fixed, &mut solver, &opts, report, progress)?,
         OuterMethod::Fgmres => fgmres_fixed_point(
             &mut solver,
             &RankOperator::new(rs, comm),

@@ -86,12 +86,11 @@ pub fn solve_with_progress(
     let _span = tracing::info_span!("solve", dofs = setup.fixed_rhs.len()).entered();
     setup.check_held()?;
     let load = RecoveredLoad::new(setup);
-    let stabilised = setup.s_factor > 0.0 && !setup.omega_star.is_empty();
     let mut traction_load = |u: &[f64]| load.at(u);
     let opts = fixed_point_options(spec);
-    let u = if setup.dirichlet.is_empty() && !stabilised {
+    let u = if load.is_zero() {
         // Nothing is recovered into the right-hand side: one solve is the answer.
-        solve_once(setup, solver, &opts, report, progress)?
+        solve_once(&setup.fixed_rhs, solver, &opts, report, progress)?
     } else {
         match spec.outer {
             OuterMethod::Fgmres => fgmres_fixed_point(
@@ -156,6 +155,10 @@ pub struct RecoveredLoad<'a> {
     setup: &'a Setup,
     /// The cells this rank counts in the S-term's fits.
     share: &'a dyn CellShare,
+    /// Whether the S-term is on and some rank has a pathological cell.
+    stabilised: bool,
+    /// Whether some rank has a Dirichlet point.
+    held: bool,
     /// The [`traction_patch_nodes`].
     nodes: Vec<usize>,
     stress_plans: OnceLock<FitPlans>,
@@ -170,9 +173,18 @@ impl<'a> RecoveredLoad<'a> {
     /// The recovered load of one rank's set-up, its S-term's fits over the
     /// cells `share` counts, summed over the ranks.
     pub fn shared(setup: &'a Setup, share: &'a dyn CellShare) -> Self {
+        let counted =
+            |cells: &mut dyn Iterator<Item = usize>| cells.filter(|&c| share.counts(c)).count();
+        let mut counts = [
+            counted(&mut setup.omega_star.iter().copied()) as f64,
+            counted(&mut setup.dirichlet.iter().map(|p| p.cell)) as f64,
+        ];
+        share.sum(&mut counts);
         RecoveredLoad {
             setup,
             share,
+            stabilised: setup.s_factor > 0.0 && counts[0] > 0.0,
+            held: counts[1] > 0.0,
             nodes: traction_patch_nodes(setup),
             stress_plans: OnceLock::new(),
             displacement_plans: OnceLock::new(),
@@ -203,6 +215,12 @@ impl<'a> RecoveredLoad<'a> {
         })
     }
 
+    /// Whether nothing is recovered into the right-hand side (no Dirichlet
+    /// point, no S-term): then one solve is the answer.
+    pub fn is_zero(&self) -> bool {
+        !self.held && !self.stabilised
+    }
+
     /// `F_T(u) (+ F_S(u))`.
     pub fn at(&self, u: &[f64]) -> Result<Vec<f64>> {
         let setup = self.setup;
@@ -212,7 +230,7 @@ impl<'a> RecoveredLoad<'a> {
         setup
             .flux
             .add_recovered(&setup.grid, &setup.cells, &setup.op.dofs, &sigma, &mut f)?;
-        if setup.s_factor > 0.0 && !setup.omega_star.is_empty() {
+        if self.stabilised {
             let s =
                 recover_displacement(setup, u, &setup.omega_star, Some(&self.displacement_plans))?;
             let fs = s_rhs(
@@ -232,9 +250,9 @@ impl<'a> RecoveredLoad<'a> {
     }
 }
 
-/// A single Krylov solve of `A U = F` (no Dirichlet points).
-fn solve_once(
-    setup: &Setup,
+/// A single Krylov solve of `A U = F` (`fixed`: nothing is recovered).
+pub fn solve_once(
+    fixed: &[f64],
     solver: &mut dyn LinearSolver,
     opts: &FixedPointOptions,
     report: &mut FixedPointReport,
@@ -243,9 +261,9 @@ fn solve_once(
     if progress.should_stop() {
         return Err(Error::Interrupted { iterations: 0 });
     }
-    let mut u = vec![0.0; setup.fixed_rhs.len()];
+    let mut u = vec![0.0; fixed.len()];
     let t = std::time::Instant::now();
-    let stats = solver.solve(&setup.fixed_rhs, &mut u, &opts.krylov)?;
+    let stats = solver.solve(fixed, &mut u, &opts.krylov)?;
     report.krylov_seconds = t.elapsed().as_secs_f64();
     progress.event(&Event::KrylovSolve {
         index: 0,

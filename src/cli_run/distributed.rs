@@ -1,0 +1,93 @@
+//! `mpirun -n P cgfem-gpu run case.toml` (feature `mpi`, P > 1): the linear
+//! path on P ranks ([`cgfem_gpu::distributed::run`]). Every rank reads the
+//! case and solves its share; rank 0 prints and writes DIR/report.json (with
+//! a row per rank), also when the run fails. On the CPU of each rank, with
+//! Jacobi-preconditioned Krylov solves; the ParaView files are not written
+//! on more than one rank yet (a note says so).
+
+use std::path::Path;
+
+use cgfem_gpu::case::Case;
+use cgfem_gpu::comm::Comm;
+use cgfem_gpu::driver::output::OutputFiles;
+use cgfem_gpu::gpu::BackendChoice;
+use cgfem_gpu::progress::Silent;
+
+use super::{Device, Outputs};
+use crate::cli_progress::Terminal;
+
+/// Runs `case` on the ranks of `comm` and writes its report to `dir` from
+/// rank 0.
+pub fn run(
+    case: &Case,
+    level: Option<u32>,
+    dir: &Path,
+    outputs: &Outputs,
+    device: &Device,
+    comm: &dyn Comm,
+    progress: &Terminal,
+) -> anyhow::Result<()> {
+    let ranks = comm.size();
+    if BackendChoice::resolve(device.backend)? == BackendChoice::Gpu {
+        return Err(cgfem_gpu::Error::UnsupportedOnBackend {
+            backend: format!("distributed ({ranks} ranks)"),
+            what: "the GPU backend".into(),
+            hint: "use --backend cpu, or run as one process".into(),
+        }
+        .into());
+    }
+    let lead = comm.rank() == 0;
+    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
+    if lead {
+        println!("case {name} ({}): {ranks} ranks, CPU, Jacobi", case.file);
+        if outputs.paraview.files != OutputFiles::None {
+            println!(
+                "  note: a run on several ranks writes report.json only (no ParaView files yet)"
+            );
+        }
+    }
+    let (report, result) = match lead {
+        true => cgfem_gpu::distributed::run::run(case, level, comm, progress),
+        false => cgfem_gpu::distributed::run::run(case, level, comm, &Silent),
+    };
+    progress.finish();
+    if lead {
+        let b = &report.bodies.first();
+        if let (Some(b), Some(fp), Some(k)) = (b, &report.fixed_point, &report.krylov) {
+            println!(
+                "  level {}, {} dofs; {} inside, {} cut cells",
+                b.level, report.dofs, b.cells.inside, b.cells.cut
+            );
+            println!(
+                "  {} {}: {} fixed-point iterations, Krylov iterations {:?} (total {})",
+                k.method,
+                k.preconditioner,
+                fp.iterations,
+                k.iterations_per_solve,
+                k.total_iterations
+            );
+            if let Some(e) = &b.error {
+                println!(
+                    "  energy error {:.4e} (relative {:.4e}), L2 relative {:.4e}",
+                    e.energy, e.energy_relative, e.l2_relative
+                );
+            }
+        }
+        for r in &report.reactions {
+            let f = r.force;
+            println!(
+                "  reaction on '{}': [{:.6e}, {:.6e}, {:.6e}]",
+                r.part, f[0], f[1], f[2]
+            );
+        }
+        for r in &report.ranks {
+            println!(
+                "  rank {}: {} owned + {} ghost dofs, {} B per halo exchange, {:.2} s solve",
+                r.rank, r.owned_dofs, r.ghost_dofs, r.halo_bytes_per_apply, r.solve_seconds
+            );
+        }
+        super::write_report(dir, &report, &[])?;
+        println!("  wrote {}", dir.join("report.json").display());
+    }
+    Ok(result?)
+}
