@@ -8,7 +8,7 @@
 
 use std::cell::RefCell;
 
-use super::halo::Halo;
+use super::halo::{Halo, Reach};
 use crate::backend::{Backend, CpuBackend, LinearOperator};
 use crate::comm::Comm;
 
@@ -85,7 +85,7 @@ impl Backend for DistBackend<'_> {
     fn apply(&self, op: &DistOperator<'_>, x: &Vec<f64>, y: &mut Vec<f64>) {
         let mut filled = op.filled.borrow_mut();
         filled.copy_from_slice(x);
-        op.halo.fill_ghosts(self.comm, &mut filled);
+        op.halo.fill_ghosts(self.comm, &mut filled, Reach::Near);
         op.local.apply(&filled, y);
         op.halo.zero_ghosts(y);
     }

@@ -12,17 +12,38 @@ use crate::element::ElementOrder;
 use crate::grid::{CellBox, Grid};
 
 /// A rank's owned and ghost nodes, and what it sends and receives to bring
-/// its ghosts up to date.
+/// its ghosts up to date: all of them (before a recovery), or only the
+/// *near* ones, the nodes of the cells around its owned nodes (before an
+/// apply, whose owned rows need no other).
 #[derive(Clone, Debug)]
 pub struct Halo {
     /// Whether each local active node is owned here.
     owned: Vec<bool>,
     /// The ghosts, ascending.
     ghosts: Vec<u32>,
-    /// Per neighbour: its rank and the owned nodes it asked for, in its order.
-    sends: Vec<(usize, Vec<u32>)>,
-    /// Per neighbour: its rank and the ghosts it owns, in the order asked.
-    recvs: Vec<(usize, Vec<u32>)>,
+    /// Per neighbour: its rank and the owned nodes it asked for, in its
+    /// order (its near ghosts first), and how many of them are near.
+    sends: Vec<Exchange>,
+    /// Per neighbour: its rank and the ghosts it owns, in the order asked
+    /// (near first), and how many are near.
+    recvs: Vec<Exchange>,
+}
+
+/// One neighbour's share of a ghost exchange.
+#[derive(Clone, Debug)]
+struct Exchange {
+    rank: usize,
+    nodes: Vec<u32>,
+    near: usize,
+}
+
+/// Which ghosts an exchange brings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reach {
+    /// The nodes of the cells around the owned nodes (an apply's).
+    Near,
+    /// Every ghost of the window (a recovery's).
+    Window,
 }
 
 /// The cell (index) that decides the owner of lattice node `node` of
@@ -56,24 +77,37 @@ impl Halo {
         let me = comm.rank();
         let nodes = dofs.num_active();
         let mut owned = vec![false; nodes];
-        let mut asks: Vec<Vec<u32>> = vec![Vec::new(); comm.size()];
+        // Per owner: (far, local node), near ones first once sorted.
+        let mut asks: Vec<Vec<(bool, u32)>> = vec![Vec::new(); comm.size()];
         let mut ghosts = Vec::new();
+        // The cells around the owned nodes: one more layer below the brick
+        // (the nodes on its upper faces belong to the next brick up).
+        let brick = bricks[me];
+        let near_box = CellBox {
+            lo: brick.lo.map(|v| v.saturating_sub(1)),
+            hi: brick.hi,
+        };
         for (a, &node) in dofs.active_to_node.iter().enumerate() {
             let cell = owner_cell(grid, dofs.order, node as usize);
             let r = owner(bricks, grid.cell_ijk(cell));
             if r == me {
                 owned[a] = true;
             } else {
-                asks[r].push(a as u32);
+                let far = !near_node(grid, dofs.order, node as usize, &near_box);
+                asks[r].push((far, a as u32));
                 ghosts.push(a as u32);
             }
+        }
+        for list in &mut asks {
+            list.sort_unstable();
         }
         // The cells owning the nodes of a window lie in it grown by one.
         let reach = |r: usize| bricks[r].grown(ghost + 1, grid.n);
         let neighbours: Vec<usize> = (0..comm.size())
             .filter(|&q| q != me && (reach(me).meets(&bricks[q]) || reach(q).meets(&bricks[me])))
             .collect();
-        // How many each neighbour asks, then what.
+        // How many each neighbour asks, then what: the near count, then the
+        // lattice nodes.
         let counts: Vec<(usize, Vec<f64>)> = neighbours
             .iter()
             .map(|&q| (q, vec![asks[q].len() as f64]))
@@ -84,24 +118,25 @@ impl Halo {
             .iter()
             .filter(|&&q| !asks[q].is_empty())
             .map(|&q| {
+                let near = asks[q].iter().filter(|(far, _)| !far).count() as f64;
                 let ids = asks[q]
                     .iter()
-                    .map(|&a| dofs.active_to_node[a as usize] as f64);
-                (q, ids.collect())
+                    .map(|&(_, a)| dofs.active_to_node[a as usize] as f64);
+                (q, std::iter::once(near).chain(ids).collect())
             })
             .collect();
         let incoming: Vec<(usize, usize)> = neighbours
             .iter()
             .zip(&wanted)
             .filter(|(_, w)| w[0] > 0.0)
-            .map(|(&q, w)| (q, w[0] as usize))
+            .map(|(&q, w)| (q, 1 + w[0] as usize))
             .collect();
         let asked = comm.exchange(&lists, &incoming);
         let sends = incoming
             .iter()
             .zip(asked)
-            .map(|(&(q, _), ids)| {
-                let local = ids.iter().map(|&id| {
+            .map(|(&(q, _), list)| {
+                let local = list[1..].iter().map(|&id| {
                     let a = dofs.node_to_active[id as usize];
                     assert!(
                         a != u32::MAX && owned[a as usize],
@@ -109,13 +144,21 @@ impl Halo {
                     );
                     a
                 });
-                (q, local.collect())
+                Exchange {
+                    rank: q,
+                    nodes: local.collect(),
+                    near: list[0] as usize,
+                }
             })
             .collect();
         let recvs = neighbours
             .iter()
-            .map(|&q| (q, std::mem::take(&mut asks[q])))
-            .filter(|(_, nodes)| !nodes.is_empty())
+            .filter(|&&q| !asks[q].is_empty())
+            .map(|&q| Exchange {
+                rank: q,
+                near: asks[q].iter().filter(|(far, _)| !far).count(),
+                nodes: asks[q].iter().map(|&(_, a)| a).collect(),
+            })
             .collect();
         Halo {
             owned,
@@ -135,25 +178,28 @@ impl Halo {
         self.owned.iter().filter(|&&o| o).count()
     }
 
-    /// Brings the ghost entries of `x` (three per node) from their owners.
-    /// Collective.
-    pub fn fill_ghosts(&self, comm: &dyn Comm, x: &mut [f64]) {
+    /// Brings the ghost entries of `x` (three per node) that `reach` takes
+    /// from their owners. Collective.
+    pub fn fill_ghosts(&self, comm: &dyn Comm, x: &mut [f64], reach: Reach) {
+        let take = |e: &Exchange| match reach {
+            Reach::Near => e.near,
+            Reach::Window => e.nodes.len(),
+        };
         let sends: Vec<(usize, Vec<f64>)> = self
             .sends
             .iter()
-            .map(|(q, nodes)| {
-                let values = nodes.iter().flat_map(|&a| {
+            .map(|e| {
+                let values = e.nodes[..take(e)].iter().flat_map(|&a| {
                     let d = 3 * a as usize;
                     [x[d], x[d + 1], x[d + 2]]
                 });
-                (*q, values.collect())
+                (e.rank, values.collect())
             })
             .collect();
-        let recvs: Vec<(usize, usize)> =
-            self.recvs.iter().map(|(q, n)| (*q, 3 * n.len())).collect();
+        let recvs: Vec<(usize, usize)> = self.recvs.iter().map(|e| (e.rank, 3 * take(e))).collect();
         let got = comm.exchange(&sends, &recvs);
-        for ((_, nodes), values) in self.recvs.iter().zip(got) {
-            for (&a, v) in nodes.iter().zip(values.chunks_exact(3)) {
+        for (e, values) in self.recvs.iter().zip(got) {
+            for (&a, v) in e.nodes.iter().zip(values.chunks_exact(3)) {
                 let d = 3 * a as usize;
                 x[d..d + 3].copy_from_slice(v);
             }
@@ -168,8 +214,25 @@ impl Halo {
         }
     }
 
-    /// Bytes received by one [`Halo::fill_ghosts`] (f64 values).
-    pub fn bytes_per_fill(&self) -> usize {
-        self.recvs.iter().map(|(_, n)| 24 * n.len()).sum()
+    /// Bytes one [`Halo::fill_ghosts`] of `reach` receives (f64 values).
+    pub fn bytes_per_fill(&self, reach: Reach) -> usize {
+        let nodes = |e: &Exchange| match reach {
+            Reach::Near => e.near,
+            Reach::Window => e.nodes.len(),
+        };
+        self.recvs.iter().map(|e| 24 * nodes(e)).sum()
     }
+}
+
+/// Whether lattice node `node` is a node of one of the cells of `b`
+/// (closed: on its faces too).
+fn near_node(grid: &Grid, order: ElementOrder, node: usize, b: &CellBox) -> bool {
+    let p = order.degree();
+    let per_axis = grid.nodes_per_axis(order);
+    let l = [
+        node % per_axis[0],
+        (node / per_axis[0]) % per_axis[1],
+        node / (per_axis[0] * per_axis[1]),
+    ];
+    (0..3).all(|a| p * b.lo[a] <= l[a] && l[a] <= p * b.hi[a])
 }

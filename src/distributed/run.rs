@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use super::halo::owner_cell;
+use super::halo::{owner_cell, Reach};
 use super::solve::{ranks_preconditioner, solve_rank, RankSolution};
 use super::RankSetup;
 use crate::case::Case;
@@ -89,7 +89,7 @@ fn run_into(
         cut: 0,
         owned_dofs: 3 * rs.halo.num_owned(),
         ghost_dofs: rs.setup.op.dofs.ndofs() - 3 * rs.halo.num_owned(),
-        halo_bytes_per_apply: rs.halo.bytes_per_fill(),
+        halo_bytes_per_apply: rs.halo.bytes_per_fill(Reach::Near),
         setup_seconds,
         solve_seconds,
         peak_bytes: peak_resident_bytes(),

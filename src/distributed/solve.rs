@@ -7,6 +7,7 @@
 //! fits add up each rank's brick ([`BrickShare`]).
 
 use super::backend::{DistBackend, DistOperator};
+use super::halo::Reach;
 use super::{agree, RankSetup};
 use crate::backend::{Backend, LinearOperator};
 use crate::case::physics::OuterMethod;
@@ -159,7 +160,7 @@ pub fn solve_rank(
     let load = RecoveredLoad::shared(setup, &share);
     let mut recovered = |u: &[f64]| {
         let mut full = u.to_vec();
-        rs.halo.fill_ghosts(comm, &mut full);
+        rs.halo.fill_ghosts(comm, &mut full, Reach::Window);
         let mut f = agree(comm, load.at(&full))?;
         rs.halo.zero_ghosts(&mut f);
         Ok(f)
@@ -186,7 +187,7 @@ pub fn solve_rank(
             fixed_point_with_progress(&mut solver, &fixed, &mut recovered, &opts, report, progress)?
         }
     };
-    rs.halo.fill_ghosts(comm, &mut u);
+    rs.halo.fill_ghosts(comm, &mut u, Reach::Window);
     let reactions = agree(comm, load.reactions(&u))?.reactions;
     let tags = case.body().geometry.tag_names().len();
     // Per tag: the force and the number of points.
