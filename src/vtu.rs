@@ -302,6 +302,33 @@ pub fn write_vtp_triangles(
     write_atomic_with(path, |w| xml::write(&doc, encoding, w))
 }
 
+/// Writes the parallel unstructured grid `path` (`.pvtu`): the files
+/// `pieces` (relative to its folder), each written by [`write_vtu`] with
+/// arrays of the names, types and components of `point_data` and
+/// `cell_data` (their values are not read), shown by ParaView as one data
+/// set. Fails with [`Error::Io`] when a piece's name is not valid UTF-8 or
+/// the file cannot be written.
+pub fn write_pvtu<P: AsRef<Path>>(
+    path: &Path,
+    point_data: &[DataArray],
+    cell_data: &[DataArray],
+    pieces: &[P],
+) -> Result<()> {
+    let names: Vec<&str> = pieces
+        .iter()
+        .map(|p| {
+            p.as_ref().to_str().ok_or_else(|| Error::Io {
+                path: path.display().to_string(),
+                reason: format!("piece {} is not valid UTF-8", p.as_ref().display()),
+            })
+        })
+        .collect::<Result<_>>()?;
+    write_atomic(
+        path,
+        xml::parallel_grid(point_data, cell_data, &names).as_bytes(),
+    )
+}
+
 /// Writes the `.pvd` collection `path` listing `(time, file)` entries, each
 /// file given relative to the `.pvd`'s folder (as ParaView resolves it).
 ///

@@ -143,6 +143,17 @@ impl Pieces {
 
     /// Volume, box and boundary tags of every piece.
     pub fn summaries(&self, grid: &Grid, cells: &Cells) -> Vec<PieceSummary> {
+        self.summaries_of(grid, cells, &|_| true)
+    }
+
+    /// [`Pieces::summaries`] of the cells that `counts` takes (a rank's
+    /// brick; a piece with none of them has an empty box).
+    pub fn summaries_of(
+        &self,
+        grid: &Grid,
+        cells: &Cells,
+        counts: &dyn Fn(usize) -> bool,
+    ) -> Vec<PieceSummary> {
         let mut out = vec![
             PieceSummary {
                 volume: 0.0,
@@ -153,7 +164,7 @@ impl Pieces {
         ];
         let cell_volume = grid.h.powi(3);
         for (c, &p) in self.of_cell.iter().enumerate() {
-            if p == NO_PIECE {
+            if p == NO_PIECE || !counts(c) {
                 continue;
             }
             let s = &mut out[p as usize];
@@ -162,7 +173,7 @@ impl Pieces {
                 s.volume += cell_volume;
             }
         }
-        for (i, &c) in cells.cut.iter().enumerate() {
+        for (i, &c) in cells.cut.iter().enumerate().filter(|(_, &c)| counts(c)) {
             for q in cells.volume_points(i) {
                 out[self.of_point(c, q.x) as usize].volume += q.w;
             }
@@ -239,20 +250,36 @@ const FREE_RATIO: f64 = 1e-10;
 /// rigid motions are spanned about the piece's box centre `c` and scaled by
 /// its diagonal `L`: three translations `e_a`, three rotations
 /// `e_a × (x − c) / L`; the piece is held when `M = Σ_q w_q Σ_a mask_a r_i,a
-/// r_j,a` is positive definite.
+/// r_j,a` is positive definite ([`held_grams`], [`motions_from`]).
 pub fn free_motions(
     pieces: &Pieces,
     summaries: &[PieceSummary],
     held: impl IntoIterator<Item = HeldPoint>,
 ) -> Vec<Vec<FreeMotion>> {
-    let frames: Vec<([f64; 3], f64)> = summaries
+    let frames = piece_frames(summaries);
+    motions_from(&held_grams(pieces, &frames, held), &frames)
+}
+
+/// Each piece's frame: the centre of its box and the box's diagonal.
+pub fn piece_frames(summaries: &[PieceSummary]) -> Vec<([f64; 3], f64)> {
+    summaries
         .iter()
         .map(|s| {
             let b = &s.cells_box;
             let c = [0, 1, 2].map(|a| 0.5 * (b.lo[a] + b.hi[a]));
             (c, norm([0, 1, 2].map(|a| b.hi[a] - b.lo[a])))
         })
-        .collect();
+        .collect()
+}
+
+/// Per piece, `Σ_q w_q Rᵀ M_q R` over the points `held` of the piece, `R`
+/// the six rigid modes about the piece's frame and `M_q` the point's mask
+/// (a sum over points: the ranks' add up).
+pub fn held_grams(
+    pieces: &Pieces,
+    frames: &[([f64; 3], f64)],
+    held: impl IntoIterator<Item = HeldPoint>,
+) -> Vec<Matrix6<f64>> {
     let modes = |x: [f64; 3], (c, l): ([f64; 3], f64)| -> [[f64; 3]; 6] {
         let d = [0, 1, 2].map(|a| (x[a] - c[a]) / l);
         [
@@ -279,10 +306,17 @@ pub fn free_motions(
             }
         }
     }
-    m.into_iter()
-        .zip(&frames)
+    m
+}
+
+/// The motions each piece's `grams` leave free (its null space, relative
+/// to its largest eigenvalue), about its frame.
+pub fn motions_from(grams: &[Matrix6<f64>], frames: &[([f64; 3], f64)]) -> Vec<Vec<FreeMotion>> {
+    grams
+        .iter()
+        .zip(frames)
         .map(|(mp, &(c, l))| {
-            let eig = SymmetricEigen::new(mp);
+            let eig = SymmetricEigen::new(*mp);
             let largest = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
             let null: Vec<usize> = (0..6)
                 .filter(|&k| largest <= 0.0 || eig.eigenvalues[k] <= FREE_RATIO * largest)
@@ -370,7 +404,20 @@ pub fn held_pieces(
     let pieces = Pieces::with_split(grid, cells, split);
     let summaries = pieces.summaries(grid, cells);
     let free = free_motions(&pieces, &summaries, held);
-    for (p, (s, motions)) in summaries.iter().zip(&free).enumerate() {
+    let error = unheld_error(geometry, naming, &summaries, &free, exempt);
+    (pieces, error)
+}
+
+/// The error naming the first piece whose motions `free` are not empty
+/// (and that has no boundary part in `exempt`), if one is.
+pub fn unheld_error(
+    geometry: &Geometry,
+    naming: &Naming,
+    summaries: &[PieceSummary],
+    free: &[Vec<FreeMotion>],
+    exempt: &[u16],
+) -> Option<Error> {
+    for (p, (s, motions)) in summaries.iter().zip(free).enumerate() {
         if motions.is_empty() || s.tags.iter().any(|t| exempt.contains(t)) {
             continue;
         }
@@ -380,7 +427,7 @@ pub fn held_pieces(
             6 => vec!["every rigid motion (nothing holds it)".into()],
             _ => motions.iter().map(|m| m.to_string()).collect(),
         };
-        let error = Error::CaseFile {
+        return Some(Error::CaseFile {
             file: naming.file.into(),
             key: naming.key.into(),
             reason: format!(
@@ -389,17 +436,16 @@ pub fn held_pieces(
                  boundary parts, or remove it from the geometry",
                 naming.body,
                 p + 1,
-                pieces.count,
+                summaries.len(),
                 s.volume,
                 fmt3(s.cells_box.lo),
                 fmt3(s.cells_box.hi),
                 parts.join(", "),
                 motions.join("; ")
             ),
-        };
-        return (pieces, Some(error));
+        });
     }
-    (pieces, None)
+    None
 }
 
 /// The rigid motion `u(x) = t + ω × (x − c)` as a translation or as a

@@ -2,16 +2,17 @@
 //! path on P ranks ([`cgfem_gpu::distributed::run`]). Every rank reads the
 //! case and solves its share; rank 0 prints and writes DIR/report.json (with
 //! a row per rank), also when the run fails. On the CPU of each rank, with
-//! Jacobi-preconditioned Krylov solves; the ParaView files are not written
-//! on more than one rank yet (a note says so).
+//! Jacobi-preconditioned Krylov solves. `--output volume` (or `all`): each
+//! rank writes its piece `solution_<rank>.vtu` and rank 0 `solution.pvtu`
+//! listing them; no `surface.vtp` yet (a note says so).
 
 use std::path::Path;
 
 use cgfem_gpu::case::Case;
 use cgfem_gpu::comm::Comm;
-use cgfem_gpu::driver::output::OutputFiles;
+use cgfem_gpu::distributed::run::{Pieces, RunOutcome};
 use cgfem_gpu::gpu::BackendChoice;
-use cgfem_gpu::progress::Silent;
+use cgfem_gpu::progress::{Progress, Silent};
 
 use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
@@ -38,18 +39,26 @@ pub fn run(
     }
     let lead = comm.rank() == 0;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
+    let files = outputs.paraview.files;
     if lead {
         println!("case {name} ({}): {ranks} ranks, CPU, Jacobi", case.file);
-        if outputs.paraview.files != OutputFiles::None {
-            println!(
-                "  note: a run on several ranks writes report.json only (no ParaView files yet)"
-            );
+        if files.surface() {
+            println!("  note: a run on several ranks writes no surface.vtp yet");
         }
     }
-    let (report, result) = match lead {
-        true => cgfem_gpu::distributed::run::run(case, level, comm, progress),
-        false => cgfem_gpu::distributed::run::run(case, level, comm, &Silent),
+    let pieces = files.volume().then_some(Pieces {
+        dir,
+        encoding: outputs.paraview.encoding,
+    });
+    let quiet: &dyn Progress = match lead {
+        true => progress,
+        false => &Silent,
     };
+    let RunOutcome {
+        report,
+        files,
+        result,
+    } = cgfem_gpu::distributed::run::run(case, level, comm, quiet, pieces);
     progress.finish();
     if lead {
         let b = &report.bodies.first();
@@ -86,8 +95,12 @@ pub fn run(
                 r.rank, r.owned_dofs, r.ghost_dofs, r.halo_bytes_per_apply, r.solve_seconds
             );
         }
-        super::write_report(dir, &report, &[])?;
-        println!("  wrote {}", dir.join("report.json").display());
+        super::write_report(dir, &report, &files)?;
+        println!(
+            "  wrote {}{}",
+            dir.join("report.json").display(),
+            files.iter().map(|f| format!(", {f}")).collect::<String>()
+        );
     }
     Ok(result?)
 }

@@ -7,11 +7,12 @@
 //! unchanged over the rank's [`backend::DistBackend`], whose dot products
 //! are summed over the ranks ([`crate::comm`]).
 //!
-//! Built so far: the set-up, the pieces of the body across the ranks
-//! ([`pieces`]) and the solve with the recovered load and the S-term
-//! ([`solve`]), Krylov with Jacobi. The multigrid levels, the reactions and
-//! error norms, the output and the check that every piece of the body is
-//! held are not distributed yet, so no run of the program takes this path.
+//! The pieces of the body are joined across the ranks and checked held
+//! ([`pieces`]); the solve takes the recovered load and the S-term, Krylov
+//! with Jacobi ([`solve`]); the reactions, error norms and the body's
+//! counts are summed over the bricks into one report ([`run`]). Not
+//! distributed yet: the multigrid levels, the ParaView output, the GPU and
+//! the Newton path.
 
 pub mod backend;
 pub mod halo;
@@ -24,6 +25,7 @@ pub mod solve;
 mod tests;
 
 use crate::case::Case;
+use crate::cells::pieces::Naming;
 use crate::cells::Cells;
 use crate::comm::Comm;
 use crate::driver::setup::Setup;
@@ -73,6 +75,16 @@ impl RankSetup {
             .map(|b| b.grown(GHOST_LAYERS, grid.n))
             .collect();
         pieces::join(comm, &grid, &windows, &mut setup.pieces);
+        let brick = bricks[comm.rank()];
+        let body = case.body();
+        let naming = Naming {
+            file: &case.file,
+            key: &case.body_key(0, "dirichlet"),
+            body: &body.spec.name,
+        };
+        let counts = |c: usize| brick.contains(grid.cell_ijk(c));
+        pieces::check_held(comm, &setup, &counts, &body.geometry, &naming)?;
+        keep_near(&mut setup, &brick);
         if setup.op.dofs.has_copies() {
             return Err(Error::UnsupportedOnBackend {
                 backend: format!("distributed ({} ranks)", comm.size()),
@@ -95,6 +107,24 @@ impl RankSetup {
         self.halo.zero_ghosts(&mut b);
         b
     }
+}
+
+/// Keeps the recovered load's terms of the cells around the rank's own
+/// nodes (one layer below its brick, the brick): the Dirichlet points, the
+/// pathological cells and the recovered flux corrections of the others only
+/// feed ghost rows, and their patches, cut by the window's edge, might not
+/// fit.
+fn keep_near(setup: &mut Setup, brick: &CellBox) {
+    let near = CellBox {
+        lo: brick.lo.map(|v| v.saturating_sub(1)),
+        hi: brick.hi,
+    };
+    let grid = &setup.grid;
+    let keep = |c: usize| near.contains(grid.cell_ijk(c));
+    setup.dirichlet.retain(|p| keep(p.cell));
+    setup.omega_star.retain(|&c| keep(c));
+    let cut = &setup.cells.cut;
+    setup.flux.keep_recovered(|i| keep(cut[i]));
 }
 
 /// `local` where every rank succeeded; otherwise this rank's error, or one

@@ -103,3 +103,70 @@ pub fn join(comm: &dyn Comm, grid: &Grid, windows: &[CellBox], pieces: &mut Piec
     }
     pieces.count = count;
 }
+
+/// Ok when every piece of the body is held, as one rank checks it
+/// ([`crate::cells::pieces::held_pieces`]); otherwise the same error on
+/// every rank. Each piece's summary (volume, box, boundary parts) and the
+/// Gram matrix of its Dirichlet points' rigid modes are summed over the
+/// ranks' bricks (`counts`: this rank's cells). Collective.
+pub fn check_held(
+    comm: &dyn Comm,
+    setup: &crate::driver::setup::Setup,
+    counts: &dyn Fn(usize) -> bool,
+    geometry: &crate::geometry::Geometry,
+    naming: &crate::cells::pieces::Naming,
+) -> crate::error::Result<()> {
+    use crate::cells::pieces::{held_grams, motions_from, piece_frames, unheld_error, HeldPoint};
+    let (pieces, grid, cells) = (&setup.pieces, &setup.grid, &setup.cells);
+    let mut summaries = pieces.summaries_of(grid, cells, counts);
+    let tags = geometry.tag_names().len();
+    // Per piece: volume, then per tag whether it bounds the piece.
+    let mut sums = vec![0.0; pieces.count * (1 + tags)];
+    for (p, s) in summaries.iter().enumerate() {
+        sums[p * (1 + tags)] = s.volume;
+        for &t in &s.tags {
+            sums[p * (1 + tags) + 1 + t as usize] = 1.0;
+        }
+    }
+    comm.sum(&mut sums);
+    let boxes: Vec<f64> = summaries
+        .iter()
+        .flat_map(|s| s.cells_box.lo.into_iter().chain(s.cells_box.hi))
+        .collect();
+    let all = comm.all_gather(&boxes);
+    for (p, s) in summaries.iter_mut().enumerate() {
+        let row = &sums[p * (1 + tags)..(p + 1) * (1 + tags)];
+        s.volume = row[0];
+        s.tags = (0..tags as u16)
+            .filter(|&t| row[1 + t as usize] > 0.0)
+            .collect();
+        for theirs in &all {
+            for a in 0..3 {
+                s.cells_box.lo[a] = s.cells_box.lo[a].min(theirs[6 * p + a]);
+                s.cells_box.hi[a] = s.cells_box.hi[a].max(theirs[6 * p + 3 + a]);
+            }
+        }
+    }
+    let frames = piece_frames(&summaries);
+    let held = setup
+        .dirichlet
+        .iter()
+        .filter(|p| counts(p.cell))
+        .map(|p| HeldPoint {
+            cell: p.cell,
+            x: p.x,
+            w: p.w,
+            mask: p.mask,
+        });
+    let mut grams = held_grams(pieces, &frames, held);
+    let mut flat: Vec<f64> = grams.iter().flat_map(|g| g.iter().copied()).collect();
+    comm.sum(&mut flat);
+    for (g, v) in grams.iter_mut().zip(flat.chunks_exact(36)) {
+        g.iter_mut().zip(v).for_each(|(a, b)| *a = *b);
+    }
+    let free = motions_from(&grams, &frames);
+    match unheld_error(geometry, naming, &summaries, &free, &[]) {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}

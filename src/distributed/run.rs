@@ -4,38 +4,65 @@
 //! the ranks' bricks; every rank returns the same report, with one row per
 //! rank ([`RankRow`]). The Newton path is refused on more than one rank.
 
+use std::path::Path;
 use std::time::Instant;
 
 use super::halo::{owner_cell, Reach};
 use super::solve::{ranks_preconditioner, solve_rank, RankSolution};
-use super::RankSetup;
+use super::{agree, RankSetup};
 use crate::case::Case;
 use crate::cells::CellKind;
 use crate::comm::Comm;
 use crate::driver::fixed_point::FixedPointReport;
+use crate::driver::output::write_piece;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::grid::peak_resident_bytes;
+use crate::output::Written;
 use crate::progress::Progress;
 use crate::report::newton::ReactionRow;
 use crate::report::{BodyReport, FixedPoint, Krylov, RankRow, Report};
+use crate::vtu::{write_pvtu, VtuEncoding};
 
-/// Runs `case` at `level` (default: the case's) on `comm`'s ranks: the
-/// report (the same on every rank), and whether the run succeeded (the
-/// report then says why it did not). Collective.
+/// Where a run writes its solution: each rank its piece
+/// `solution_<rank>.vtu` into `dir` (one file system for all ranks), rank 0
+/// `solution.pvtu` listing them.
+#[derive(Clone, Copy, Debug)]
+pub struct Pieces<'a> {
+    pub dir: &'a Path,
+    pub encoding: VtuEncoding,
+}
+
+/// What a run gives every rank: the report (the same on every rank), the
+/// files written beside it (on rank 0: the `.pvtu` and every piece), and
+/// whether the run succeeded (the report then says why it did not).
+pub struct RunOutcome {
+    pub report: Report,
+    pub files: Vec<String>,
+    pub result: Result<()>,
+}
+
+/// Runs `case` at `level` (default: the case's) on `comm`'s ranks, writing
+/// the solution's pieces where `pieces` says. Collective.
 pub fn run(
     case: &Case,
     level: Option<u32>,
     comm: &dyn Comm,
     progress: &dyn Progress,
-) -> (Report, Result<()>) {
+    pieces: Option<Pieces>,
+) -> RunOutcome {
     let mut report = Report::new(case);
     report.backend = format!("cpu×{}", comm.size());
-    let result = run_into(case, level, comm, progress, &mut report);
+    let mut files = Vec::new();
+    let result = run_into(case, level, comm, progress, pieces, &mut report, &mut files);
     if let Err(e) = &result {
         report.fail(e);
     }
-    (report, result)
+    RunOutcome {
+        report,
+        files,
+        result,
+    }
 }
 
 fn run_into(
@@ -43,7 +70,9 @@ fn run_into(
     level: Option<u32>,
     comm: &dyn Comm,
     progress: &dyn Progress,
+    pieces: Option<Pieces>,
     report: &mut Report,
+    files: &mut Vec<String>,
 ) -> Result<()> {
     if case.require_linear().is_err() {
         return Err(Error::UnsupportedOnBackend {
@@ -97,7 +126,60 @@ fn run_into(
     report.ranks = gather_rows(comm, row, &rs);
     let solution = solved?;
     record_solution(case, &solution, report);
+    if let Some(p) = pieces {
+        let t = Instant::now();
+        *files = write_pieces(case, &rs, &solution.u, comm, p)?;
+        report
+            .timings
+            .insert("output".into(), t.elapsed().as_secs_f64());
+    }
     Ok(())
+}
+
+/// Writes this rank's piece and, on rank 0, the `.pvtu` listing every
+/// rank's; returns the files rank 0 lists. Collective.
+fn write_pieces(
+    case: &Case,
+    rs: &RankSetup,
+    u: &[f64],
+    comm: &dyn Comm,
+    p: Pieces,
+) -> Result<Vec<String>> {
+    let brick = rs.bricks[comm.rank()];
+    let grid = &rs.setup.grid;
+    let counts = |c: usize| brick.contains(grid.cell_ijk(c));
+    let name = |r: usize| format!("solution_{r}.vtu");
+    let mut written = Written::new(p.dir);
+    let geometry = &case.body().geometry;
+    let piece = std::fs::create_dir_all(p.dir)
+        .map_err(|e| Error::Io {
+            path: p.dir.display().to_string(),
+            reason: e.to_string(),
+        })
+        .and_then(|()| {
+            let name = name(comm.rank());
+            write_piece(
+                &rs.setup,
+                geometry,
+                u,
+                &counts,
+                &name,
+                p.encoding,
+                &mut written,
+            )
+        });
+    let (point_data, cell_data) = agree(comm, piece)?;
+    let mut listed = Vec::new();
+    if comm.rank() == 0 {
+        let names: Vec<String> = (0..comm.size()).map(name).collect();
+        written.write("solution.pvtu", |path| {
+            write_pvtu(path, &point_data, &cell_data, &names)
+        })?;
+        listed = std::iter::once("solution.pvtu".to_string())
+            .chain(names)
+            .collect();
+    }
+    Ok(listed)
 }
 
 /// The reactions by Dirichlet part and the body's error norms.

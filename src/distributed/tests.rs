@@ -337,7 +337,9 @@ fn a_run_on_ranks_reports_the_body_as_one_rank() {
         false,
     );
     let reports = threads::run(3, |comm| {
-        let (mut report, result) = run::run(&case, Some(4), comm, &Silent);
+        let run::RunOutcome {
+            mut report, result, ..
+        } = run::run(&case, Some(4), comm, &Silent, None);
         // Each rank's own seconds.
         report.timings.clear();
         (report, result)
@@ -383,4 +385,172 @@ fn a_run_on_ranks_reports_the_body_as_one_rank() {
         assert!(report.ranks.iter().all(|r| r.halo_bytes_per_apply > 0));
         assert_eq!(report.reactions.len(), 1, "the bolt holes' reaction");
     }
+}
+
+/// Two unit cubes along x, `gap` apart, the first clamped at x = 0 (and the
+/// second at its far face with `both`), under their weight.
+fn two_cubes(both: bool) -> Case {
+    let clamp_b = match both {
+        true => "[dirichlet.clamp_b]\nvalue = [\"0\", \"0\", \"0\"]\n",
+        false => "",
+    };
+    let text = format!(
+        r#"[geometry]
+type = "union"
+of = [
+  {{ type = "retag", from = "xmin", to = "clamp_a", of = {{ type = "cuboid", min = [0, 0, 0], max = [1, 1, 1] }} }},
+  {{ type = "retag", from = "xmax", to = "clamp_b", of = {{ type = "cuboid", min = [1.5, 0, 0], max = [2.5, 1, 1] }} }},
+]
+[grid]
+level = 4
+offset = [0.3, 0.6, 0.45]
+[material]
+young = 1000.0
+poisson = 0.3
+[body_load]
+value = ["0", "0", "-1"]
+[dirichlet.clamp_a]
+value = ["0", "0", "0"]
+{clamp_b}
+[solver]
+preconditioner = "jacobi"
+"#
+    );
+    Case::from_str("two_cubes.toml", &text).unwrap()
+}
+
+/// A piece that nothing holds is refused on 2 and 3 ranks with the one-rank
+/// message (exit code 2), each brick holding part of the free cube or none;
+/// held, each cube's reaction is its own weight on every rank count.
+#[test]
+fn a_free_piece_is_refused_on_ranks_as_on_one() {
+    let free = two_cubes(false);
+    let one = Setup::new(&free, None).unwrap().check_held().unwrap_err();
+    assert_eq!(one.exit_code(), 2);
+    for ranks in [2, 3] {
+        let got = threads::run(ranks, |comm| {
+            RankSetup::new(&free, None, comm, &Silent)
+                .err()
+                .map(|e| e.to_string())
+        });
+        for e in got {
+            assert_eq!(
+                e.as_deref(),
+                Some(one.to_string().as_str()),
+                "{ranks} ranks"
+            );
+        }
+    }
+    let held = two_cubes(true);
+    for ranks in [1, 2, 3] {
+        let reports = threads::run(ranks, |comm| {
+            run::run(&held, None, comm, &Silent, None).report
+        });
+        let weights: Vec<f64> = reports[0].reactions.iter().map(|r| r.force[2]).collect();
+        assert_eq!(
+            weights.len(),
+            2,
+            "{ranks} ranks: {:?}",
+            reports[0].reactions
+        );
+        for w in weights {
+            assert!(
+                (w - 1.0).abs() < 1e-8,
+                "{ranks} ranks: a cube's reaction {w}"
+            );
+        }
+    }
+}
+
+/// The arrays of a `.vtu` file by name.
+fn arrays(path: &Path) -> HashMap<String, crate::vtu::DataArray> {
+    crate::vtu::read(path)
+        .unwrap()
+        .into_iter()
+        .map(|a| (a.name.clone(), a))
+        .collect()
+}
+
+fn f64s(a: &crate::vtu::DataArray) -> &[f64] {
+    match &a.values {
+        crate::vtu::DataValues::F64(v) => v,
+        _ => panic!("{} is not Float64", a.name),
+    }
+}
+
+/// The pieces a run on 3 ranks writes are the one-rank solution.vtu cut by
+/// bricks: as many cells in all, each point's displacement the one-rank
+/// file's at the same point; the `.pvtu` lists them and declares their
+/// arrays.
+#[test]
+fn the_pieces_of_three_ranks_make_the_one_rank_solution() {
+    let case = jacobi_case("sphere.toml");
+    let whole = Setup::new(&case, Some(3)).unwrap();
+    let mut report = crate::driver::fixed_point::FixedPointReport::default();
+    let one = crate::driver::solve::solve(&whole, &case.spec.solver, &mut report).unwrap();
+    let dir = std::env::temp_dir().join(format!("cgfem-pieces-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let geometry = &case.body().geometry;
+    crate::driver::output::write_solution(&whole, geometry, &one.u, &dir.join("one.vtu")).unwrap();
+    let pieces = run::Pieces {
+        dir: &dir,
+        encoding: crate::vtu::VtuEncoding::Appended,
+    };
+    let files = threads::run(3, |comm| {
+        let out = run::run(&case, Some(3), comm, &Silent, Some(pieces));
+        out.result.unwrap();
+        out.files
+    });
+    assert_eq!(
+        files[0],
+        [
+            "solution.pvtu",
+            "solution_0.vtu",
+            "solution_1.vtu",
+            "solution_2.vtu"
+        ]
+    );
+    let pvtu = std::fs::read_to_string(dir.join("solution.pvtu")).unwrap();
+    let key = |x: &[f64]| {
+        x.iter()
+            .map(|v| format!("{v:.12e}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let one = arrays(&dir.join("one.vtu"));
+    let at: HashMap<String, &[f64]> = f64s(&one["Points"])
+        .chunks_exact(3)
+        .zip(f64s(&one["displacement"]).chunks_exact(3))
+        .map(|(x, u)| (key(x), u))
+        .collect();
+    let mut cells = 0;
+    for piece in &files[0][1..] {
+        assert!(pvtu.contains(&format!("<Piece Source=\"{piece}\"/>")));
+        let a = arrays(&dir.join(piece));
+        for name in a
+            .keys()
+            .filter(|n| !["Points", "connectivity", "offsets", "types"].contains(&n.as_str()))
+        {
+            assert!(
+                pvtu.contains(&format!("Name=\"{name}\"")),
+                "{name} declared"
+            );
+        }
+        cells += a["volume_fraction"].values.len();
+        for (x, u) in f64s(&a["Points"])
+            .chunks_exact(3)
+            .zip(f64s(&a["displacement"]).chunks_exact(3))
+        {
+            let w = at[&key(x)];
+            for k in 0..3 {
+                assert!(
+                    (u[k] - w[k]).abs() <= 1e-9 * (1.0 + w[k].abs()),
+                    "{piece}: u at {x:?}"
+                );
+            }
+        }
+    }
+    assert_eq!(cells, one["volume_fraction"].values.len());
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -31,7 +31,9 @@ use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::output::Written;
 use crate::recovery::Recovered;
-use crate::vtu::{write_pvd_parts, write_vtu, DataArray, VtuCell, VtuEncoding, VtuMesh};
+use crate::vtu::{
+    write_pvd_parts, write_vtu, DataArray, DataValues, VtuCell, VtuEncoding, VtuMesh,
+};
 
 /// Which of a run's ParaView files are written (`--output`): the cells
 /// (`solution.vtu`; on the Newton path each body's `<body>_<step>.vtu`), the
@@ -253,24 +255,26 @@ impl VtuFile {
 /// in inline base64, a text file; a run writes it through
 /// [`write_paraview`] in the encoding of its [`ParaView`].
 pub fn write_solution(setup: &Setup, geometry: &Geometry, u: &[f64], path: &Path) -> Result<()> {
-    solution_file(setup, geometry, u, None)?
+    solution_file(setup, geometry, u, None, &|_| true)?
         .0
         .write(path, VtuEncoding::Binary)
 }
 
 /// `solution.vtu` of the solution `u` of `setup`, whose solid is `geometry`,
-/// and the stress recovered at the vertices of its cells (taking the fits
-/// that `known` holds from it).
+/// over the cells `counts` takes (all, or a rank's brick), and the stress
+/// recovered at the vertices of those cells (taking the fits that `known`
+/// holds from it).
 fn solution_file(
     setup: &Setup,
     geometry: &Geometry,
     u: &[f64],
     known: Option<&Recovered<6>>,
+    counts: &dyn Fn(usize) -> bool,
 ) -> Result<(VtuFile, Recovered<6>)> {
     let grid = &setup.grid;
     let dofs = &setup.op.dofs;
     let body: Vec<usize> = (0..grid.num_cells())
-        .filter(|&c| setup.cells.kinds[c] != CellKind::Outside)
+        .filter(|&c| setup.cells.kinds[c] != CellKind::Outside && counts(c))
         .collect();
     let mut mesh = body_mesh(grid, dofs.order, &body);
     // Every node of a body cell is active, so u there is a nodal value.
@@ -337,6 +341,39 @@ fn solution_file(
     Ok((file, sigma))
 }
 
+/// Writes one rank's piece of the solution: `name`, the cells of `setup`
+/// that `counts` takes (its brick), in `encoding`, through `written`.
+/// Returns the piece's point and cell arrays without their values (what
+/// the `.pvtu` declares).
+pub fn write_piece(
+    setup: &Setup,
+    geometry: &Geometry,
+    u: &[f64],
+    counts: &dyn Fn(usize) -> bool,
+    name: &str,
+    encoding: VtuEncoding,
+    written: &mut Written,
+) -> Result<(Vec<DataArray>, Vec<DataArray>)> {
+    let (file, _) = solution_file(setup, geometry, u, None, counts)?;
+    written.write(name, |path| file.write(path, encoding))?;
+    let declared = |arrays: &[DataArray]| -> Vec<DataArray> {
+        arrays
+            .iter()
+            .map(|a| DataArray {
+                name: a.name.clone(),
+                components: a.components,
+                values: match a.values {
+                    DataValues::F64(_) => DataValues::F64(Vec::new()),
+                    DataValues::I64(_) => DataValues::I64(Vec::new()),
+                    DataValues::I32(_) => DataValues::I32(Vec::new()),
+                    DataValues::U8(_) => DataValues::U8(Vec::new()),
+                },
+            })
+            .collect()
+    };
+    Ok((declared(&file.point_data), declared(&file.cell_data)))
+}
+
 /// Writes the ParaView files of `paraview` for the solution `u` of `setup`
 /// (whose solid is `geometry`, and whose stress `known` was recovered on
 /// some patches already) through `written`: `solution.vtu`,
@@ -357,7 +394,7 @@ pub fn write_paraview(
 ) -> Result<Option<(BoundaryMesh, SurfaceFields)>> {
     let (encoding, first) = (paraview.encoding, written.files.len());
     let volume = match paraview.files.volume() {
-        true => Some(solution_file(setup, geometry, u, known)?),
+        true => Some(solution_file(setup, geometry, u, known, &|_| true)?),
         false => None,
     };
     // The surface's host cells are cells of the body: its stress is the

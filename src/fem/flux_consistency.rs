@@ -212,6 +212,17 @@ impl FluxCorrection {
             + 24 * self.pressure_share.len()
     }
 
+    /// Drops the recovered stress's share of the cut cells (by position in
+    /// `cells.cut`) that `keep` refuses: a rank keeps the cells around its
+    /// own nodes, the others' recovered corrections being its ghosts'.
+    pub fn keep_recovered(&mut self, keep: impl Fn(usize) -> bool) {
+        for (i, share) in self.recovered_share.iter_mut().enumerate() {
+            if !keep(i) {
+                *share = 0.0;
+            }
+        }
+    }
+
     /// The cut cells whose correction uses the recovered stress (positions in
     /// the cut list).
     pub fn recovered_cells(&self) -> impl Iterator<Item = usize> + '_ {

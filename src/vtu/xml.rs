@@ -315,6 +315,42 @@ pub(super) fn collection(entries: &[(f64, usize, &str)]) -> String {
     s
 }
 
+/// The whole `.pvtu` document: the arrays' declarations (as in each piece)
+/// and the pieces' files.
+pub(super) fn parallel_grid(
+    point_data: &[DataArray],
+    cell_data: &[DataArray],
+    pieces: &[&str],
+) -> String {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n");
+    s.push_str(
+        "<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" \
+         header_type=\"UInt64\">\n",
+    );
+    s.push_str("  <PUnstructuredGrid GhostLevel=\"0\">\n");
+    let declare = |s: &mut String, tag: &str, arrays: &[DataArray]| {
+        let _ = writeln!(s, "    <{tag}>");
+        for a in arrays {
+            let _ = writeln!(
+                s,
+                "      <PDataArray type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\"/>",
+                Values::of(&a.values).vtk_type(),
+                escape(&a.name),
+                a.components
+            );
+        }
+        let _ = writeln!(s, "    </{tag}>");
+    };
+    declare(&mut s, "PPointData", point_data);
+    declare(&mut s, "PCellData", cell_data);
+    s.push_str("    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n    </PPoints>\n");
+    for file in pieces {
+        let _ = writeln!(s, "    <Piece Source=\"{}\"/>", escape(file));
+    }
+    s.push_str("  </PUnstructuredGrid>\n</VTKFile>\n");
+    s
+}
+
 /// base64 of the `UInt64` little-endian byte count followed by the raw
 /// little-endian bytes of every value.
 fn binary_body(values: Values) -> String {
