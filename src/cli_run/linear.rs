@@ -285,20 +285,8 @@ pub fn run(
                 .insert("v_cycle_each".into(), seconds / n as f64);
         }
         let so = &solver_spec;
-        report.krylov = Some(Krylov {
-            method: so.method.name().into(),
-            preconditioner: format!("{:?}", so.preconditioner).to_lowercase(),
-            iterations_per_solve: fp.iterations_per_solve.clone(),
-            total_iterations: fp.total_iterations,
-            final_relative_residual: fp.final_relative_residual,
-            floored_diagonal_entries: fp.floored_diagonal_entries,
-        });
-        report.fixed_point = Some(FixedPoint {
-            method: so.outer.name().into(),
-            iterations: fp.iterations,
-            eps_history: fp.eps_history.clone(),
-            converged: fp.converged,
-        });
+        report.krylov = Some(Krylov::of(so, fp));
+        report.fixed_point = Some(FixedPoint::of(so, fp));
         let solution = result?;
         let t = Instant::now();
         let row = &mut report.bodies[0];

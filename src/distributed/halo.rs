@@ -50,14 +50,18 @@ pub enum Reach {
 /// elements of `order`: the cell whose lowest corner it is, or the last
 /// along an axis.
 pub fn owner_cell(grid: &Grid, order: ElementOrder, node: usize) -> usize {
-    let p = order.degree();
+    let (p, l) = (order.degree(), lattice_ijk(grid, order, node));
+    grid.cell_index([0, 1, 2].map(|a| (l[a] / p).min(grid.n[a] - 1)))
+}
+
+/// The lattice coordinates of node `node` of elements of `order`.
+fn lattice_ijk(grid: &Grid, order: ElementOrder, node: usize) -> [usize; 3] {
     let per_axis = grid.nodes_per_axis(order);
-    let l = [
+    [
         node % per_axis[0],
         (node / per_axis[0]) % per_axis[1],
         node / (per_axis[0] * per_axis[1]),
-    ];
-    grid.cell_index([0, 1, 2].map(|a| (l[a] / p).min(grid.n[a] - 1)))
+    ]
 }
 
 impl Halo {
@@ -227,12 +231,6 @@ impl Halo {
 /// Whether lattice node `node` is a node of one of the cells of `b`
 /// (closed: on its faces too).
 fn near_node(grid: &Grid, order: ElementOrder, node: usize, b: &CellBox) -> bool {
-    let p = order.degree();
-    let per_axis = grid.nodes_per_axis(order);
-    let l = [
-        node % per_axis[0],
-        (node / per_axis[0]) % per_axis[1],
-        node / (per_axis[0] * per_axis[1]),
-    ];
+    let (p, l) = (order.degree(), lattice_ijk(grid, order, node));
     (0..3).all(|a| p * b.lo[a] <= l[a] && l[a] <= p * b.hi[a])
 }

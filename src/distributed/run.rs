@@ -96,21 +96,10 @@ fn run_into(
     report
         .timings
         .insert("recovery".into(), fp.recovery_seconds);
-    let spec = &case.spec.solver;
-    report.krylov = Some(Krylov {
-        method: spec.method.name().into(),
-        preconditioner: format!("{:?}", ranks_preconditioner(spec.preconditioner)).to_lowercase(),
-        iterations_per_solve: fp.iterations_per_solve.clone(),
-        total_iterations: fp.total_iterations,
-        final_relative_residual: fp.final_relative_residual,
-        floored_diagonal_entries: fp.floored_diagonal_entries,
-    });
-    report.fixed_point = Some(FixedPoint {
-        method: spec.outer.name().into(),
-        iterations: fp.iterations,
-        eps_history: fp.eps_history.clone(),
-        converged: fp.converged,
-    });
+    let mut spec = case.spec.solver.clone();
+    spec.preconditioner = ranks_preconditioner(spec.preconditioner);
+    report.krylov = Some(Krylov::of(&spec, &fp));
+    report.fixed_point = Some(FixedPoint::of(&spec, &fp));
     let row = RankRow {
         rank: comm.rank(),
         brick: [rs.bricks[comm.rank()].lo, rs.bricks[comm.rank()].hi],

@@ -12,9 +12,11 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::case::physics::SolverSpec;
 use crate::cells::glued::{glued_nodes, nodes_box};
 use crate::cells::{CellKind, Cells};
 use crate::discrete::dofs::DofMap;
+use crate::driver::fixed_point::FixedPointReport;
 use crate::element::ElementOrder;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
@@ -117,6 +119,33 @@ pub struct FixedPoint {
     pub iterations: usize,
     pub eps_history: Vec<f64>,
     pub converged: bool,
+}
+
+impl Krylov {
+    /// The row of a linear run's solves: `spec`'s method and preconditioner
+    /// (as the run took it), and the loop's counts.
+    pub fn of(spec: &SolverSpec, fp: &FixedPointReport) -> Krylov {
+        Krylov {
+            method: spec.method.name().into(),
+            preconditioner: format!("{:?}", spec.preconditioner).to_lowercase(),
+            iterations_per_solve: fp.iterations_per_solve.clone(),
+            total_iterations: fp.total_iterations,
+            final_relative_residual: fp.final_relative_residual,
+            floored_diagonal_entries: fp.floored_diagonal_entries,
+        }
+    }
+}
+
+impl FixedPoint {
+    /// The row of a linear run's outer loop.
+    pub fn of(spec: &SolverSpec, fp: &FixedPointReport) -> FixedPoint {
+        FixedPoint {
+            method: spec.outer.name().into(),
+            iterations: fp.iterations,
+            eps_history: fp.eps_history.clone(),
+            converged: fp.converged,
+        }
+    }
 }
 
 /// `condition`: κ of the operator on the active dofs.
