@@ -224,8 +224,16 @@ pub fn error_norms(
     lambda: f64,
     mu: f64,
 ) -> ErrorNorms {
-    let [e] = error_norms_of(grid, cells, dofs, [u_h], exact, lambda, mu, &|_| true);
-    ErrorNorms::from_sums(e)
+    ErrorNorms::from_sums(error_sums(
+        grid,
+        cells,
+        dofs,
+        u_h,
+        exact,
+        lambda,
+        mu,
+        &|_| true,
+    ))
 }
 
 /// The sums under [`error_norms`]' roots over the cells `counts` takes:

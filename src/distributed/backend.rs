@@ -44,8 +44,8 @@ impl<'c> DistBackend<'c> {
         }
     }
 
-    /// The sum of `v` over the ranks.
-    fn total(&self, v: f64) -> f64 {
+    /// The sum of `v` over the ranks. Collective.
+    pub fn total(&self, v: f64) -> f64 {
         let mut s = [v];
         self.comm.sum(&mut s);
         s[0]

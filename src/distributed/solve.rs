@@ -22,6 +22,7 @@ use crate::driver::solve::{fixed_point_options, solve_once, RecoveredLoad};
 use crate::error::Result;
 use crate::grid::{CellBox, Grid};
 use crate::progress::Progress;
+use crate::solver::fgmres::local_dot;
 use crate::solver::{solve, KrylovOptions, KrylovStats, Preconditioner};
 
 /// A rank counts the cells of its brick.
@@ -89,8 +90,10 @@ impl LinearSolver for RankSolver<'_> {
         )
     }
 
+    /// The outer loop's product on one rank ([`local_dot`]; the ghosts'
+    /// entries are zero), summed over the ranks. Collective.
     fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        self.be.dot(&a.to_vec(), &b.to_vec())
+        self.be.total(local_dot(a, b))
     }
 }
 
