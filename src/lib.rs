@@ -6,7 +6,7 @@
 //!
 //! | layer | modules |
 //! |---|---|
-//! | utilities | [`error`], [`progress`], [`comm`] |
+//! | utilities | [`error`], [`progress`], [`exact`], [`comm`] |
 //! | geometry utilities and writers | [`spatial`], [`output`], [`vtu`], [`plot`], [`expr`] |
 //! | geometry and cut cells | [`mesh`], [`geometry`], [`quadrature`], [`element`], [`grid`], [`cells`], [`recovery`] |
 //! | discretisation | [`discrete`] |
@@ -24,6 +24,7 @@
 
 pub mod error;
 pub mod progress;
+pub mod exact;
 pub mod comm;
 
 pub mod spatial;

@@ -6,16 +6,19 @@
 //! # Chunking and reproducibility
 //! Every kernel works on fixed chunks of `CHUNK` (8192) entries. Long vectors are
 //! processed with rayon, one task per chunk; short ones sequentially, over the
-//! same chunks. A dot product is the sequential sum, in chunk order, of the
-//! per-chunk sequential partial sums: the reduction tree depends only on the
-//! length, never on the number of threads or the scheduling, so results are
-//! bitwise identical run to run and between the sequential and parallel paths.
+//! same chunks. A dot product adds the rounded products `x_i y_i` exactly
+//! ([`ExactSum`]) and rounds once: the result depends on the terms only,
+//! never on the number of threads, the chunks or the order of the entries,
+//! so it is bitwise the same run to run, on the sequential and the parallel
+//! path, and on one rank or several ([`crate::distributed`] adds the
+//! ranks' exact partial sums).
 
 use std::ops::Range;
 
 use rayon::prelude::*;
 
 use super::Backend;
+use crate::exact::ExactSum;
 
 /// Entries per chunk (one rayon task; one partial sum of a dot product).
 const CHUNK: usize = 8192;
@@ -93,6 +96,21 @@ impl CpuBackend {
 
     /// Per-chunk partial results of `kernel(range)` over `0..n`, folded
     /// sequentially in chunk order with `combine`, starting from `zero`.
+    /// `x · y` as the exact sum of the rounded products (what
+    /// [`Backend::dot`] rounds).
+    pub fn exact_dot(&self, x: &[f64], y: &[f64]) -> ExactSum {
+        check_len("dot", x.len(), &[y.len()]);
+        let kernel = |r: Range<usize>| dot_kernel(&x[r.clone()], &y[r]);
+        self.reduce(x.len(), ExactSum::new(), kernel, merge)
+    }
+
+    /// `(x · y, x · z)` as exact sums, in one pass over the chunks.
+    pub fn exact_dot2(&self, x: &[f64], y: &[f64], z: &[f64]) -> (ExactSum, ExactSum) {
+        check_len("dot2", x.len(), &[y.len(), z.len()]);
+        let kernel = |r: Range<usize>| dot2_kernel(&x[r.clone()], &y[r.clone()], &z[r]);
+        self.reduce(x.len(), (ExactSum::new(), ExactSum::new()), kernel, merge2)
+    }
+
     fn reduce<T, K>(&self, n: usize, zero: T, kernel: K, combine: fn(T, T) -> T) -> T
     where
         T: Send,
@@ -123,8 +141,13 @@ fn check_len(kernel: &str, n: usize, others: &[usize]) {
     }
 }
 
-fn add2(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
-    (a.0 + b.0, a.1 + b.1)
+fn merge(mut a: ExactSum, b: ExactSum) -> ExactSum {
+    a.merge(&b);
+    a
+}
+
+fn merge2(a: (ExactSum, ExactSum), b: (ExactSum, ExactSum)) -> (ExactSum, ExactSum) {
+    (merge(a.0, b.0), merge(a.1, b.1))
 }
 
 // ---- Per-chunk kernels: the bodies the WGSL kernels mirror. ----
@@ -157,17 +180,12 @@ fn pointwise_mul_kernel(x: &[f64], y: &[f64], z: &mut [f64]) {
     }
 }
 
-fn dot_kernel(x: &[f64], y: &[f64]) -> f64 {
-    x.iter().zip(y).map(|(a, b)| a * b).sum()
+fn dot_kernel(x: &[f64], y: &[f64]) -> ExactSum {
+    ExactSum::dot(x, y)
 }
 
-fn dot2_kernel(x: &[f64], y: &[f64], z: &[f64]) -> (f64, f64) {
-    x.iter()
-        .zip(y)
-        .zip(z)
-        .fold((0.0, 0.0), |(sy, sz), ((xi, yi), zi)| {
-            (sy + xi * yi, sz + xi * zi)
-        })
+fn dot2_kernel(x: &[f64], y: &[f64], z: &[f64]) -> (ExactSum, ExactSum) {
+    (ExactSum::dot(x, y), ExactSum::dot(x, z))
 }
 
 fn cgs_update_up_kernel(beta: f64, r: &[f64], q: &[f64], u: &mut [f64], p: &mut [f64]) {
@@ -259,15 +277,12 @@ impl Backend for CpuBackend {
     }
 
     fn dot(&self, x: &Vec<f64>, y: &Vec<f64>) -> f64 {
-        check_len("dot", x.len(), &[y.len()]);
-        let kernel = |r: Range<usize>| dot_kernel(&x[r.clone()], &y[r]);
-        self.reduce(x.len(), 0.0, kernel, |a, b| a + b)
+        self.exact_dot(x, y).value()
     }
 
     fn dot2(&self, x: &Vec<f64>, y: &Vec<f64>, z: &Vec<f64>) -> (f64, f64) {
-        check_len("dot2", x.len(), &[y.len(), z.len()]);
-        let kernel = |r: Range<usize>| dot2_kernel(&x[r.clone()], &y[r.clone()], &z[r]);
-        self.reduce(x.len(), (0.0, 0.0), kernel, add2)
+        let (xy, xz) = self.exact_dot2(x, y, z);
+        (xy.value(), xz.value())
     }
 
     fn cgs_update_up(

@@ -17,6 +17,8 @@ pub mod mpi;
 
 pub use serial::Serial;
 
+use crate::exact::{ExactSum, WORDS};
+
 /// The messages of a distributed run.
 pub trait Comm {
     /// This rank, `0..size()`.
@@ -37,6 +39,20 @@ pub trait Comm {
         let all = self.all_gather(values);
         for (i, v) in values.iter_mut().enumerate() {
             *v = all.iter().map(|r| r[i]).fold(0.0, |a, b| a + b);
+        }
+    }
+
+    /// `sums` added entry by entry over the ranks, exactly: the result
+    /// depends only on the terms, not on how the ranks split them.
+    fn sum_exact(&self, sums: &mut [ExactSum]) {
+        let words: Vec<f64> = sums.iter().flat_map(ExactSum::to_words).collect();
+        let all = self.all_gather(&words);
+        for (i, s) in sums.iter_mut().enumerate() {
+            let mut total = ExactSum::new();
+            for rank in &all {
+                total.merge(&ExactSum::from_words(&rank[i * WORDS..(i + 1) * WORDS]));
+            }
+            *s = total;
         }
     }
 }

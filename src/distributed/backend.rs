@@ -1,7 +1,7 @@
 //! [`DistBackend`]: the [`Backend`] of one rank. Its vectors are the
 //! rank's unknowns with the ghosts' entries kept at zero, so a local dot
-//! product counts every owned unknown once and the sum over the ranks is
-//! the whole product; the apply brings the ghosts of its input from their
+//! product counts every owned unknown once and the exact sum over the ranks
+//! is the whole product, to the bit the one-rank product; the apply brings the ghosts of its input from their
 //! owners, applies the rank's operator and zeroes the ghost rows again.
 //! Every other kernel is the CPU backend's, on the local entries, so the
 //! Krylov methods of [`crate::solver`] run unchanged on P ranks.
@@ -44,11 +44,13 @@ impl<'c> DistBackend<'c> {
         }
     }
 
-    /// The sum of `v` over the ranks. Collective.
-    pub fn total(&self, v: f64) -> f64 {
-        let mut s = [v];
-        self.comm.sum(&mut s);
-        s[0]
+    /// `a · b` over the ranks: each rank's exact partial sum, added
+    /// exactly over the ranks and rounded once, so that the product does
+    /// not depend on the rank count. Collective.
+    pub fn total_dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        let mut s = [self.cpu.exact_dot(a, b)];
+        self.comm.sum_exact(&mut s);
+        s[0].value()
     }
 }
 
@@ -126,17 +128,17 @@ impl Backend for DistBackend<'_> {
         self.cpu.pointwise_mul(x, y, z)
     }
 
-    /// The local product summed over the ranks. Collective.
+    /// [`DistBackend::total_dot`]. Collective.
     fn dot(&self, x: &Vec<f64>, y: &Vec<f64>) -> f64 {
-        self.total(self.cpu.dot(x, y))
+        self.total_dot(x, y)
     }
 
-    /// Both local products summed over the ranks in one gather. Collective.
+    /// Both products added over the ranks in one gather. Collective.
     fn dot2(&self, x: &Vec<f64>, y: &Vec<f64>, z: &Vec<f64>) -> (f64, f64) {
-        let (a, b) = self.cpu.dot2(x, y, z);
+        let (a, b) = self.cpu.exact_dot2(x, y, z);
         let mut s = [a, b];
-        self.comm.sum(&mut s);
-        (s[0], s[1])
+        self.comm.sum_exact(&mut s);
+        (s[0].value(), s[1].value())
     }
 
     fn cgs_update_up(

@@ -20,9 +20,9 @@ use crate::driver::outer_krylov::fgmres_fixed_point;
 use crate::driver::share::CellShare;
 use crate::driver::solve::{fixed_point_options, solve_once, RecoveredLoad};
 use crate::error::Result;
+use crate::exact::ExactSum;
 use crate::grid::{CellBox, Grid};
 use crate::progress::Progress;
-use crate::solver::fgmres::local_dot;
 use crate::solver::{solve, KrylovOptions, KrylovStats, Preconditioner};
 
 /// A rank counts the cells of its brick.
@@ -39,6 +39,10 @@ impl CellShare for BrickShare<'_> {
 
     fn sum(&self, values: &mut [f64]) {
         self.comm.sum(values)
+    }
+
+    fn sum_exact(&self, sums: &mut [ExactSum]) {
+        self.comm.sum_exact(sums)
     }
 }
 
@@ -90,10 +94,10 @@ impl LinearSolver for RankSolver<'_> {
         )
     }
 
-    /// The outer loop's product on one rank ([`local_dot`]; the ghosts'
-    /// entries are zero), summed over the ranks. Collective.
+    /// The outer loop's product ([`DistBackend::total_dot`]; the ghosts'
+    /// entries are zero). Collective.
     fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        self.be.total(local_dot(a, b))
+        self.be.total_dot(a, b)
     }
 }
 

@@ -4,6 +4,8 @@
 //! ([`Whole`]); a rank of several counts the cells of its brick and sums
 //! over the ranks ([`crate::distributed`]).
 
+use crate::exact::ExactSum;
+
 /// Which cells a rank counts, and how its partial sums join the others'.
 pub trait CellShare {
     /// Whether this rank counts `cell` in sums over the body.
@@ -11,6 +13,9 @@ pub trait CellShare {
     /// `values` summed entry by entry over the ranks (the same on every
     /// rank).
     fn sum(&self, values: &mut [f64]);
+    /// `sums` added exactly over the ranks (the same bits however the
+    /// ranks split the cells).
+    fn sum_exact(&self, sums: &mut [ExactSum]);
 }
 
 /// The whole body on one rank.
@@ -23,4 +28,6 @@ impl CellShare for Whole {
     }
 
     fn sum(&self, _values: &mut [f64]) {}
+
+    fn sum_exact(&self, _sums: &mut [ExactSum]) {}
 }

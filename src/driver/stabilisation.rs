@@ -33,6 +33,7 @@ use crate::discrete::field::CellField;
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
+use crate::exact::ExactSum;
 use crate::fem::problem::Boundary;
 use crate::fem::rhs::add_point_load;
 use crate::fem::rigid_resultant::RigidFit;
@@ -264,25 +265,28 @@ pub fn s_rhs(
     let of_cell = &setup.pieces.of_cell;
     let mut fits = piece_fits(setup, omega_star, share);
     let mut values = Vec::with_capacity(omega_star.len() * rule.len());
+    let mut points = Vec::with_capacity(rule.len());
     for &c in omega_star {
         let fit = &mut fits[of_cell[c] as usize];
         let lo = grid.cell_box(c).lo;
         let blend = s.cell_blend(c)?;
         let field = CellField::new(grid, dofs, u, c);
         let counted = share.counts(c);
+        points.clear();
         for (xi, w) in &rule {
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
             let sx = blend.eval(x);
             if counted {
                 let ux = field.value_and_gradient(x).0;
-                fit.add(x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a]));
+                points.push((x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a])));
             }
             values.push((c, x, w * vol, sx));
         }
+        fit.add_cell(&points);
     }
-    let mut sums: Vec<f64> = fits.iter().flat_map(RigidFit::sums).collect();
-    share.sum(&mut sums);
-    for (fit, s) in fits.iter_mut().zip(sums.chunks_exact(42)) {
+    let mut sums: Vec<ExactSum> = fits.iter().flat_map(|f| f.sums().to_vec()).collect();
+    share.sum_exact(&mut sums);
+    for (fit, s) in fits.iter_mut().zip(sums.chunks_exact(RigidFit::SUMS)) {
         fit.set_sums(s);
     }
     let a: Vec<[f64; 6]> = match balanced {
@@ -304,16 +308,17 @@ pub fn s_rhs(
 fn piece_fits(setup: &Setup, omega_star: &[usize], share: &dyn CellShare) -> Vec<RigidFit> {
     let (grid, of_cell) = (&setup.grid, &setup.pieces.of_cell);
     // Per piece: the sum of the centres, and the count.
-    let mut sums = vec![0.0; 4 * setup.pieces.count];
+    let mut sums = vec![ExactSum::new(); 4 * setup.pieces.count];
     for &c in omega_star.iter().filter(|&&c| share.counts(c)) {
         let lo = grid.cell_box(c).lo;
         let p = 4 * of_cell[c] as usize;
         for a in 0..3 {
-            sums[p + a] += lo[a] + 0.5 * grid.h;
+            sums[p + a].add(lo[a] + 0.5 * grid.h);
         }
-        sums[p + 3] += 1.0;
+        sums[p + 3].add(1.0);
     }
-    share.sum(&mut sums);
+    share.sum_exact(&mut sums);
+    let sums: Vec<f64> = sums.iter().map(ExactSum::value).collect();
     sums.chunks_exact(4)
         .map(|s| {
             let x0 = [0, 1, 2].map(|a| if s[3] > 0.0 { s[a] / s[3] } else { 0.0 });

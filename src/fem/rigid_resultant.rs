@@ -46,24 +46,30 @@
 
 use nalgebra::{Matrix6, Vector6};
 
+use crate::exact::ExactSum;
+
 /// Accumulates `G` and `m` of the projection, with the rotations about the
 /// point `x0` scaled by `1/len` (the centroid of Ω* and the cell size keep
-/// `G` well conditioned).
+/// `G` well conditioned). The cells' contributions are added exactly
+/// ([`ExactSum`]), so the fit does not depend on the order of the cells or
+/// on how ranks share them.
 pub struct RigidFit {
     x0: [f64; 3],
     len: f64,
-    g: Matrix6<f64>,
-    m: Vector6<f64>,
+    /// `G` (row by row) then `m`.
+    sums: Vec<ExactSum>,
 }
 
 impl RigidFit {
+    /// Numbers in `G` and `m`.
+    pub const SUMS: usize = 36 + 6;
+
     /// An empty fit about `x0` with length scale `len`.
     pub fn about(x0: [f64; 3], len: f64) -> RigidFit {
         RigidFit {
             x0,
             len,
-            g: Matrix6::zeros(),
-            m: Vector6::zeros(),
+            sums: vec![ExactSum::new(); Self::SUMS],
         }
     }
 
@@ -78,35 +84,43 @@ impl RigidFit {
         ]
     }
 
-    /// Adds the point `x` of weight `w` with the value `d` (`u_h − S` there).
-    pub fn add(&mut self, x: [f64; 3], w: f64, d: [f64; 3]) {
-        let r = self.basis(x);
-        for i in 0..6 {
-            for j in 0..6 {
-                self.g[(i, j)] += w * (0..3).map(|c| r[c][i] * r[c][j]).sum::<f64>();
+    /// Adds the points of one cell, each `(x, w, d)`: the point `x` of
+    /// weight `w` with the value `d` (`u_h − S` there). The cell's sums are
+    /// taken in the order given, then added to the fit exactly.
+    pub fn add_cell(&mut self, points: &[([f64; 3], f64, [f64; 3])]) {
+        let mut cell = [0.0; Self::SUMS];
+        for &(x, w, d) in points {
+            let r = self.basis(x);
+            for i in 0..6 {
+                for j in 0..6 {
+                    cell[6 * i + j] += w * (0..3).map(|c| r[c][i] * r[c][j]).sum::<f64>();
+                }
+                cell[36 + i] += w * (0..3).map(|c| r[c][i] * d[c]).sum::<f64>();
             }
-            self.m[i] += w * (0..3).map(|c| r[c][i] * d[c]).sum::<f64>();
+        }
+        for (sum, v) in self.sums.iter_mut().zip(cell) {
+            sum.add(v);
         }
     }
 
-    /// The sums `G` and `m` of the points added, flat (for adding up the
-    /// fits of several ranks).
-    pub fn sums(&self) -> Vec<f64> {
-        self.g.iter().chain(self.m.iter()).copied().collect()
+    /// The exact sums of `G` and `m`, [`RigidFit::SUMS`] of them (for
+    /// adding up the fits of several ranks).
+    pub fn sums(&self) -> &[ExactSum] {
+        &self.sums
     }
 
     /// Replaces the sums by `sums` (as [`RigidFit::sums`] gives them).
-    pub fn set_sums(&mut self, sums: &[f64]) {
-        let (g, m) = sums.split_at(36);
-        self.g.iter_mut().zip(g).for_each(|(a, b)| *a = *b);
-        self.m.iter_mut().zip(m).for_each(|(a, b)| *a = *b);
+    pub fn set_sums(&mut self, sums: &[ExactSum]) {
+        self.sums.clone_from_slice(sums);
     }
 
     /// The coefficients `a = G⁻¹ m` (zero when `G` is singular: no points).
     pub fn solve(&self) -> [f64; 6] {
-        match self.g.cholesky() {
+        let g = Matrix6::from_fn(|i, j| self.sums[6 * i + j].value());
+        let m = Vector6::from_fn(|i, _| self.sums[36 + i].value());
+        match g.cholesky() {
             Some(ch) => {
-                let a = ch.solve(&self.m);
+                let a = ch.solve(&m);
                 [0, 1, 2, 3, 4, 5].map(|i| a[i])
             }
             None => [0.0; 6],
@@ -139,9 +153,14 @@ mod tests {
             .collect();
         let mut fit = RigidFit::about([0.5, 0.0, 2.0], 3.0);
         let a_true = [0.3, -1.2, 2.0, 0.7, -0.4, 1.1];
-        for &(x, w) in &pts {
-            fit.add(x, w, fit.value(x, &a_true));
-        }
+        let points: Vec<_> = pts
+            .iter()
+            .map(|&(x, w)| (x, w, fit.value(x, &a_true)))
+            .collect();
+        // In two "cells", one of them empty.
+        fit.add_cell(&points[..17]);
+        fit.add_cell(&[]);
+        fit.add_cell(&points[17..]);
         let a = fit.solve();
         for k in 0..6 {
             assert!((a[k] - a_true[k]).abs() < 1e-12, "{a:?}");

@@ -15,6 +15,7 @@
 //! starts from it (iterative refinement). The caller supplies `M`, the
 //! preconditioner and a hook per direction through [`FlexibleSystem`].
 
+use crate::backend::CpuBackend;
 use crate::error::{Error, Result};
 
 /// What FGMRES needs from the system it solves.
@@ -224,9 +225,10 @@ impl Hessenberg {
     }
 }
 
-/// `a · b`, summed in order.
+/// `a · b` on one process: the CPU backend's exact sum of the rounded
+/// products, rounded once (the same bits however the vectors are split).
 pub fn local_dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    CpuBackend::new().exact_dot(a, b).value()
 }
 
 fn norm(system: &dyn FlexibleSystem, a: &[f64]) -> f64 {
