@@ -26,6 +26,10 @@ const CHUNK: usize = 8192;
 /// Vectors at least this long are processed in parallel by default.
 const DEFAULT_PARALLEL_MIN_LEN: usize = 4 * CHUNK;
 
+/// Vectors at least this long are reduced (dot products) in parallel by
+/// default.
+const REDUCE_PARALLEL_MIN_LEN: usize = 2 * CHUNK;
+
 /// A square linear operator on host vectors: what the CPU backend applies.
 pub trait LinearOperator {
     /// Number of rows (= columns).
@@ -55,7 +59,8 @@ impl CpuBackend {
     }
 
     /// The backend that processes vectors of at least `parallel_min_len` entries
-    /// in parallel (`0`: always, `usize::MAX`: never). Results do not depend on it.
+    /// in parallel (`0`: always, `usize::MAX`: never; dot products from
+    /// [`REDUCE_PARALLEL_MIN_LEN`] if that is lower). Results do not depend on it.
     pub fn with_parallel_min_len(parallel_min_len: usize) -> Self {
         CpuBackend { parallel_min_len }
     }
@@ -94,8 +99,6 @@ impl CpuBackend {
         }
     }
 
-    /// Per-chunk partial results of `kernel(range)` over `0..n`, folded
-    /// sequentially in chunk order with `combine`, starting from `zero`.
     /// `x · y` as the exact sum of the rounded products (what
     /// [`Backend::dot`] rounds).
     pub fn exact_dot(&self, x: &[f64], y: &[f64]) -> ExactSum {
@@ -111,6 +114,11 @@ impl CpuBackend {
         self.reduce(x.len(), (ExactSum::new(), ExactSum::new()), kernel, merge2)
     }
 
+    /// Per-chunk partial results of `kernel(range)` over `0..n`, folded
+    /// in chunk order with `combine`, starting from `zero`. Parallel from
+    /// [`REDUCE_PARALLEL_MIN_LEN`] entries (or the backend's threshold, if
+    /// lower): an exact product costs a few times a plain pass per entry,
+    /// and sits between the parallel applies of a Krylov iteration.
     fn reduce<T, K>(&self, n: usize, zero: T, kernel: K, combine: fn(T, T) -> T) -> T
     where
         T: Send,
@@ -118,7 +126,9 @@ impl CpuBackend {
     {
         let chunks = n.div_ceil(CHUNK);
         let range = |c: usize| span(c, CHUNK.min(n - c * CHUNK));
-        let partials: Vec<T> = if self.parallel(n) {
+        let parallel = self.parallel_min_len != usize::MAX
+            && n >= self.parallel_min_len.min(REDUCE_PARALLEL_MIN_LEN);
+        let partials: Vec<T> = if parallel {
             (0..chunks)
                 .into_par_iter()
                 .map(|c| kernel(range(c)))
