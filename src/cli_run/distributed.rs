@@ -4,7 +4,8 @@
 //! a row per rank), also when the run fails. On the CPU of each rank, with
 //! Jacobi-preconditioned Krylov solves. `--output volume` (or `all`): each
 //! rank writes its piece `solution_<rank>.vtu` and rank 0 `solution.pvtu`
-//! listing them; no `surface.vtp` yet (a note says so).
+//! listing them; `--output surface` (or `all`): rank 0 writes
+//! `surface.vtp`, gathered from every rank.
 
 use std::path::Path;
 
@@ -42,13 +43,10 @@ pub fn run(
     let files = outputs.paraview.files;
     if lead {
         println!("case {name} ({}): {ranks} ranks, CPU, Jacobi", case.file);
-        if files.surface() {
-            println!("  note: a run on several ranks writes no surface.vtp yet");
-        }
     }
-    let pieces = files.volume().then_some(Pieces {
+    let pieces = (files.volume() || files.surface()).then_some(Pieces {
         dir,
-        encoding: outputs.paraview.encoding,
+        paraview: outputs.paraview,
     });
     let quiet: &dyn Progress = match lead {
         true => progress,

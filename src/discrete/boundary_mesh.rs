@@ -82,6 +82,25 @@ impl BoundaryMesh {
     /// The boundary of `geometry` on `grid`, with hosts among the cells of
     /// class `kinds` (see the module doc).
     pub fn new(grid: &Grid, kinds: &[CellKind], geometry: &Geometry) -> BoundaryMesh {
+        let raw = RawSurface::new(grid, geometry);
+        let hosts = raw.hosts(grid, kinds);
+        raw.hosted(&hosts).0
+    }
+}
+
+/// The boundary's triangles before any host is looked up: the same on
+/// every rank of a distributed run, whatever cells it classified.
+#[derive(Clone, Debug, Default)]
+pub struct RawSurface {
+    pub points: Vec<[f64; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+    pub tags: Vec<u16>,
+}
+
+impl RawSurface {
+    /// The boundary of `geometry` on `grid` (marching tetrahedra on each
+    /// CSG leaf, or a mesh solid's triangles clipped to the grid).
+    pub fn new(grid: &Grid, geometry: &Geometry) -> RawSurface {
         let (points, triangles, tags) = match geometry.mesh() {
             Some(mesh) => clipped_mesh(mesh, &grid.bounding_box()),
             None => {
@@ -103,14 +122,29 @@ impl BoundaryMesh {
                 out
             }
         };
-        let hosts: Vec<Option<usize>> = points
+        RawSurface {
+            points,
+            triangles,
+            tags,
+        }
+    }
+
+    /// Each point's host among the cells of class `kinds`, if it has one.
+    pub fn hosts(&self, grid: &Grid, kinds: &[CellKind]) -> Vec<Option<usize>> {
+        self.points
             .par_iter()
             .map(|&x| host_cell(grid, kinds, x))
-            .collect();
-        // Keep the triangles whose vertices all have a host; renumber.
+            .collect()
+    }
+
+    /// The triangles whose vertices all have a host in `hosts` (one per
+    /// point), their vertices renumbered in order of first use; and the
+    /// index in `self.points` of each vertex kept.
+    pub fn hosted(&self, hosts: &[Option<usize>]) -> (BoundaryMesh, Vec<usize>) {
         let mut out = BoundaryMesh::default();
-        let mut new_index = vec![u32::MAX; points.len()];
-        for (t, tag) in triangles.iter().zip(tags) {
+        let mut sources = Vec::new();
+        let mut new_index = vec![u32::MAX; self.points.len()];
+        for (t, &tag) in self.triangles.iter().zip(&self.tags) {
             if t.iter().any(|&v| hosts[v as usize].is_none()) {
                 continue;
             }
@@ -119,15 +153,16 @@ impl BoundaryMesh {
                 let v = v as usize;
                 if new_index[v] == u32::MAX {
                     new_index[v] = out.points.len() as u32;
-                    out.points.push(points[v]);
+                    out.points.push(self.points[v]);
                     out.host.push(hosts[v].expect("checked above"));
+                    sources.push(v);
                 }
                 tri[k] = new_index[v];
             }
             out.triangles.push(tri);
             out.tags.push(tag);
         }
-        out
+        (out, sources)
     }
 }
 

@@ -20,6 +20,7 @@ pub mod partition;
 pub mod pieces;
 pub mod run;
 pub mod solve;
+pub mod surface;
 
 #[cfg(test)]
 mod tests;

@@ -9,12 +9,14 @@ use std::time::Instant;
 
 use super::halo::{owner_cell, Reach};
 use super::solve::{ranks_preconditioner, solve_rank, RankSolution};
+use super::surface::gather_surface;
 use super::{agree, RankSetup};
 use crate::case::Case;
 use crate::cells::CellKind;
 use crate::comm::Comm;
 use crate::driver::fixed_point::FixedPointReport;
-use crate::driver::output::write_piece;
+use crate::driver::output::{write_piece, ParaView};
+use crate::driver::surface_output::write_surface;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
 use crate::grid::peak_resident_bytes;
@@ -22,15 +24,16 @@ use crate::output::Written;
 use crate::progress::Progress;
 use crate::report::newton::ReactionRow;
 use crate::report::{BodyReport, FixedPoint, Krylov, RankRow, Report};
-use crate::vtu::{write_pvtu, VtuEncoding};
+use crate::vtu::write_pvtu;
 
-/// Where a run writes its solution: each rank its piece
-/// `solution_<rank>.vtu` into `dir` (one file system for all ranks), rank 0
-/// `solution.pvtu` listing them.
+/// Where a run writes its solution, into `dir` (one file system for all
+/// ranks), and which files (`paraview.files`): the volume as each rank's
+/// piece `solution_<rank>.vtu` and rank 0's `solution.pvtu` listing them;
+/// the surface as one `surface.vtp` from rank 0 ([`gather_surface`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Pieces<'a> {
     pub dir: &'a Path,
-    pub encoding: VtuEncoding,
+    pub paraview: ParaView,
 }
 
 /// What a run gives every rank: the report (the same on every rank), the
@@ -125,8 +128,9 @@ fn run_into(
     Ok(())
 }
 
-/// Writes this rank's piece and, on rank 0, the `.pvtu` listing every
-/// rank's; returns the files rank 0 lists. Collective.
+/// Writes the files `p` asks for: this rank's piece and, on rank 0, the
+/// `.pvtu` listing every rank's; the surface gathered on rank 0. Returns
+/// the files rank 0 wrote. Collective.
 fn write_pieces(
     case: &Case,
     rs: &RankSetup,
@@ -134,39 +138,51 @@ fn write_pieces(
     comm: &dyn Comm,
     p: Pieces,
 ) -> Result<Vec<String>> {
-    let brick = rs.bricks[comm.rank()];
-    let grid = &rs.setup.grid;
-    let counts = |c: usize| brick.contains(grid.cell_ijk(c));
-    let name = |r: usize| format!("solution_{r}.vtu");
     let mut written = Written::new(p.dir);
     let geometry = &case.body().geometry;
-    let piece = std::fs::create_dir_all(p.dir)
-        .map_err(|e| Error::Io {
-            path: p.dir.display().to_string(),
-            reason: e.to_string(),
-        })
-        .and_then(|()| {
-            let name = name(comm.rank());
-            write_piece(
-                &rs.setup,
-                geometry,
-                u,
-                &counts,
-                &name,
-                p.encoding,
-                &mut written,
-            )
-        });
-    let (point_data, cell_data) = agree(comm, piece)?;
+    let made = std::fs::create_dir_all(p.dir).map_err(|e| Error::Io {
+        path: p.dir.display().to_string(),
+        reason: e.to_string(),
+    });
+    agree(comm, made)?;
+    let lead = comm.rank() == 0;
+    let encoding = p.paraview.encoding;
+    // The surface is computed before any file is written, so that a
+    // failed recovery leaves none.
+    let surface = match p.paraview.files.surface() {
+        true => Some(gather_surface(rs, geometry, u, comm)?),
+        false => None,
+    };
     let mut listed = Vec::new();
-    if comm.rank() == 0 {
-        let names: Vec<String> = (0..comm.size()).map(name).collect();
-        written.write("solution.pvtu", |path| {
-            write_pvtu(path, &point_data, &cell_data, &names)
+    if p.paraview.files.volume() {
+        let brick = rs.bricks[comm.rank()];
+        let grid = &rs.setup.grid;
+        let counts = |c: usize| brick.contains(grid.cell_ijk(c));
+        let name = |r: usize| format!("solution_{r}.vtu");
+        let piece = write_piece(
+            &rs.setup,
+            geometry,
+            u,
+            &counts,
+            &name(comm.rank()),
+            encoding,
+            &mut written,
+        );
+        let (point_data, cell_data) = agree(comm, piece)?;
+        if lead {
+            let names: Vec<String> = (0..comm.size()).map(name).collect();
+            written.write("solution.pvtu", |path| {
+                write_pvtu(path, &point_data, &cell_data, &names)
+            })?;
+            listed.push("solution.pvtu".to_string());
+            listed.extend(names);
+        }
+    }
+    if let (true, Some((mesh, fields))) = (lead, &surface) {
+        written.write("surface.vtp", |path| {
+            write_surface(path, mesh, fields, encoding)
         })?;
-        listed = std::iter::once("solution.pvtu".to_string())
-            .chain(names)
-            .collect();
+        listed.push("surface.vtp".to_string());
     }
     Ok(listed)
 }

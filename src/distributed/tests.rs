@@ -9,6 +9,8 @@ use super::*;
 use crate::backend::{Backend, CpuBackend, LinearOperator};
 use crate::comm::threads;
 use crate::discrete::field::error_norms;
+use crate::driver::output::{OutputFiles, ParaView};
+use crate::driver::surface_output::{surface_fields, write_surface};
 use crate::progress::Silent;
 use crate::solver::{solve, KrylovMethod, KrylovOptions, Preconditioner};
 
@@ -490,7 +492,10 @@ fn the_pieces_of_three_ranks_make_the_one_rank_solution() {
     crate::driver::output::write_solution(&whole, geometry, &one.u, &dir.join("one.vtu")).unwrap();
     let pieces = run::Pieces {
         dir: &dir,
-        encoding: crate::vtu::VtuEncoding::Appended,
+        paraview: ParaView {
+            files: OutputFiles::Volume,
+            encoding: crate::vtu::VtuEncoding::Appended,
+        },
     };
     let files = threads::run(3, |comm| {
         let out = run::run(&case, Some(3), comm, &Silent, Some(pieces));
@@ -548,4 +553,68 @@ fn the_pieces_of_three_ranks_make_the_one_rank_solution() {
     }
     assert_eq!(cells, one["volume_fraction"].values.len());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The surface of a run on 3 ranks (gathered on rank 0) is the one-rank
+/// `surface.vtp`: the same points and triangles, the displacement to the
+/// bit and the stress to round-off; on the sphere (marching tetrahedra)
+/// and on an STL part, whose triangles cross the bricks.
+fn the_surface_of_three_ranks_is_the_one_rank_surface(name: &str, level: u32) {
+    let case = jacobi_case(name);
+    let whole = Setup::new(&case, Some(level)).unwrap();
+    let mut report = crate::driver::fixed_point::FixedPointReport::default();
+    let one = crate::driver::solve::solve(&whole, &case.spec.solver, &mut report).unwrap();
+    let stem = name.trim_end_matches(".toml");
+    let dir = std::env::temp_dir().join(format!("cgfem-surface-{stem}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let geometry = &case.body().geometry;
+    let (mesh, fields) = surface_fields(&whole, geometry, &one.u, None).unwrap();
+    let encoding = crate::vtu::VtuEncoding::Appended;
+    write_surface(&dir.join("one.vtp"), &mesh, &fields, encoding).unwrap();
+    let pieces = run::Pieces {
+        dir: &dir,
+        paraview: ParaView {
+            files: OutputFiles::Surface,
+            encoding,
+        },
+    };
+    let files = threads::run(3, |comm| {
+        let out = run::run(&case, Some(level), comm, &Silent, Some(pieces));
+        out.result.unwrap();
+        out.files
+    });
+    assert_eq!(files[0], ["surface.vtp"]);
+    assert!(files[1].is_empty() && files[2].is_empty());
+    let (a, b) = (
+        arrays(&dir.join("one.vtp")),
+        arrays(&dir.join("surface.vtp")),
+    );
+    assert!(!f64s(&a["Points"]).is_empty());
+    for key in ["Points", "displacement"] {
+        assert_eq!(f64s(&a[key]), f64s(&b[key]), "{name}: {key}");
+    }
+    assert_eq!(a["connectivity"].values, b["connectivity"].values);
+    assert_eq!(a["tag"].values, b["tag"].values);
+    let (sa, sb) = (f64s(&a["stress"]), f64s(&b["stress"]));
+    let scale = sa.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let off = sa
+        .iter()
+        .zip(sb)
+        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(
+        off <= 1e-12 * scale,
+        "{name}: stress off by {off:e} of {scale:e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_surface_of_three_ranks_is_the_one_rank_surface_on_the_sphere() {
+    the_surface_of_three_ranks_is_the_one_rank_surface("sphere.toml", 3);
+}
+
+#[test]
+fn the_surface_of_three_ranks_is_the_one_rank_surface_on_an_stl_part() {
+    the_surface_of_three_ranks_is_the_one_rank_surface("plate_holes.toml", 3);
 }
