@@ -13,7 +13,7 @@ use cgfem_gpu::case::Case;
 use cgfem_gpu::comm::Comm;
 use cgfem_gpu::distributed::run::{Pieces, RunOutcome};
 use cgfem_gpu::gpu::BackendChoice;
-use cgfem_gpu::progress::{Progress, Silent};
+use cgfem_gpu::progress::{Event, Progress};
 
 use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
@@ -48,9 +48,10 @@ pub fn run(
         dir,
         paraview: outputs.paraview,
     });
+    let unshown = Unshown(progress);
     let quiet: &dyn Progress = match lead {
         true => progress,
-        false => &Silent,
+        false => &unshown,
     };
     let RunOutcome {
         report,
@@ -101,4 +102,16 @@ pub fn run(
         );
     }
     Ok(result?)
+}
+
+/// The progress of a rank other than 0: it shows nothing, but its Ctrl-C
+/// counts (the ranks stop together when any is interrupted).
+struct Unshown<'a>(&'a Terminal);
+
+impl Progress for Unshown<'_> {
+    fn event(&self, _event: &Event) {}
+
+    fn should_stop(&self) -> bool {
+        self.0.should_stop()
+    }
 }

@@ -44,6 +44,11 @@ impl<'c> DistBackend<'c> {
         }
     }
 
+    /// The ranks' messages.
+    pub fn comm(&self) -> &'c dyn Comm {
+        self.comm
+    }
+
     /// `a · b` over the ranks: each rank's exact partial sum, added
     /// exactly over the ranks and rounded once, so that the product does
     /// not depend on the rank count. Collective.

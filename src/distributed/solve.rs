@@ -99,6 +99,13 @@ impl LinearSolver for RankSolver<'_> {
     fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
         self.be.total_dot(a, b)
     }
+
+    /// Any rank's interrupt stops every rank at the same boundary.
+    /// Collective.
+    fn stop(&self, asked: bool) -> bool {
+        let flag = [if asked { 1.0 } else { 0.0 }];
+        self.be.comm().all_gather(&flag).iter().any(|r| r[0] != 0.0)
+    }
 }
 
 /// The rank's operator as the outer loop applies it (`M z = A z − …`).

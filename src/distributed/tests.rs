@@ -618,3 +618,44 @@ fn the_surface_of_three_ranks_is_the_one_rank_surface_on_the_sphere() {
 fn the_surface_of_three_ranks_is_the_one_rank_surface_on_an_stl_part() {
     the_surface_of_three_ranks_is_the_one_rank_surface("plate_holes.toml", 3);
 }
+
+/// A progress that asks to stop from its `after`-th poll on.
+struct StopAfter {
+    polls: std::sync::atomic::AtomicUsize,
+    after: usize,
+}
+
+impl crate::progress::Progress for StopAfter {
+    fn event(&self, _event: &crate::progress::Event) {}
+
+    fn should_stop(&self) -> bool {
+        let n = self.polls.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        n + 1 >= self.after
+    }
+}
+
+/// An interrupt on one rank stops every rank at the same iteration
+/// boundary (none waits in a collective step for one that left), and
+/// every rank reports the run interrupted there.
+#[test]
+fn an_interrupt_on_one_rank_stops_every_rank_together() {
+    let case = jacobi_case("bracket.toml");
+    let outcomes = threads::run(3, |comm| {
+        let progress = StopAfter {
+            polls: 0.into(),
+            after: if comm.rank() == 1 { 3 } else { usize::MAX },
+        };
+        let out = run::run(&case, Some(3), comm, &progress, None);
+        (out.result, out.report.status)
+    });
+    let mut stopped_at = Vec::new();
+    for (result, status) in outcomes {
+        match result {
+            Err(Error::Interrupted { iterations }) => stopped_at.push(iterations),
+            other => panic!("expected an interrupt, got {other:?}"),
+        }
+        assert_eq!(status, "interrupted");
+    }
+    assert!(stopped_at.iter().all(|&k| k == stopped_at[0]));
+    assert!(stopped_at[0] >= 1, "stopped after a solve: {stopped_at:?}");
+}

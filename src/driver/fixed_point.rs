@@ -80,7 +80,8 @@ pub fn fixed_point(
 
 /// [`fixed_point`], reporting each solve and iteration to `progress` and
 /// stopping with [`Error::Interrupted`] at the first iteration boundary (before
-/// the initial solve, or after any solve) where `progress.should_stop()`.
+/// the initial solve, or after any solve) where `progress.should_stop()`
+/// (on several ranks: on any rank, [`LinearSolver::stop`]).
 pub fn fixed_point_with_progress(
     solver: &mut dyn LinearSolver,
     fixed: &[f64],
@@ -89,8 +90,8 @@ pub fn fixed_point_with_progress(
     report: &mut FixedPointReport,
     progress: &dyn Progress,
 ) -> Result<Vec<f64>> {
-    let stop = |report: &FixedPointReport| -> Result<()> {
-        if progress.should_stop() {
+    let stop = |solver: &dyn LinearSolver, report: &FixedPointReport| -> Result<()> {
+        if solver.stop(progress.should_stop()) {
             tracing::info!(iterations = report.iterations, "interrupted");
             return Err(Error::Interrupted {
                 iterations: report.iterations,
@@ -110,10 +111,10 @@ pub fn fixed_point_with_progress(
     };
     let mut u = vec![0.0; fixed.len()];
     let mut tau = opts.krylov.rel_tol;
-    stop(report)?;
+    stop(solver, report)?;
     run_solve(solver, fixed, &mut u, tau, report)?;
     for k in 1..=opts.max_iterations {
-        stop(report)?;
+        stop(solver, report)?;
         let _span = tracing::info_span!("fixed_point", iteration = k).entered();
         let extra = recorded_recovery(recovered, &u, report, progress)?;
         let rhs: Vec<f64> = fixed.iter().zip(&extra).map(|(a, b)| a + b).collect();

@@ -29,6 +29,13 @@ pub trait LinearSolver {
     fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
         local_dot(a, b)
     }
+
+    /// Whether the run stops at this iteration boundary, `asked` being
+    /// this process's wish (Ctrl-C). The solver of one rank of several
+    /// stops when any rank asks, so that all leave the loop together.
+    fn stop(&self, asked: bool) -> bool {
+        asked
+    }
 }
 
 /// The CPU backend with a host operator and its diagonal (computed once),

@@ -180,7 +180,7 @@ impl FlexibleSystem for Outer<'_, '_> {
     }
 
     fn before_direction(&mut self, _iterations: usize) -> Result<()> {
-        if self.progress.should_stop() {
+        if self.solver.stop(self.progress.should_stop()) {
             return Err(Error::Interrupted {
                 iterations: self.report.iterations,
             });

@@ -258,7 +258,7 @@ pub fn solve_once(
     report: &mut FixedPointReport,
     progress: &dyn Progress,
 ) -> Result<Vec<f64>> {
-    if progress.should_stop() {
+    if solver.stop(progress.should_stop()) {
         return Err(Error::Interrupted { iterations: 0 });
     }
     let mut u = vec![0.0; fixed.len()];
