@@ -19,7 +19,8 @@ use cgfem_gpu::driver::fixed_point::FixedPointReport;
 use cgfem_gpu::driver::linear::{CpuSolver, LinearSolver};
 use cgfem_gpu::driver::output::write_paraview;
 use cgfem_gpu::driver::setup::Setup;
-use cgfem_gpu::driver::solve::solve_with_progress;
+use cgfem_gpu::driver::share::Whole;
+use cgfem_gpu::driver::solve::{reactions_by_tag, solve_with_progress};
 use cgfem_gpu::driver::surface_output::SurfaceFields;
 use cgfem_gpu::gpu::linear::{GpuSolver, Scalars};
 use cgfem_gpu::gpu::{BackendChoice, GpuBackend, GpuContext, Precision};
@@ -307,11 +308,15 @@ pub fn run(
         }
         // Σ_q w_q λ_q per Dirichlet part, one load step.
         let geometry = &case.body().geometry;
+        let tags = geometry.tag_names().len();
+        let by_tag = reactions_by_tag(&setup.dirichlet, &solution.reactions, tags, &Whole);
         let mut by_part: BTreeMap<&str, [f64; 3]> = BTreeMap::new();
-        for (p, r) in setup.dirichlet.iter().zip(&solution.reactions) {
-            let force = by_part.entry(geometry.tag_name(p.tag)).or_default();
-            for (f, r) in force.iter_mut().zip(r) {
-                *f += p.w * r;
+        for (tag, force) in by_tag.iter().enumerate() {
+            if let Some(force) = force {
+                let sum = by_part.entry(geometry.tag_name(tag as u16)).or_default();
+                for (s, f) in sum.iter_mut().zip(force) {
+                    *s += f;
+                }
             }
         }
         let reactions = by_part

@@ -15,6 +15,7 @@ use super::dofs::DofMap;
 use crate::cells::split::SplitCell;
 use crate::cells::{CellKind, Cells};
 use crate::element::{shape_gradients, shape_values, tensor_gauss_rule, ElementOrder};
+use crate::exact::ExactSum;
 use crate::expr::{VectorExpr, VectorTape};
 use crate::grid::Grid;
 
@@ -224,7 +225,7 @@ pub fn error_norms(
     lambda: f64,
     mu: f64,
 ) -> ErrorNorms {
-    ErrorNorms::from_sums(error_sums(
+    ErrorNorms::from_sums(&error_sums(
         grid,
         cells,
         dofs,
@@ -249,14 +250,15 @@ pub fn error_sums(
     lambda: f64,
     mu: f64,
     counts: &(dyn Fn(usize) -> bool + Sync),
-) -> [f64; 4] {
+) -> [ExactSum; 4] {
     let [e] = error_norms_of(grid, cells, dofs, [u_h], exact, lambda, mu, counts);
     e
 }
 
 impl ErrorNorms {
     /// The norms from their sums ([`error_sums`]).
-    pub fn from_sums(s: [f64; 4]) -> ErrorNorms {
+    pub fn from_sums(sums: &[ExactSum; 4]) -> ErrorNorms {
+        let s = sums.each_ref().map(ExactSum::value);
         // `NaN.max(0.0)` is 0 in Rust: keep a NaN a NaN (null in the report).
         let root = |v: f64| if v.is_nan() { v } else { v.max(0.0).sqrt() };
         ErrorNorms {
@@ -280,7 +282,7 @@ fn error_norms_of<const N: usize>(
     lambda: f64,
     mu: f64,
     counts: &(dyn Fn(usize) -> bool + Sync),
-) -> [[f64; 4]; N] {
+) -> [[ExactSum; 4]; N] {
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
     let shapes = ShapeTable::new(dofs.order, &rule, grid.h).0;
     let tape = exact.tape();
@@ -309,6 +311,28 @@ fn error_norms_of<const N: usize>(
     let add = |a: Sums<N>, b: Sums<N>| -> Sums<N> {
         std::array::from_fn(|f| std::array::from_fn(|k| a[f][k] + b[f][k]))
     };
+    // Each cell's sums are taken in order over its points, then added to
+    // the totals exactly: the norms do not depend on the threads' split
+    // of the cells, nor on the ranks'.
+    type Totals<const N: usize> = [[ExactSum; 4]; N];
+    let add_cell = |mut t: Totals<N>, cell: Sums<N>| -> Totals<N> {
+        for (tf, cf) in t.iter_mut().zip(cell) {
+            for (tk, ck) in tf.iter_mut().zip(cf) {
+                tk.add(ck);
+            }
+        }
+        t
+    };
+    let merge = |mut a: Totals<N>, b: Totals<N>| -> Totals<N> {
+        for (af, bf) in a.iter_mut().zip(&b) {
+            for (ak, bk) in af.iter_mut().zip(bf) {
+                ak.merge(bk);
+            }
+        }
+        a
+    };
+    let totals =
+        || -> Totals<N> { std::array::from_fn(|_| std::array::from_fn(|_| ExactSum::new())) };
     let zero = [[0.0; 4]; N];
     let inside: Vec<usize> = (0..grid.num_cells())
         .filter(|&c| cells.kinds[c] == CellKind::Inside && counts(c))
@@ -319,7 +343,7 @@ fn error_norms_of<const N: usize>(
             let xs = grid.rule_points(group, &rule);
             let (ue, ge) = exact_at(&tape, &xs);
             let mut k = 0;
-            group.iter().fold(zero, |acc, &c| {
+            group.iter().fold(totals(), |acc, &c| {
                 let fields = cell_fields(c);
                 let cell = rule.iter().zip(&shapes).fold(zero, |acc, ((_, w), s)| {
                     k += 1;
@@ -330,10 +354,10 @@ fn error_norms_of<const N: usize>(
                         }),
                     )
                 });
-                add(acc, cell)
+                add_cell(acc, cell)
             })
         })
-        .reduce(|| zero, add);
+        .reduce(totals, merge);
     let cut: Vec<usize> = (0..cells.cut.len())
         .filter(|&i| counts(cells.cut[i]))
         .collect();
@@ -344,18 +368,18 @@ fn error_norms_of<const N: usize>(
             let xs: Vec<[f64; 3]> = group.iter().flat_map(|&i| points(i).map(|q| q.x)).collect();
             let (ue, ge) = exact_at(&tape, &xs);
             let mut k = 0;
-            group.iter().fold(zero, |acc, &i| {
+            group.iter().fold(totals(), |acc, &i| {
                 let fields = cell_fields(cells.cut[i]);
                 let cell = points(i).fold(zero, |acc, q| {
                     k += 1;
                     let fe = |f: usize| fields[f].value_and_gradient(q.x);
                     add(acc, point(ue[k - 1], ge[k - 1], q.w, &fe))
                 });
-                add(acc, cell)
+                add_cell(acc, cell)
             })
         })
-        .reduce(|| zero, add);
-    add(inside, cut)
+        .reduce(totals, merge);
+    merge(inside, cut)
 }
 
 /// Cells whose quadrature points [`error_norms_of`] evaluates the exact field
@@ -404,7 +428,7 @@ pub fn solution_and_interpolant_errors(
         return (solution, Err(why));
     }
     let sums = error_norms_of(grid, cells, dofs, [u_h, &ui], exact, lambda, mu, &|_| true);
-    let [solution, e] = sums.map(ErrorNorms::from_sums);
+    let [solution, e] = sums.each_ref().map(ErrorNorms::from_sums);
     let all = [e.energy, e.energy_relative, e.l2, e.l2_relative];
     if all.iter().any(|v| !v.is_finite()) {
         let why = format!(

@@ -18,7 +18,7 @@ use crate::driver::fixed_point::{fixed_point_with_progress, FixedPointReport};
 use crate::driver::linear::LinearSolver;
 use crate::driver::outer_krylov::fgmres_fixed_point;
 use crate::driver::share::CellShare;
-use crate::driver::solve::{fixed_point_options, solve_once, RecoveredLoad};
+use crate::driver::solve::{fixed_point_options, reactions_by_tag, solve_once, RecoveredLoad};
 use crate::error::Result;
 use crate::exact::ExactSum;
 use crate::grid::{CellBox, Grid};
@@ -202,35 +202,21 @@ pub fn solve_rank(
         }
     };
     rs.halo.fill_ghosts(comm, &mut u, Reach::Window);
-    let reactions = agree(comm, load.reactions(&u))?.reactions;
     let tags = case.body().geometry.tag_names().len();
-    // Per tag: the force and the number of points.
-    let mut by_tag = vec![0.0; 4 * tags];
-    for (p, r) in setup.dirichlet.iter().zip(&reactions) {
-        if share.counts(p.cell) {
-            let t = 4 * p.tag as usize;
-            for k in 0..3 {
-                by_tag[t + k] += p.w * r[k];
-            }
-            by_tag[t + 3] += 1.0;
-        }
-    }
-    comm.sum(&mut by_tag);
+    let reactions = agree(comm, load.reactions(&u))?.reactions;
+    let reactions = reactions_by_tag(&setup.dirichlet, &reactions, tags, &share);
     let error = setup.problem.exact.as_ref().map(|exact| {
         let (grid, cells, dofs) = (&setup.grid, &setup.cells, &setup.op.dofs);
         let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
         let brick = rs.bricks[comm.rank()];
         let counts = |c: usize| brick.contains(grid.cell_ijk(c));
         let mut sums = error_sums(grid, cells, dofs, &u, exact, lambda, mu, &counts);
-        comm.sum(&mut sums);
-        ErrorNorms::from_sums(sums)
+        comm.sum_exact(&mut sums);
+        ErrorNorms::from_sums(&sums)
     });
     Ok(RankSolution {
         u,
-        reactions: by_tag
-            .chunks_exact(4)
-            .map(|f| (f[3] > 0.0).then_some([f[0], f[1], f[2]]))
-            .collect(),
+        reactions,
         error,
     })
 }

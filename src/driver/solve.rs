@@ -14,7 +14,8 @@ use super::share::{CellShare, Whole};
 use super::stabilisation::{recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
-use crate::fem::rhs::traction_rhs;
+use crate::exact::ExactSum;
+use crate::fem::rhs::{traction_rhs, DirichletPoint};
 use crate::progress::{Event, Phase, Progress, Silent};
 use crate::recovery::{FitPlans, Recovered};
 use crate::solver::KrylovOptions;
@@ -40,6 +41,34 @@ pub struct Reactions {
     pub reactions: Vec<[f64; 3]>,
     /// The stress recovered on the traction's patches.
     pub stress: Recovered<6>,
+}
+
+/// `Σ_q w_q λ_q` over the Dirichlet points of each boundary tag (of
+/// `tags`) in the cells that `share` counts, `reactions` holding each
+/// point's `λ_q`: added exactly and over the ranks (the same bits however
+/// threads or ranks split the points); `None` for a tag with no Dirichlet
+/// point.
+pub fn reactions_by_tag(
+    dirichlet: &[DirichletPoint],
+    reactions: &[[f64; 3]],
+    tags: usize,
+    share: &dyn CellShare,
+) -> Vec<Option<[f64; 3]>> {
+    // Per tag: the force and the number of points.
+    let mut sums = vec![ExactSum::new(); 4 * tags];
+    for (p, r) in dirichlet.iter().zip(reactions) {
+        if share.counts(p.cell) {
+            let t = 4 * p.tag as usize;
+            for k in 0..3 {
+                sums[t + k].add(p.w * r[k]);
+            }
+            sums[t + 3].add(1.0);
+        }
+    }
+    share.sum_exact(&mut sums);
+    sums.chunks_exact(4)
+        .map(|f| (f[3].value() > 0.0).then(|| [0, 1, 2].map(|k| f[k].value())))
+        .collect()
 }
 
 /// The loop settings of a case's `[solver]` table.
