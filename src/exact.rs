@@ -1,8 +1,9 @@
 //! [`ExactSum`]: sums of `f64` values without rounding, so that a sum does
-//! not depend on the order of its terms. The linear algebra's dot products
-//! and the S-term's rigid-body fits add up through it: the same terms give
-//! the same bits however they are split into chunks, threads or ranks, so a
-//! run on P ranks repeats the one-rank run's iterations exactly.
+//! not depend on the order of its terms. The linear algebra's dot products,
+//! the S-term's rigid-body fits, the error norms and the reactions add up
+//! through it: the same terms give the same bits however they are split
+//! into chunks, threads or ranks, so a run on P ranks repeats the one-rank
+//! run exactly.
 //!
 //! The accumulator is a fixed-point number covering every finite `f64`:
 //! `Σ limbs[i] 2^(64 i − 1074)`, each limb an `i128` so that 2^63 terms add

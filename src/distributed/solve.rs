@@ -37,10 +37,6 @@ impl CellShare for BrickShare<'_> {
         self.brick.contains(self.grid.cell_ijk(cell))
     }
 
-    fn sum(&self, values: &mut [f64]) {
-        self.comm.sum(values)
-    }
-
     fn sum_exact(&self, sums: &mut [ExactSum]) {
         self.comm.sum_exact(sums)
     }

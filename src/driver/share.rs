@@ -10,9 +10,6 @@ use crate::exact::ExactSum;
 pub trait CellShare {
     /// Whether this rank counts `cell` in sums over the body.
     fn counts(&self, cell: usize) -> bool;
-    /// `values` summed entry by entry over the ranks (the same on every
-    /// rank).
-    fn sum(&self, values: &mut [f64]);
     /// `sums` added exactly over the ranks (the same bits however the
     /// ranks split the cells).
     fn sum_exact(&self, sums: &mut [ExactSum]);
@@ -26,8 +23,6 @@ impl CellShare for Whole {
     fn counts(&self, _cell: usize) -> bool {
         true
     }
-
-    fn sum(&self, _values: &mut [f64]) {}
 
     fn sum_exact(&self, _sums: &mut [ExactSum]) {}
 }

@@ -205,15 +205,15 @@ impl<'a> RecoveredLoad<'a> {
         let counted =
             |cells: &mut dyn Iterator<Item = usize>| cells.filter(|&c| share.counts(c)).count();
         let mut counts = [
-            counted(&mut setup.omega_star.iter().copied()) as f64,
-            counted(&mut setup.dirichlet.iter().map(|p| p.cell)) as f64,
+            ExactSum::of([counted(&mut setup.omega_star.iter().copied()) as f64]),
+            ExactSum::of([counted(&mut setup.dirichlet.iter().map(|p| p.cell)) as f64]),
         ];
-        share.sum(&mut counts);
+        share.sum_exact(&mut counts);
         RecoveredLoad {
             setup,
             share,
-            stabilised: setup.s_factor > 0.0 && counts[0] > 0.0,
-            held: counts[1] > 0.0,
+            stabilised: setup.s_factor > 0.0 && counts[0].value() > 0.0,
+            held: counts[1].value() > 0.0,
             nodes: traction_patch_nodes(setup),
             stress_plans: OnceLock::new(),
             displacement_plans: OnceLock::new(),
