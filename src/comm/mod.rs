@@ -17,6 +17,7 @@ pub mod mpi;
 
 pub use serial::Serial;
 
+use crate::error::{Error, Result};
 use crate::exact::{ExactSum, WORDS};
 
 /// The messages of a distributed run.
@@ -42,6 +43,12 @@ pub trait Comm {
         }
     }
 
+    /// The largest of every rank's `value` (the same on every rank).
+    fn max(&self, value: f64) -> f64 {
+        let all = self.all_gather(&[value]);
+        all.iter().map(|r| r[0]).fold(f64::NEG_INFINITY, f64::max)
+    }
+
     /// `sums` added entry by entry over the ranks, exactly: the result
     /// depends only on the terms, not on how the ranks split them.
     fn sum_exact(&self, sums: &mut [ExactSum]) {
@@ -54,5 +61,20 @@ pub trait Comm {
             }
             *s = total;
         }
+    }
+}
+
+/// `local` where every rank succeeded; otherwise this rank's error, or one
+/// saying that another rank failed. Collective: every rank calls it where a
+/// rank's own step may fail, so that none waits for a rank that gave up.
+pub fn agree<T>(comm: &dyn Comm, local: Result<T>) -> Result<T> {
+    let mut failed = [f64::from(u8::from(local.is_err()))];
+    comm.sum(&mut failed);
+    match (local, failed[0] > 0.0) {
+        (Ok(v), false) => Ok(v),
+        (Err(e), _) => Err(e),
+        (Ok(_), true) => Err(Error::Distributed {
+            what: "another rank failed; its error is in its own output".into(),
+        }),
     }
 }

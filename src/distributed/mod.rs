@@ -16,6 +16,7 @@
 
 pub mod backend;
 pub mod halo;
+pub mod multigrid;
 pub mod partition;
 pub mod pieces;
 pub mod run;
@@ -28,14 +29,17 @@ mod tests;
 use crate::case::Case;
 use crate::cells::pieces::Naming;
 use crate::cells::Cells;
-use crate::comm::Comm;
+use crate::comm::{agree, Comm};
 use crate::driver::setup::Setup;
 use crate::error::{Error, Result};
 use crate::grid::CellBox;
+use crate::multigrid::MultigridOptions;
 use crate::progress::Progress;
+use crate::solver::Preconditioner;
 
 pub use backend::{DistBackend, DistOperator};
 pub use halo::Halo;
+pub use multigrid::{RankHierarchy, RankMultigrid};
 
 /// Cells of ghost layers around a brick. An owned node's rows take its
 /// cells (one layer); its recovered load takes the patches of those cells'
@@ -54,6 +58,9 @@ pub struct RankSetup {
     pub window: CellBox,
     pub setup: Setup,
     pub halo: Halo,
+    /// The multigrid levels under the rank's solve, when the case's solver
+    /// asks for multigrid (or `auto`).
+    pub multigrid: Option<RankHierarchy>,
 }
 
 impl RankSetup {
@@ -94,12 +101,19 @@ impl RankSetup {
             });
         }
         let halo = Halo::new(comm, &setup.grid, &setup.op.dofs, &bricks, GHOST_LAYERS);
-        Ok(RankSetup {
+        let mut rs = RankSetup {
             bricks,
             window,
             setup,
             halo,
-        })
+            multigrid: None,
+        };
+        if let Preconditioner::Multigrid | Preconditioner::Auto = case.spec.solver.preconditioner {
+            let h = RankHierarchy::new(case, &rs, comm, &MultigridOptions::default())?;
+            rs.setup.timings.push(("multigrid".to_string(), h.seconds));
+            rs.multigrid = Some(h);
+        }
+        Ok(rs)
     }
 
     /// The fixed right-hand side's owned entries (the ghosts' zero).
@@ -126,19 +140,4 @@ fn keep_near(setup: &mut Setup, brick: &CellBox) {
     setup.omega_star.retain(|&c| keep(c));
     let cut = &setup.cells.cut;
     setup.flux.keep_recovered(|i| keep(cut[i]));
-}
-
-/// `local` where every rank succeeded; otherwise this rank's error, or one
-/// saying that another rank failed. Collective: every rank calls it where a
-/// rank's own step may fail, so that none waits for a rank that gave up.
-pub(crate) fn agree<T>(comm: &dyn Comm, local: Result<T>) -> Result<T> {
-    let mut failed = [f64::from(u8::from(local.is_err()))];
-    comm.sum(&mut failed);
-    match (local, failed[0] > 0.0) {
-        (Ok(v), false) => Ok(v),
-        (Err(e), _) => Err(e),
-        (Ok(_), true) => Err(Error::Distributed {
-            what: "another rank failed; its error is in its own output".into(),
-        }),
-    }
 }

@@ -8,11 +8,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::halo::{owner_cell, Reach};
-use super::solve::{ranks_preconditioner, solve_rank, RankSolution};
+use super::solve::{solve_rank, RankSolution};
 use super::surface::gather_surface;
-use super::{agree, RankSetup};
+use super::RankSetup;
 use crate::case::Case;
 use crate::cells::CellKind;
+use crate::comm::agree;
 use crate::comm::Comm;
 use crate::driver::fixed_point::FixedPointReport;
 use crate::driver::output::{write_piece, ParaView};
@@ -24,6 +25,7 @@ use crate::output::Written;
 use crate::progress::Progress;
 use crate::report::newton::ReactionRow;
 use crate::report::{BodyReport, FixedPoint, Krylov, RankRow, Report};
+use crate::solver::Preconditioner;
 use crate::vtu::write_pvtu;
 
 /// Where a run writes its solution, into `dir` (one file system for all
@@ -99,8 +101,16 @@ fn run_into(
     report
         .timings
         .insert("recovery".into(), fp.recovery_seconds);
+    if let Some((n, seconds)) = fp.v_cycles.filter(|&(n, _)| n > 0) {
+        report
+            .timings
+            .insert("v_cycle_each".into(), seconds / n as f64);
+    }
     let mut spec = case.spec.solver.clone();
-    spec.preconditioner = ranks_preconditioner(spec.preconditioner);
+    if spec.preconditioner == Preconditioner::Auto {
+        // `auto` is the V-cycle on the ranks' CPUs.
+        spec.preconditioner = Preconditioner::Multigrid;
+    }
     report.krylov = Some(Krylov::of(&spec, &fp));
     report.fixed_point = Some(FixedPoint::of(&spec, &fp));
     let row = RankRow {

@@ -8,10 +8,12 @@
 
 use super::backend::{DistBackend, DistOperator};
 use super::halo::Reach;
-use super::{agree, RankSetup};
+use super::multigrid::RankMultigrid;
+use super::RankSetup;
 use crate::backend::{Backend, LinearOperator};
 use crate::case::physics::OuterMethod;
 use crate::case::Case;
+use crate::comm::agree;
 use crate::comm::Comm;
 use crate::discrete::field::{error_sums, ErrorNorms};
 use crate::driver::fixed_point::{fixed_point_with_progress, FixedPointReport};
@@ -23,7 +25,9 @@ use crate::error::Result;
 use crate::exact::ExactSum;
 use crate::grid::{CellBox, Grid};
 use crate::progress::Progress;
-use crate::solver::{solve, KrylovOptions, KrylovStats, Preconditioner};
+use crate::solver::{
+    solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner, TimedInverse,
+};
 
 /// A rank counts the cells of its brick.
 pub struct BrickShare<'a> {
@@ -42,13 +46,15 @@ impl CellShare for BrickShare<'_> {
     }
 }
 
-/// The rank's Krylov solves: its [`DistBackend`] with Jacobi (the
-/// multigrid levels are not distributed yet: `auto` and `multigrid` take
-/// Jacobi).
+/// The rank's Krylov solves: its [`DistBackend`] with Jacobi, or with the
+/// V-cycle of the rank's multigrid levels when the set-up built them.
 pub struct RankSolver<'a> {
     be: DistBackend<'a>,
     op: DistOperator<'a>,
     diag: Vec<f64>,
+    multigrid: Option<RankMultigrid<'a>>,
+    /// The V-cycles applied so far and their seconds.
+    cycles: (usize, f64),
 }
 
 impl<'a> RankSolver<'a> {
@@ -56,16 +62,17 @@ impl<'a> RankSolver<'a> {
         let be = DistBackend::new(comm);
         let op = DistOperator::new(&rs.setup.op, &rs.halo);
         let diag = be.diagonal(&op);
-        RankSolver { be, op, diag }
-    }
-}
-
-/// The preconditioner the ranks take for the one a case asks: Jacobi,
-/// unless it asks for none (the multigrid levels are not distributed yet).
-pub fn ranks_preconditioner(asked: Preconditioner) -> Preconditioner {
-    match asked {
-        Preconditioner::None => Preconditioner::None,
-        _ => Preconditioner::Jacobi,
+        let multigrid = rs
+            .multigrid
+            .as_ref()
+            .map(|h| RankMultigrid::new(rs, h, comm));
+        RankSolver {
+            be,
+            op,
+            diag,
+            multigrid,
+            cycles: (0, 0.0),
+        }
     }
 }
 
@@ -76,18 +83,21 @@ impl LinearSolver for RankSolver<'_> {
         u: &mut Vec<f64>,
         opts: &KrylovOptions,
     ) -> Result<KrylovStats> {
-        let opts = KrylovOptions {
-            preconditioner: ranks_preconditioner(opts.preconditioner),
-            ..opts.clone()
-        };
-        solve(
-            &self.be,
-            &self.op,
-            Some(&self.diag),
-            &rhs.to_vec(),
-            u,
-            &opts,
-        )
+        let rhs = rhs.to_vec();
+        match (&self.multigrid, opts.preconditioner) {
+            (Some(mg), Preconditioner::Multigrid | Preconditioner::Auto) => {
+                let timed = TimedInverse::new(mg);
+                let stats = solve_preconditioned(&self.be, &self.op, &timed, &rhs, u, opts);
+                let (n, seconds) = timed.totals();
+                self.cycles = (self.cycles.0 + n, self.cycles.1 + seconds);
+                stats
+            }
+            _ => solve(&self.be, &self.op, Some(&self.diag), &rhs, u, opts),
+        }
+    }
+
+    fn v_cycles(&self) -> Option<(usize, f64)> {
+        self.multigrid.as_ref().map(|_| self.cycles)
     }
 
     /// The outer loop's product ([`DistBackend::total_dot`]; the ghosts'
@@ -175,11 +185,8 @@ pub fn solve_rank(
         rs.halo.zero_ghosts(&mut f);
         Ok(f)
     };
-    // The ranks precondition with Jacobi: the inner solves' default
-    // tolerance is Jacobi's.
-    let mut spec = case.spec.solver.clone();
-    spec.preconditioner = ranks_preconditioner(spec.preconditioner);
-    let opts = fixed_point_options(&spec);
+    let spec = &case.spec.solver;
+    let opts = fixed_point_options(spec);
     let fixed = rs.fixed_rhs();
     let mut solver = RankSolver::new(rs, comm);
     let mut u = match spec.outer {
@@ -197,6 +204,7 @@ pub fn solve_rank(
             fixed_point_with_progress(&mut solver, &fixed, &mut recovered, &opts, report, progress)?
         }
     };
+    report.v_cycles = solver.v_cycles();
     rs.halo.fill_ghosts(comm, &mut u, Reach::Window);
     let tags = case.body().geometry.tag_names().len();
     let reactions = agree(comm, load.reactions(&u))?.reactions;

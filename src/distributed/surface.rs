@@ -5,7 +5,8 @@
 //! the volume (its points grow as the square of the grid's size), and one
 //! file keeps triangles that cross bricks whole, such as an STL part's.
 
-use super::{agree, RankSetup};
+use super::RankSetup;
+use crate::comm::agree;
 use crate::comm::Comm;
 use crate::discrete::boundary_mesh::{BoundaryMesh, RawSurface};
 use crate::driver::output::von_mises;

@@ -211,11 +211,16 @@ fn jacobi_cg_on_several_ranks_solves_as_one() {
 
 /// The case with the Krylov solves preconditioned by Jacobi (what the
 /// ranks run).
-fn jacobi_case(name: &str) -> Case {
+fn case_with(name: &str, set: &[&str]) -> Case {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("cases")
         .join(name);
-    Case::from_file_with(&path, &["solver.preconditioner=jacobi".to_string()]).unwrap()
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    Case::from_file_with(&path, &set).unwrap()
+}
+
+fn jacobi_case(name: &str) -> Case {
+    case_with(name, &["solver.preconditioner=jacobi"])
 }
 
 /// The whole solve (the recovered load's fixed point, the S-term on) on 2,
@@ -225,9 +230,15 @@ fn jacobi_case(name: &str) -> Case {
 /// the sums over the body are exact, and every rank's rows are the
 /// one-rank rows).
 fn fixed_point_on_ranks_equals_one_rank(name: &str, level: u32) {
-    let case = jacobi_case(name);
+    let (_, cycles) = ranks_repeat_one_rank(&jacobi_case(name), name, level);
+    assert_eq!(cycles, 0);
+}
+
+/// [`fixed_point_on_ranks_equals_one_rank`] for `case`; returns the
+/// one-rank run's multigrid levels and V-cycles (0 without multigrid).
+fn ranks_repeat_one_rank(case: &Case, name: &str, level: u32) -> (usize, usize) {
     let spec = &case.spec.solver;
-    let whole = Setup::new(&case, Some(level)).unwrap();
+    let whole = Setup::new(case, Some(level)).unwrap();
     let mut report = crate::driver::fixed_point::FixedPointReport::default();
     let one = crate::driver::solve::solve(&whole, spec, &mut report).unwrap();
     let wu = by_node(&whole, &one.u);
@@ -245,15 +256,24 @@ fn fixed_point_on_ranks_equals_one_rank(name: &str, level: u32) {
             m,
         )
     });
+    let whole_levels = whole.multigrid.as_ref().map(|h| h.num_levels());
+    let whole_cycles = report.v_cycles.map(|(n, _)| n);
     for ranks in [2, 3, 4] {
         let got = threads::run(ranks, |comm| {
-            let rs = RankSetup::new(&case, Some(level), comm, &Silent).unwrap();
+            let rs = RankSetup::new(case, Some(level), comm, &Silent).unwrap();
             let mut r = crate::driver::fixed_point::FixedPointReport::default();
-            let sol = solve::solve_rank(&rs, &case, comm, &mut r, &Silent).unwrap();
-            (owned(&rs, &sol.u), (r, sol.reactions, sol.error))
+            let sol = solve::solve_rank(&rs, case, comm, &mut r, &Silent).unwrap();
+            let levels = rs.multigrid.as_ref().map(|h| h.num_levels());
+            (owned(&rs, &sol.u), (r, sol.reactions, sol.error, levels))
         });
         let (values, reports): (Vec<_>, Vec<_>) = got.into_iter().unzip();
-        for (r, reactions, error) in &reports {
+        for (r, reactions, error, levels) in &reports {
+            assert_eq!(levels, &whole_levels, "{name}, {ranks} ranks: levels");
+            assert_eq!(
+                r.v_cycles.map(|(n, _)| n),
+                whole_cycles,
+                "{name}, {ranks} ranks: V-cycles"
+            );
             assert_eq!(
                 reactions, &whole_reactions,
                 "{name}, {ranks} ranks: reactions"
@@ -282,6 +302,7 @@ fn fixed_point_on_ranks_equals_one_rank(name: &str, level: u32) {
             "{name}, {ranks} ranks: the displacements differ by {diff:e}"
         );
     }
+    (whole_levels.unwrap_or(0), whole_cycles.unwrap_or(0))
 }
 
 #[test]
@@ -292,6 +313,40 @@ fn fixed_point_on_ranks_equals_one_rank_on_the_sphere() {
 #[test]
 fn fixed_point_on_ranks_equals_one_rank_on_the_bracket() {
     fixed_point_on_ranks_equals_one_rank("bracket.toml", 4);
+}
+
+/// The V-cycle on P ranks is the one-rank V-cycle: the multigrid solves of
+/// the sphere (three levels, the S-term's Galerkin product on each) repeat
+/// the one-rank run to the bit.
+#[test]
+fn multigrid_on_ranks_equals_one_rank_on_the_sphere() {
+    let case = case_with("sphere.toml", &["solver.preconditioner=multigrid"]);
+    let (levels, cycles) = ranks_repeat_one_rank(&case, "sphere.toml", 5);
+    assert!(
+        levels == 3 && cycles > 0,
+        "{levels} levels, {cycles} V-cycles"
+    );
+}
+
+/// The same for Q2, whose first level below is the Q1 operator of the same
+/// cells, and for the bracket's cut band.
+#[test]
+fn multigrid_on_ranks_equals_one_rank_on_the_q2_sphere_and_the_bracket() {
+    let q2 = case_with(
+        "sphere.toml",
+        &["solver.preconditioner=multigrid", "element=\"q2\""],
+    );
+    let (levels, cycles) = ranks_repeat_one_rank(&q2, "sphere.toml (Q2)", 3);
+    assert!(
+        levels == 2 && cycles > 0,
+        "Q2: {levels} levels, {cycles} V-cycles"
+    );
+    let bracket = case_with("bracket.toml", &["solver.preconditioner=multigrid"]);
+    let (levels, cycles) = ranks_repeat_one_rank(&bracket, "bracket.toml", 5);
+    assert!(
+        levels >= 2 && cycles > 0,
+        "bracket: {levels} levels, {cycles} V-cycles"
+    );
 }
 
 /// The report of a run on 3 ranks counts and measures the body as one

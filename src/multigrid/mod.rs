@@ -87,8 +87,16 @@ const COARSE_SHIFTS: [f64; 6] = [0.0, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4];
 /// positive definite and the Krylov method still solves `A x = b` exactly.
 /// No shift that factors is a breakdown.
 fn coarse_factor(op: &ElasticOperator) -> Result<(Cholesky, f64)> {
-    let mut a = op.assemble();
-    let mut d = op.diagonal();
+    shifted_factor(op.assemble(), op.diagonal(), op.grid.level)
+}
+
+/// [`coarse_factor`] of the assembled coarsest operator `a` with diagonal
+/// `d`, on grid level `level` (for the message).
+pub(crate) fn shifted_factor(
+    mut a: faer::sparse::SparseColMat<usize, f64>,
+    mut d: Vec<f64>,
+    level: u32,
+) -> Result<(Cholesky, f64)> {
     floor_diagonal(&mut d, false).map_err(|(i, v)| Error::Breakdown {
         method: "multigrid".into(),
         iterations: 0,
@@ -113,10 +121,9 @@ fn coarse_factor(op: &ElasticOperator) -> Result<(Cholesky, f64)> {
         method: "multigrid".into(),
         iterations: 0,
         what: format!(
-            "Cholesky of the coarsest level ({} dofs on grid level {}) with a diagonal \
+            "Cholesky of the coarsest level ({} dofs on grid level {level}) with a diagonal \
              shift up to {:e}: {last}",
-            op.nrows(),
-            op.grid.level,
+            d.len(),
             applied
         ),
     })
@@ -193,6 +200,29 @@ pub fn level_below(last: &ElasticOperator) -> Option<LevelBelow> {
     }
 }
 
+/// The Q1 level operator of `case` on `grid` classified as `cells` (its own
+/// cut-cell rules, checked) with the Galerkin product of the solve's S-term
+/// (module doc).
+pub fn rediscretised(
+    case: &Case,
+    problem: &Problem,
+    grid: &Grid,
+    cells: &Cells,
+    s_term: &FineSTerm,
+) -> Result<ElasticOperator> {
+    let mut op = LevelOperator::with_k2(case, problem, grid, cells, ElementOrder::Q1, 0.0).op;
+    check_rules(case, grid, cells, &op.dofs, &op.diagonal())?;
+    let missed = s_term.add_to(&mut op);
+    if missed > 0 {
+        tracing::info!(
+            missed,
+            level = grid.level,
+            "multigrid: S-term cells not cut there"
+        );
+    }
+    Ok(op)
+}
+
 /// One line per level, for logs and reports.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelSummary {
@@ -226,20 +256,7 @@ impl Hierarchy {
             cells: &omega_star,
             factor: st.k2 * problem.young / (fine.grid.h * fine.grid.h),
         };
-        let level = |grid: &Grid, cells: &Cells| -> Result<ElasticOperator> {
-            let mut op =
-                LevelOperator::with_k2(case, problem, grid, cells, ElementOrder::Q1, 0.0).op;
-            check_rules(case, grid, cells, &op.dofs, &op.diagonal())?;
-            let missed = s_term.add_to(&mut op);
-            if missed > 0 {
-                tracing::info!(
-                    missed,
-                    level = grid.level,
-                    "multigrid: S-term cells not cut there"
-                );
-            }
-            Ok(op)
-        };
+        let level = |grid: &Grid, cells: &Cells| rediscretised(case, problem, grid, cells, &s_term);
         Hierarchy::build(fine, opts, |last| {
             Ok(match level_below(last) {
                 Some(LevelBelow::SameCells(grid)) => Some(level(&grid, cells)?),

@@ -37,10 +37,13 @@ use rayon::prelude::*;
 
 use super::blocks::BlockJacobi;
 use crate::backend::LinearOperator;
+use crate::comm::{agree, Comm, Serial};
+use crate::discrete::dofs::DofMap;
 use crate::error::{Error, Result};
+use crate::exact::ExactSum;
 use crate::fem::operator::ElasticOperator;
-use crate::solver::floor_diagonal;
-use crate::solver::lanczos::largest_eigenvalue;
+use crate::solver::floor_diagonal_against;
+use crate::solver::lanczos::{largest_eigenvalue, PreconditionedOperator};
 
 /// Default degree `k` of the Chebyshev polynomial (applies of `A` per smoothing step,
 /// counting the residual of a non-zero start).
@@ -70,22 +73,117 @@ pub struct Chebyshev {
     pub floored: usize,
 }
 
+/// A level as its smoother's set-up sees it: the whole operator on one
+/// process ([`Whole`]), or one rank's share of it
+/// (`crate::distributed::multigrid`), whose vectors keep their ghost
+/// entries at zero and whose products are collective.
+pub trait LevelShare {
+    /// The ranks sharing the level.
+    fn comm(&self) -> &dyn Comm;
+    /// Whether local node `a` is this rank's own (its rows count).
+    fn owns(&self, a: usize) -> bool;
+    /// `y = A x`. Collective.
+    fn apply(&self, x: &[f64], y: &mut [f64]);
+    /// `z = B⁻¹ r` with `pre`. Collective.
+    fn precondition(&self, pre: &BlockJacobi, r: &[f64], z: &mut [f64]);
+}
+
+/// A level operator on one process: every node its own.
+pub struct Whole<'a>(pub &'a ElasticOperator);
+
+impl LevelShare for Whole<'_> {
+    fn comm(&self) -> &dyn Comm {
+        &Serial
+    }
+
+    fn owns(&self, _a: usize) -> bool {
+        true
+    }
+
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.0.apply(x, y);
+    }
+
+    fn precondition(&self, pre: &BlockJacobi, r: &[f64], z: &mut [f64]) {
+        pre.apply(r, z);
+    }
+}
+
+/// `a · b` over the ranks of `comm` (every rank's exact partial sum, added
+/// exactly and rounded once). Collective.
+fn total_dot(comm: &dyn Comm, a: &[f64], b: &[f64]) -> f64 {
+    let mut s = [ExactSum::dot(a, b)];
+    comm.sum_exact(&mut s);
+    s[0].value()
+}
+
+/// The start of the Lanczos estimate on a level with unknowns `dofs`: every
+/// entry non-zero, with no grid-aligned pattern, a function of the lattice
+/// node and component alone (so that every rank's share of a level starts
+/// from the entries the whole level starts from).
+pub fn lanczos_start(dofs: &DofMap) -> Vec<f64> {
+    dofs.active_to_node
+        .iter()
+        .flat_map(|&node| {
+            (0..3).map(move |c| {
+                let i = 3 * node as usize + c;
+                1.0 + 0.5 * ((i as f64 + 1.0) * 0.618_033_988_749_895).fract()
+            })
+        })
+        .collect()
+}
+
 impl Chebyshev {
     /// The smoother of `op`: its block Jacobi preconditioner over the
     /// floored diagonal and the interval from a Lanczos estimate (module
     /// doc). A diagonal entry that is not finite or is negative beyond the
     /// floor is a breakdown.
     pub fn new(op: &ElasticOperator, degree: usize) -> Result<Chebyshev> {
+        Chebyshev::on(op, &Whole(op), degree)
+    }
+
+    /// The smoother of `op`, a level as `share` sees it: the floor and the
+    /// interval are the whole level's; the blocks are `op`'s own.
+    /// Collective where `share` is.
+    pub fn on(op: &ElasticOperator, share: &dyn LevelShare, degree: usize) -> Result<Chebyshev> {
         assert!(degree >= 1, "Chebyshev smoother of degree 0");
         let mut d = op.diagonal();
-        let floored = floor_diagonal(&mut d, true).map_err(|(i, v)| Error::Breakdown {
-            method: "multigrid".into(),
-            iterations: 0,
-            what: format!("smoother: diagonal entry {i} of a level operator is {v:e}"),
-        })?;
+        let (mut largest, mut owned) = (0.0_f64, 0);
+        for (a, node) in d.chunks_exact_mut(3).enumerate() {
+            match share.owns(a) {
+                true => {
+                    largest = node.iter().fold(largest, |m, v| m.max(v.abs()));
+                    owned += 3;
+                }
+                false => node.fill(1.0),
+            }
+        }
+        let comm = share.comm();
+        let floored = floor_diagonal_against(&mut d, true, comm.max(largest)).map_err(|(i, v)| {
+            Error::Breakdown {
+                method: "multigrid".into(),
+                iterations: 0,
+                what: format!("smoother: diagonal entry {i} of a level operator is {v:e}"),
+            }
+        });
+        let floored = agree(comm, floored)?;
         let inv_diag: Vec<f64> = d.iter().map(|v| 1.0 / v).collect();
         let pre = BlockJacobi::new(op, &inv_diag);
-        let lambda = largest_eigenvalue(op, &|r, z| pre.apply(r, z), LANCZOS_STEPS);
+        let mut start = lanczos_start(&op.dofs);
+        for (a, node) in start.chunks_exact_mut(3).enumerate() {
+            if !share.owns(a) {
+                node.fill(0.0);
+            }
+        }
+        let ops = PreconditionedOperator {
+            apply: &|x, y| share.apply(x, y),
+            pre: &|r, z| share.precondition(&pre, r, z),
+            dot: &|a, b| total_dot(comm, a, b),
+        };
+        let mut rows = [owned as f64];
+        comm.sum(&mut rows);
+        let steps = LANCZOS_STEPS.min(rows[0] as usize);
+        let lambda = largest_eigenvalue(&ops, start, steps);
         if !(lambda.is_finite() && lambda > 0.0) {
             return Err(Error::Breakdown {
                 method: "multigrid".into(),

@@ -48,7 +48,9 @@ pub use lanczos::{lanczos_extreme_eigenvalues, tridiagonal_eigenvalue};
 pub(crate) use krylov::breakdown;
 use krylov::Problem;
 pub(crate) use precond::Precond;
-pub use precond::{floor_diagonal, ApplyInverse, TimedInverse, DIAGONAL_FLOOR};
+pub use precond::{
+    floor_diagonal, floor_diagonal_against, ApplyInverse, TimedInverse, DIAGONAL_FLOOR,
+};
 
 /// The Krylov method of a solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

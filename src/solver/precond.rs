@@ -89,10 +89,21 @@ pub const DIAGONAL_FLOOR: f64 = 64.0 * f64::EPSILON;
 /// Returns how many were floored, or the first entry that is not finite, or
 /// (with `positive`) negative beyond the floor, as `(index, value)`.
 pub fn floor_diagonal(d: &mut [f64], positive: bool) -> std::result::Result<usize, (usize, f64)> {
+    let largest = d.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    floor_diagonal_against(d, positive, largest)
+}
+
+/// [`floor_diagonal`] against `largest`, the largest `|d_i|` of the whole
+/// diagonal (`d` may be one rank's share of it).
+pub fn floor_diagonal_against(
+    d: &mut [f64],
+    positive: bool,
+    largest: f64,
+) -> std::result::Result<usize, (usize, f64)> {
     if let Some((i, &v)) = d.iter().enumerate().find(|(_, v)| !v.is_finite()) {
         return Err((i, v));
     }
-    let floor = DIAGONAL_FLOOR * d.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let floor = DIAGONAL_FLOOR * largest;
     if floor == 0.0 {
         // All zero (or empty): nothing to scale against.
         return match d.first() {

@@ -29,8 +29,6 @@
 
 pub mod reorthogonalised;
 
-use crate::backend::LinearOperator;
-
 /// Bisection steps at most; about 55 are needed, since the bracket starts at
 /// most `2‖T‖` wide and stops at `2ε‖T‖`.
 const MAX_BISECTIONS: usize = 200;
@@ -125,10 +123,23 @@ pub fn tridiagonal_eigenvalue(diag: &[f64], off2: &[f64], k: usize) -> f64 {
     0.5 * (lo + hi)
 }
 
+/// What the Lanczos process of [`largest_eigenvalue`] needs of `B⁻¹A`: the
+/// operator, the preconditioner and the inner product over the whole
+/// problem. On one rank of several each is that rank's share, collective,
+/// and the vectors keep their ghost entries at zero.
+pub struct PreconditionedOperator<'a> {
+    /// `y = A x`.
+    pub apply: &'a dyn Fn(&[f64], &mut [f64]),
+    /// `z = B⁻¹ r`.
+    pub pre: &'a dyn Fn(&[f64], &mut [f64]),
+    /// The inner product `a · b`.
+    pub dot: &'a dyn Fn(&[f64], &[f64]) -> f64,
+}
+
 /// The largest Ritz value of `steps` Lanczos steps on `B⁻¹A` in the `B`
-/// inner product (`pre = B⁻¹`) from a fixed start vector, without
-/// reorthogonalisation (the extreme Ritz value converges first). With the
-/// Lanczos vectors `q_k` and `p_k = B q_k`:
+/// inner product (`ops`) from the start vector `p` (every entry non-zero),
+/// without reorthogonalisation (the extreme Ritz value converges first).
+/// With the Lanczos vectors `q_k` and `p_k = B q_k`:
 ///
 /// ```text
 /// z = B⁻¹ v;  β = √(v·z);  q₀ = z/β;  p₀ = v/β;  β₀ = 0
@@ -139,37 +150,30 @@ pub fn tridiagonal_eigenvalue(diag: &[f64], off2: &[f64], k: usize) -> f64 {
 /// ([`tridiagonal_eigenvalue`]). Unlike [`reorthogonalised`], which keeps the
 /// whole basis (full reorthogonalisation, Ritz vectors) for condition
 /// numbers, the three-term recurrence holds a few vectors: what a smoother's
-/// bound needs at every level of a multigrid hierarchy.
-pub fn largest_eigenvalue(
-    op: &dyn LinearOperator,
-    pre: &dyn Fn(&[f64], &mut [f64]),
-    steps: usize,
-) -> f64 {
-    let n = op.nrows();
-    // A fixed start with every entry non-zero and no grid-aligned pattern.
-    let mut p: Vec<f64> = (0..n)
-        .map(|i| 1.0 + 0.5 * ((i as f64 + 1.0) * 0.618_033_988_749_895).fract())
-        .collect();
+/// bound needs at every level of a multigrid hierarchy. `steps` is at most
+/// the problem's size.
+pub fn largest_eigenvalue(ops: &PreconditionedOperator, mut p: Vec<f64>, steps: usize) -> f64 {
+    let n = p.len();
     let mut q = vec![0.0; n];
-    pre(&p, &mut q);
-    let norm = dot(&p, &q).sqrt();
+    (ops.pre)(&p, &mut q);
+    let norm = (ops.dot)(&p, &q).sqrt();
     scale(&mut p, 1.0 / norm);
     scale(&mut q, 1.0 / norm);
     let (mut p_prev, mut w, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let (mut diag, mut off2) = (Vec::new(), Vec::new());
     let mut beta = 0.0;
-    for _ in 0..steps.min(n) {
-        op.apply(&q, &mut w);
+    for _ in 0..steps {
+        (ops.apply)(&q, &mut w);
         for i in 0..n {
             w[i] -= beta * p_prev[i];
         }
-        let alpha = dot(&w, &q);
+        let alpha = (ops.dot)(&w, &q);
         for i in 0..n {
             w[i] -= alpha * p[i];
         }
         diag.push(alpha);
-        pre(&w, &mut z);
-        beta = dot(&w, &z).max(0.0).sqrt();
+        (ops.pre)(&w, &mut z);
+        beta = (ops.dot)(&w, &z).max(0.0).sqrt();
         if beta.is_nan() || beta <= 1e-12 * alpha.abs() {
             break;
         }
@@ -182,11 +186,6 @@ pub fn largest_eigenvalue(
     }
     off2.truncate(diag.len() - 1);
     tridiagonal_eigenvalue(&diag, &off2, diag.len() - 1)
-}
-
-/// `a · b`.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// `v = s v`.
