@@ -3,13 +3,13 @@
 
     python3 scripts/compare_ranks.py ONE/report.json RANKS/report.json
 
-Both runs solve the same case with the same Krylov method and Jacobi
-(`--set solver.preconditioner=jacobi` on the one-rank run: the ranks take
-Jacobi). Checks, and prints each figure: the same outer iterations; the
-same Krylov iterations in every solve (the ranks add their dot products
-exactly, so they repeat the one-rank iterations); the same energy and L2
-errors and reactions, to the bit (the sums over the body are exact); the
-same dofs and cell counts. Exits 1 if any check fails.
+Both runs solve the same case with the same settings. Checks, and prints
+each figure: the same Krylov method and preconditioner; the same outer
+iterations; the same Krylov iterations in every solve (the ranks add their
+dot products exactly and their V-cycle is the one-rank cycle, so they
+repeat the one-rank iterations); the same energy and L2 errors and
+reactions, to the bit (the sums over the body are exact); the same dofs and
+cell counts. Exits 1 if any check fails.
 """
 import json
 import sys
@@ -26,6 +26,9 @@ def main():
 
     check("ranks", len(ranks.get("ranks", [])) > 1, f"{len(ranks.get('ranks', []))} rows")
     check("status", one["status"] == ranks["status"] == "ok", f"{one['status']}, {ranks['status']}")
+    for key in ("method", "preconditioner"):
+        a, b = one["krylov"][key], ranks["krylov"][key]
+        check(f"Krylov {key}", a == b, f"{a} and {b}")
     a, b = one["fixed_point"]["iterations"], ranks["fixed_point"]["iterations"]
     check("outer iterations", a == b, f"{a} and {b}")
     a, b = one["krylov"]["total_iterations"], ranks["krylov"]["total_iterations"]

@@ -14,7 +14,7 @@ for entry in "${CASES[@]}"; do
   read -r file level <<<"$entry"
   name="${file%.toml}"
   common=(run "cases/$file" --level "$level" --backend cpu -q --output none)
-  "$BIN" "${common[@]}" --set solver.preconditioner=jacobi --out "$OUT/$name/1" >/dev/null
+  "$BIN" "${common[@]}" --out "$OUT/$name/1" >/dev/null
   for p in 2 3 4; do
     /usr/bin/time -f "$name L$level P=$p: %e s wall, %M kB peak (largest rank)" \
       mpirun --allow-run-as-root --oversubscribe -n "$p" "$BIN" "${common[@]}" \

@@ -9,10 +9,11 @@
 //!
 //! The pieces of the body are joined across the ranks and checked held
 //! ([`pieces`]); the solve takes the recovered load and the S-term, Krylov
-//! with Jacobi ([`solve`]); the reactions, error norms and the body's
-//! counts are summed over the bricks into one report ([`run`]). Not
-//! distributed yet: the multigrid levels, the ParaView output, the GPU and
-//! the Newton path.
+//! with Jacobi or the multigrid V-cycle, every level shared out as the
+//! solve's ([`solve`], [`multigrid`]); the reactions, error norms and the
+//! body's counts are summed over the bricks into one report, and the
+//! ParaView output is written in pieces ([`run`]). Not distributed yet: the
+//! GPU and the Newton path.
 
 pub mod backend;
 pub mod halo;
