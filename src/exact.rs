@@ -41,6 +41,9 @@ const LEVELS: usize = 3;
 /// Numbers per [`ExactSum`] in [`ExactSum::to_words`].
 pub const WORDS: usize = 2 * LIMBS + 1;
 
+/// Integers per [`ExactSum`] in [`ExactSum::to_integers`].
+pub const INTEGERS: usize = 2 * LIMBS + 3;
+
 impl ExactSum {
     /// The empty sum (zero).
     pub fn new() -> Self {
@@ -250,6 +253,49 @@ impl ExactSum {
         }
         w[WORDS - 1] = f64::from_bits(self.nonfinite);
         w
+    }
+
+    /// The sum as integers that add up entry by entry: the normalised
+    /// limbs in 32-bit halves, then how many of its non-finite terms'
+    /// totals are +∞, −∞ and NaN. The entry-wise sum of the integers of up
+    /// to 2^31 sums is the integers of their total
+    /// ([`ExactSum::from_integers`]), so an integer sum in any order (an
+    /// MPI reduction tree) adds exact sums exactly.
+    pub fn to_integers(&self) -> [i64; INTEGERS] {
+        let mut v = [0; INTEGERS];
+        for (i, limb) in self.normalised().iter().enumerate() {
+            v[2 * i] = (limb & 0xffff_ffff) as i64;
+            v[2 * i + 1] = (limb >> 32) as i64;
+        }
+        let nonfinite = f64::from_bits(self.nonfinite);
+        let at = 2 * LIMBS;
+        match nonfinite {
+            x if x.is_nan() => v[at + 2] = 1,
+            f64::INFINITY => v[at] = 1,
+            f64::NEG_INFINITY => v[at + 1] = 1,
+            _ => {}
+        }
+        v
+    }
+
+    /// The sum whose [`ExactSum::to_integers`] (or an entry-wise sum of
+    /// several) is `v`; the non-finite part as floating point adds its
+    /// terms: NaN with a NaN or both infinities, else the infinity there is.
+    pub fn from_integers(v: &[i64]) -> Self {
+        let mut s = Self::new();
+        for (i, limb) in s.limbs.iter_mut().enumerate() {
+            *limb = i128::from(v[2 * i]) + (i128::from(v[2 * i + 1]) << 32);
+        }
+        let at = 2 * LIMBS;
+        let (pos, neg, nan) = (v[at] > 0, v[at + 1] > 0, v[at + 2] > 0);
+        let nonfinite = match (pos, neg, nan) {
+            (_, _, true) | (true, true, _) => f64::NAN,
+            (true, false, false) => f64::INFINITY,
+            (false, true, false) => f64::NEG_INFINITY,
+            (false, false, false) => 0.0,
+        };
+        s.nonfinite = nonfinite.to_bits();
+        s
     }
 
     /// The sum that [`ExactSum::to_words`] gave `words`.

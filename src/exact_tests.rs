@@ -178,3 +178,53 @@ fn a_dot_product_is_the_exact_sum_of_its_products() {
         );
     }
 }
+
+/// The entry-wise integer sum of several sums' integers is their total,
+/// in any order (what an MPI reduction tree does), non-finite parts
+/// included.
+#[test]
+fn integers_add_up_to_the_total_in_any_order() {
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    let parts: Vec<ExactSum> = (0..64)
+        .map(|_| {
+            ExactSum::of(
+                (0..200).map(|_| rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-300..300))),
+            )
+        })
+        .collect();
+    let mut total = ExactSum::new();
+    for p in &parts {
+        total.merge(p);
+    }
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    for _ in 0..3 {
+        order.shuffle(&mut rng);
+        let mut ints = [0_i64; super::INTEGERS];
+        for &k in &order {
+            for (a, b) in ints.iter_mut().zip(parts[k].to_integers()) {
+                *a += b;
+            }
+        }
+        let back = ExactSum::from_integers(&ints);
+        assert_eq!(back.to_words(), total.to_words());
+        assert_eq!(back.value().to_bits(), total.value().to_bits());
+    }
+    let inf = f64::INFINITY;
+    let add = |sums: &[ExactSum]| {
+        let mut ints = [0_i64; super::INTEGERS];
+        for s in sums {
+            for (a, b) in ints.iter_mut().zip(s.to_integers()) {
+                *a += b;
+            }
+        }
+        ExactSum::from_integers(&ints).value()
+    };
+    let one = ExactSum::of([1.0]);
+    assert_eq!(
+        add(&[one.clone(), ExactSum::of([inf]), ExactSum::of([inf])]),
+        inf
+    );
+    assert_eq!(add(&[ExactSum::of([-inf]), one.clone()]), -inf);
+    assert!(add(&[ExactSum::of([inf]), ExactSum::of([-inf])]).is_nan());
+    assert!(add(&[ExactSum::of([f64::NAN]), one]).is_nan());
+}

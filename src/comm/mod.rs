@@ -50,7 +50,9 @@ pub trait Comm {
     }
 
     /// `sums` added entry by entry over the ranks, exactly: the result
-    /// depends only on the terms, not on how the ranks split them.
+    /// depends only on the terms, not on how the ranks split them. By
+    /// default each rank's accumulators are gathered and merged in rank
+    /// order; MPI adds their integers in one all-reduce.
     fn sum_exact(&self, sums: &mut [ExactSum]) {
         let words: Vec<f64> = sums.iter().flat_map(ExactSum::to_words).collect();
         let all = self.all_gather(&words);
