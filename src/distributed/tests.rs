@@ -230,13 +230,14 @@ fn jacobi_case(name: &str) -> Case {
 /// the sums over the body are exact, and every rank's rows are the
 /// one-rank rows).
 fn fixed_point_on_ranks_equals_one_rank(name: &str, level: u32) {
-    let (_, cycles) = ranks_repeat_one_rank(&jacobi_case(name), name, level);
+    let (_, cycles) = ranks_repeat_one_rank(&jacobi_case(name), name, level, &[2, 3, 4]);
     assert_eq!(cycles, 0);
 }
 
-/// [`fixed_point_on_ranks_equals_one_rank`] for `case`; returns the
-/// one-rank run's multigrid levels and V-cycles (0 without multigrid).
-fn ranks_repeat_one_rank(case: &Case, name: &str, level: u32) -> (usize, usize) {
+/// [`fixed_point_on_ranks_equals_one_rank`] for `case` on each of `counts`
+/// ranks; returns the one-rank run's multigrid levels and V-cycles (0
+/// without multigrid).
+fn ranks_repeat_one_rank(case: &Case, name: &str, level: u32, counts: &[usize]) -> (usize, usize) {
     let spec = &case.spec.solver;
     let whole = Setup::new(case, Some(level)).unwrap();
     let mut report = crate::driver::fixed_point::FixedPointReport::default();
@@ -258,7 +259,7 @@ fn ranks_repeat_one_rank(case: &Case, name: &str, level: u32) -> (usize, usize) 
     });
     let whole_levels = whole.multigrid.as_ref().map(|h| h.num_levels());
     let whole_cycles = report.v_cycles.map(|(n, _)| n);
-    for ranks in [2, 3, 4] {
+    for &ranks in counts {
         let got = threads::run(ranks, |comm| {
             let rs = RankSetup::new(case, Some(level), comm, &Silent).unwrap();
             let mut r = crate::driver::fixed_point::FixedPointReport::default();
@@ -317,11 +318,12 @@ fn fixed_point_on_ranks_equals_one_rank_on_the_bracket() {
 
 /// The V-cycle on P ranks is the one-rank V-cycle: the multigrid solves of
 /// the sphere (three levels, the S-term's Galerkin product on each) repeat
-/// the one-rank run to the bit.
+/// the one-rank run to the bit. (One rank count per case here;
+/// `scripts/ranks_check.sh` runs 2, 3 and 4 ranks of every case under MPI.)
 #[test]
 fn multigrid_on_ranks_equals_one_rank_on_the_sphere() {
     let case = case_with("sphere.toml", &["solver.preconditioner=multigrid"]);
-    let (levels, cycles) = ranks_repeat_one_rank(&case, "sphere.toml", 5);
+    let (levels, cycles) = ranks_repeat_one_rank(&case, "sphere.toml", 5, &[3]);
     assert!(
         levels == 3 && cycles > 0,
         "{levels} levels, {cycles} V-cycles"
@@ -336,13 +338,13 @@ fn multigrid_on_ranks_equals_one_rank_on_the_q2_sphere_and_the_bracket() {
         "sphere.toml",
         &["solver.preconditioner=multigrid", "element=\"q2\""],
     );
-    let (levels, cycles) = ranks_repeat_one_rank(&q2, "sphere.toml (Q2)", 3);
+    let (levels, cycles) = ranks_repeat_one_rank(&q2, "sphere.toml (Q2)", 3, &[2]);
     assert!(
         levels == 2 && cycles > 0,
         "Q2: {levels} levels, {cycles} V-cycles"
     );
     let bracket = case_with("bracket.toml", &["solver.preconditioner=multigrid"]);
-    let (levels, cycles) = ranks_repeat_one_rank(&bracket, "bracket.toml", 5);
+    let (levels, cycles) = ranks_repeat_one_rank(&bracket, "bracket.toml", 5, &[4]);
     assert!(
         levels >= 2 && cycles > 0,
         "bracket: {levels} levels, {cycles} V-cycles"
