@@ -2,7 +2,8 @@
 //! path on P ranks ([`cgfem_gpu::distributed::run`]). Every rank reads the
 //! case and solves its share; rank 0 prints and writes DIR/report.json (with
 //! a row per rank), also when the run fails. On the CPU of each rank, with
-//! Jacobi-preconditioned Krylov solves. `--output volume` (or `all`): each
+//! the case's preconditioner (`auto`: the multigrid V-cycle, every level
+//! shared out over the ranks). `--output volume` (or `all`): each
 //! rank writes its piece `solution_<rank>.vtu` and rank 0 `solution.pvtu`
 //! listing them; `--output surface` (or `all`): rank 0 writes
 //! `surface.vtp`, gathered from every rank.
@@ -14,6 +15,7 @@ use cgfem_gpu::comm::Comm;
 use cgfem_gpu::distributed::run::{Pieces, RunOutcome};
 use cgfem_gpu::gpu::BackendChoice;
 use cgfem_gpu::progress::{Event, Progress};
+use cgfem_gpu::solver::Preconditioner;
 
 use super::{Device, Outputs};
 use crate::cli_progress::Terminal;
@@ -42,7 +44,12 @@ pub fn run(
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let files = outputs.paraview.files;
     if lead {
-        println!("case {name} ({}): {ranks} ranks, CPU, Jacobi", case.file);
+        let pre = match case.spec.solver.preconditioner {
+            Preconditioner::Auto | Preconditioner::Multigrid => "multigrid",
+            Preconditioner::Jacobi => "Jacobi",
+            Preconditioner::None => "no preconditioner",
+        };
+        println!("case {name} ({}): {ranks} ranks, CPU, {pre}", case.file);
     }
     let pieces = (files.volume() || files.surface()).then_some(Pieces {
         dir,
