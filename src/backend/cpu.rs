@@ -18,6 +18,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::Backend;
+use crate::comm::Comm;
 use crate::exact::ExactSum;
 
 /// Entries per chunk (one rayon task; one partial sum of a dot product).
@@ -105,6 +106,15 @@ impl CpuBackend {
         check_len("dot", x.len(), &[y.len()]);
         let kernel = |r: Range<usize>| dot_kernel(&x[r.clone()], &y[r]);
         self.reduce(x.len(), ExactSum::new(), kernel, merge)
+    }
+
+    /// `a · b` over the ranks of `comm`: this rank's exact partial sum,
+    /// added exactly over the ranks and rounded once, so that the product
+    /// does not depend on how the ranks split it. Collective.
+    pub fn total_dot(&self, comm: &dyn Comm, a: &[f64], b: &[f64]) -> f64 {
+        let mut s = [self.exact_dot(a, b)];
+        comm.sum_exact(&mut s);
+        s[0].value()
     }
 
     /// `(x · y, x · z)` as exact sums, in one pass over the chunks.
@@ -293,6 +303,24 @@ impl Backend for CpuBackend {
     fn dot2(&self, x: &Vec<f64>, y: &Vec<f64>, z: &Vec<f64>) -> (f64, f64) {
         let (xy, xz) = self.exact_dot2(x, y, z);
         (xy.value(), xz.value())
+    }
+
+    fn dot_sum(&self, x: &Vec<f64>, y: &Vec<f64>) -> ExactSum {
+        self.exact_dot(x, y)
+    }
+
+    fn dot2_sums(&self, x: &Vec<f64>, y: &Vec<f64>, z: &Vec<f64>) -> (ExactSum, ExactSum) {
+        self.exact_dot2(x, y, z)
+    }
+
+    fn read_entries(&self, v: &Vec<f64>, idx: &[usize]) -> Vec<f64> {
+        idx.iter().map(|&i| v[i]).collect()
+    }
+
+    fn write_entries(&self, values: &[f64], idx: &[usize], v: &mut Vec<f64>) {
+        for (&i, &x) in idx.iter().zip(values) {
+            v[i] = x;
+        }
     }
 
     fn cgs_update_up(

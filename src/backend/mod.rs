@@ -29,6 +29,8 @@ mod tests;
 
 pub use cpu::{CpuBackend, LinearOperator};
 
+use crate::exact::ExactSum;
+
 /// The primitives of a Krylov solve on some device.
 ///
 /// Vectors are passed by reference; every method that writes names its output
@@ -77,6 +79,39 @@ pub trait Backend {
     fn dot(&self, x: &Self::Vector, y: &Self::Vector) -> f64;
     /// `(x · y, x · z)` in one pass over `x`, each reduced like [`Backend::dot`].
     fn dot2(&self, x: &Self::Vector, y: &Self::Vector, z: &Self::Vector) -> (f64, f64);
+
+    /// `x · y` as an exact sum, to be added with other ranks' parts
+    /// ([`ExactSum::merge`]): the exact sum of the rounded products where
+    /// the backend has it, else its rounded product.
+    fn dot_sum(&self, x: &Self::Vector, y: &Self::Vector) -> ExactSum {
+        ExactSum::of([self.dot(x, y)])
+    }
+    /// `(x · y, x · z)` as [`Backend::dot_sum`] gives each.
+    fn dot2_sums(
+        &self,
+        x: &Self::Vector,
+        y: &Self::Vector,
+        z: &Self::Vector,
+    ) -> (ExactSum, ExactSum) {
+        let (a, b) = self.dot2(x, y, z);
+        (ExactSum::of([a]), ExactSum::of([b]))
+    }
+
+    /// `v[idx[k]]` for every `k`, copied to the host (the entries a rank
+    /// sends its neighbours). By default through the whole vector.
+    fn read_entries(&self, v: &Self::Vector, idx: &[usize]) -> Vec<f64> {
+        let host = self.download(v);
+        idx.iter().map(|&i| host[i]).collect()
+    }
+    /// `v[idx[k]] = values[k]` for every `k` (the ghosts a rank receives).
+    /// By default through the whole vector.
+    fn write_entries(&self, values: &[f64], idx: &[usize], v: &mut Self::Vector) {
+        let mut host = self.download(v);
+        for (&i, &x) in idx.iter().zip(values) {
+            host[i] = x;
+        }
+        *v = self.upload(&host);
+    }
 
     /// CGS direction update, fused:
     /// `u = r + β q`, then `p = u + β (q + β p)`.

@@ -9,39 +9,53 @@
 use std::cell::RefCell;
 
 use super::halo::{Halo, Reach};
-use crate::backend::{Backend, CpuBackend, LinearOperator};
+use crate::backend::{Backend, CpuBackend};
 use crate::comm::Comm;
 
-/// A rank's operator: its set-up's operator over its window and its halo.
-pub struct DistOperator<'o> {
-    local: &'o dyn LinearOperator,
+/// A rank's operator: its set-up's operator over its window, as its
+/// backend applies it, and its halo.
+pub struct DistOperator<'o, B: Backend + 'static = CpuBackend> {
+    local: &'o B::Operator<'o>,
     halo: &'o Halo,
     /// The input with its ghosts filled in.
-    filled: RefCell<Vec<f64>>,
+    filled: RefCell<B::Vector>,
 }
 
-impl<'o> DistOperator<'o> {
-    pub fn new(local: &'o dyn LinearOperator, halo: &'o Halo) -> Self {
+impl<'o, B: Backend + 'static> DistOperator<'o, B> {
+    pub fn new(be: &DistBackend<'_, B>, local: &'o B::Operator<'o>, halo: &'o Halo) -> Self {
         DistOperator {
             local,
             halo,
-            filled: RefCell::new(vec![0.0; local.nrows()]),
+            filled: RefCell::new(be.inner.zeros(be.inner.nrows(local))),
         }
     }
 }
 
-/// The backend of one rank of a distributed solve.
-pub struct DistBackend<'c> {
-    cpu: CpuBackend,
+/// The backend of one rank of a distributed solve: the rank's own backend
+/// (the CPU's, or its GPU's) with the ghost exchange around the apply and
+/// the dot products summed over the ranks.
+pub struct DistBackend<'c, B: Backend = CpuBackend> {
+    inner: B,
     comm: &'c dyn Comm,
 }
 
-impl<'c> DistBackend<'c> {
+impl<'c> DistBackend<'c, CpuBackend> {
+    /// The CPU backend on the ranks of `comm`.
     pub fn new(comm: &'c dyn Comm) -> Self {
-        DistBackend {
-            cpu: CpuBackend::new(),
-            comm,
-        }
+        DistBackend::on(CpuBackend::new(), comm)
+    }
+
+    /// `a · b` over the ranks for host vectors ([`CpuBackend::total_dot`]).
+    /// Collective.
+    pub fn total_dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        self.inner.total_dot(self.comm, a, b)
+    }
+}
+
+impl<'c, B: Backend> DistBackend<'c, B> {
+    /// `inner` on the ranks of `comm`.
+    pub fn on(inner: B, comm: &'c dyn Comm) -> Self {
+        DistBackend { inner, comm }
     }
 
     /// The ranks' messages.
@@ -49,98 +63,98 @@ impl<'c> DistBackend<'c> {
         self.comm
     }
 
-    /// `a · b` over the ranks: each rank's exact partial sum, added
-    /// exactly over the ranks and rounded once, so that the product does
-    /// not depend on the rank count. Collective.
-    pub fn total_dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        let mut s = [self.cpu.exact_dot(a, b)];
-        self.comm.sum_exact(&mut s);
-        s[0].value()
+    /// The rank's own backend.
+    pub fn inner(&self) -> &B {
+        &self.inner
     }
 }
 
-impl Backend for DistBackend<'_> {
-    type Vector = Vec<f64>;
-    type Operator<'o> = DistOperator<'o>;
+impl<B: Backend + 'static> Backend for DistBackend<'_, B> {
+    type Vector = B::Vector;
+    type Operator<'o> = DistOperator<'o, B>;
 
     fn name(&self) -> String {
-        format!("cpu×{}", self.comm.size())
+        format!("{}×{}", self.inner.name(), self.comm.size())
     }
 
-    fn len(&self, v: &Vec<f64>) -> usize {
-        v.len()
+    fn len(&self, v: &B::Vector) -> usize {
+        self.inner.len(v)
     }
 
-    fn nrows(&self, op: &DistOperator<'_>) -> usize {
-        op.local.nrows()
+    fn nrows(&self, op: &DistOperator<'_, B>) -> usize {
+        self.inner.nrows(op.local)
     }
 
-    fn zeros(&self, n: usize) -> Vec<f64> {
-        vec![0.0; n]
+    fn zeros(&self, n: usize) -> B::Vector {
+        self.inner.zeros(n)
     }
 
-    fn upload(&self, data: &[f64]) -> Vec<f64> {
-        data.to_vec()
+    fn upload(&self, data: &[f64]) -> B::Vector {
+        self.inner.upload(data)
     }
 
-    fn download(&self, v: &Vec<f64>) -> Vec<f64> {
-        v.clone()
+    fn download(&self, v: &B::Vector) -> Vec<f64> {
+        self.inner.download(v)
     }
 
     /// `y = A x`: the ghosts of `x` from their owners, the rank's rows, the
     /// ghost rows zeroed. Collective.
-    fn apply(&self, op: &DistOperator<'_>, x: &Vec<f64>, y: &mut Vec<f64>) {
+    fn apply(&self, op: &DistOperator<'_, B>, x: &B::Vector, y: &mut B::Vector) {
         let mut filled = op.filled.borrow_mut();
-        filled.copy_from_slice(x);
-        op.halo.fill_ghosts(self.comm, &mut filled, Reach::Near);
-        op.local.apply(&filled, y);
-        op.halo.zero_ghosts(y);
+        self.inner.copy(x, &mut filled);
+        op.halo
+            .fill_ghosts_on(self.comm, &self.inner, &mut filled, Reach::Near);
+        self.inner.apply(op.local, &filled, y);
+        op.halo.zero_ghosts_on(&self.inner, y);
     }
 
     /// The owned rows' diagonal; 1 at the ghosts (whose residual entries
     /// stay zero, so the Jacobi step keeps them zero).
-    fn diagonal(&self, op: &DistOperator<'_>) -> Vec<f64> {
-        let mut d = op.local.diagonal();
+    fn diagonal(&self, op: &DistOperator<'_, B>) -> B::Vector {
+        let mut d = self.inner.download(&self.inner.diagonal(op.local));
         for (a, node) in d.chunks_exact_mut(3).enumerate() {
             if !op.halo.owns(a) {
                 node.fill(1.0);
             }
         }
-        d
+        self.inner.upload(&d)
     }
 
-    fn copy(&self, src: &Vec<f64>, dst: &mut Vec<f64>) {
-        self.cpu.copy(src, dst)
+    fn copy(&self, src: &B::Vector, dst: &mut B::Vector) {
+        self.inner.copy(src, dst)
     }
 
-    fn scale(&self, a: f64, x: &mut Vec<f64>) {
-        self.cpu.scale(a, x)
+    fn scale(&self, a: f64, x: &mut B::Vector) {
+        self.inner.scale(a, x)
     }
 
-    fn axpy(&self, a: f64, x: &Vec<f64>, y: &mut Vec<f64>) {
-        self.cpu.axpy(a, x, y)
+    fn axpy(&self, a: f64, x: &B::Vector, y: &mut B::Vector) {
+        self.inner.axpy(a, x, y)
     }
 
-    fn xpay(&self, x: &Vec<f64>, a: f64, y: &mut Vec<f64>) {
-        self.cpu.xpay(x, a, y)
+    fn xpay(&self, x: &B::Vector, a: f64, y: &mut B::Vector) {
+        self.inner.xpay(x, a, y)
     }
 
-    fn axpy2(&self, a: f64, u: &Vec<f64>, b: f64, w: &Vec<f64>, y: &mut Vec<f64>) {
-        self.cpu.axpy2(a, u, b, w, y)
+    fn axpy2(&self, a: f64, u: &B::Vector, b: f64, w: &B::Vector, y: &mut B::Vector) {
+        self.inner.axpy2(a, u, b, w, y)
     }
 
-    fn pointwise_mul(&self, x: &Vec<f64>, y: &Vec<f64>, z: &mut Vec<f64>) {
-        self.cpu.pointwise_mul(x, y, z)
+    fn pointwise_mul(&self, x: &B::Vector, y: &B::Vector, z: &mut B::Vector) {
+        self.inner.pointwise_mul(x, y, z)
     }
 
-    /// [`DistBackend::total_dot`]. Collective.
-    fn dot(&self, x: &Vec<f64>, y: &Vec<f64>) -> f64 {
-        self.total_dot(x, y)
+    /// The rank's part ([`Backend::dot_sum`]) added exactly over the
+    /// ranks and rounded once. Collective.
+    fn dot(&self, x: &B::Vector, y: &B::Vector) -> f64 {
+        let mut s = [self.inner.dot_sum(x, y)];
+        self.comm.sum_exact(&mut s);
+        s[0].value()
     }
 
-    /// Both products added over the ranks in one gather. Collective.
-    fn dot2(&self, x: &Vec<f64>, y: &Vec<f64>, z: &Vec<f64>) -> (f64, f64) {
-        let (a, b) = self.cpu.exact_dot2(x, y, z);
+    /// Both products added over the ranks in one reduction. Collective.
+    fn dot2(&self, x: &B::Vector, y: &B::Vector, z: &B::Vector) -> (f64, f64) {
+        let (a, b) = self.inner.dot2_sums(x, y, z);
         let mut s = [a, b];
         self.comm.sum_exact(&mut s);
         (s[0].value(), s[1].value())
@@ -149,26 +163,26 @@ impl Backend for DistBackend<'_> {
     fn cgs_update_up(
         &self,
         beta: f64,
-        r: &Vec<f64>,
-        q: &Vec<f64>,
-        u: &mut Vec<f64>,
-        p: &mut Vec<f64>,
+        r: &B::Vector,
+        q: &B::Vector,
+        u: &mut B::Vector,
+        p: &mut B::Vector,
     ) {
-        self.cpu.cgs_update_up(beta, r, q, u, p)
+        self.inner.cgs_update_up(beta, r, q, u, p)
     }
 
-    fn cgs_update_qu(&self, alpha: f64, v: &Vec<f64>, q: &mut Vec<f64>, u: &mut Vec<f64>) {
-        self.cpu.cgs_update_qu(alpha, v, q, u)
+    fn cgs_update_qu(&self, alpha: f64, v: &B::Vector, q: &mut B::Vector, u: &mut B::Vector) {
+        self.inner.cgs_update_qu(alpha, v, q, u)
     }
 
     fn bicgstab_update_p(
         &self,
         beta: f64,
         omega: f64,
-        r: &Vec<f64>,
-        v: &Vec<f64>,
-        p: &mut Vec<f64>,
+        r: &B::Vector,
+        v: &B::Vector,
+        p: &mut B::Vector,
     ) {
-        self.cpu.bicgstab_update_p(beta, omega, r, v, p)
+        self.inner.bicgstab_update_p(beta, omega, r, v, p)
     }
 }

@@ -6,6 +6,7 @@
 //! not own are ghosts, and each is asked once, at set-up, of its owner.
 
 use super::partition::owner;
+use crate::backend::Backend;
 use crate::comm::Comm;
 use crate::discrete::dofs::DofMap;
 use crate::element::ElementOrder;
@@ -182,32 +183,62 @@ impl Halo {
         self.owned.iter().filter(|&&o| o).count()
     }
 
-    /// Brings the ghost entries of `x` (three per node) that `reach` takes
-    /// from their owners. Collective.
-    pub fn fill_ghosts(&self, comm: &dyn Comm, x: &mut [f64], reach: Reach) {
+    /// The ghost values that `reach` takes, from their owners, with the
+    /// local entries they go to; `read` gives this rank's entries at the
+    /// indices it is asked for. Collective.
+    fn exchange(
+        &self,
+        comm: &dyn Comm,
+        reach: Reach,
+        read: impl FnOnce(&[usize]) -> Vec<f64>,
+    ) -> (Vec<usize>, Vec<f64>) {
         let take = |e: &Exchange| match reach {
             Reach::Near => e.near,
             Reach::Window => e.nodes.len(),
         };
+        let entries = |e: &Exchange| {
+            e.nodes[..take(e)]
+                .iter()
+                .flat_map(|&a| (0..3).map(move |c| 3 * a as usize + c))
+                .collect::<Vec<_>>()
+        };
+        let asked: Vec<usize> = self.sends.iter().flat_map(entries).collect();
+        let values = read(&asked);
+        let mut at = 0;
         let sends: Vec<(usize, Vec<f64>)> = self
             .sends
             .iter()
             .map(|e| {
-                let values = e.nodes[..take(e)].iter().flat_map(|&a| {
-                    let d = 3 * a as usize;
-                    [x[d], x[d + 1], x[d + 2]]
-                });
-                (e.rank, values.collect())
+                let n = 3 * take(e);
+                at += n;
+                (e.rank, values[at - n..at].to_vec())
             })
             .collect();
         let recvs: Vec<(usize, usize)> = self.recvs.iter().map(|e| (e.rank, 3 * take(e))).collect();
         let got = comm.exchange(&sends, &recvs);
-        for (e, values) in self.recvs.iter().zip(got) {
-            for (&a, v) in e.nodes.iter().zip(values.chunks_exact(3)) {
-                let d = 3 * a as usize;
-                x[d..d + 3].copy_from_slice(v);
-            }
+        let ghosts = self.recvs.iter().flat_map(entries).collect();
+        (ghosts, got.concat())
+    }
+
+    /// Brings the ghost entries of `x` (three per node) that `reach` takes
+    /// from their owners. Collective.
+    pub fn fill_ghosts(&self, comm: &dyn Comm, x: &mut [f64], reach: Reach) {
+        let (ghosts, values) = self.exchange(comm, reach, |i| i.iter().map(|&k| x[k]).collect());
+        for (k, v) in ghosts.into_iter().zip(values) {
+            x[k] = v;
         }
+    }
+
+    /// [`Halo::fill_ghosts`] on a vector of `be`. Collective.
+    pub fn fill_ghosts_on<B: Backend>(
+        &self,
+        comm: &dyn Comm,
+        be: &B,
+        x: &mut B::Vector,
+        reach: Reach,
+    ) {
+        let (ghosts, values) = self.exchange(comm, reach, |i| be.read_entries(x, i));
+        be.write_entries(&values, &ghosts, x);
     }
 
     /// Sets the ghost entries of `x` (three per node) to zero.
@@ -216,6 +247,16 @@ impl Halo {
             let d = 3 * a as usize;
             x[d..d + 3].fill(0.0);
         }
+    }
+
+    /// [`Halo::zero_ghosts`] on a vector of `be`.
+    pub fn zero_ghosts_on<B: Backend>(&self, be: &B, x: &mut B::Vector) {
+        let entries: Vec<usize> = self
+            .ghosts
+            .iter()
+            .flat_map(|&a| (0..3).map(move |c| 3 * a as usize + c))
+            .collect();
+        be.write_entries(&vec![0.0; entries.len()], &entries, x);
     }
 
     /// Bytes one [`Halo::fill_ghosts`] of `reach` receives (f64 values).

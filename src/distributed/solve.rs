@@ -60,7 +60,7 @@ pub struct RankSolver<'a> {
 impl<'a> RankSolver<'a> {
     pub fn new(rs: &'a RankSetup, comm: &'a dyn Comm) -> Self {
         let be = DistBackend::new(comm);
-        let op = DistOperator::new(&rs.setup.op, &rs.halo);
+        let op = DistOperator::new(&be, &rs.setup.op, &rs.halo);
         let diag = be.diagonal(&op);
         let multigrid = rs
             .multigrid
@@ -122,10 +122,9 @@ pub struct RankOperator<'a> {
 
 impl<'a> RankOperator<'a> {
     pub fn new(rs: &'a RankSetup, comm: &'a dyn Comm) -> Self {
-        RankOperator {
-            be: DistBackend::new(comm),
-            op: DistOperator::new(&rs.setup.op, &rs.halo),
-        }
+        let be = DistBackend::new(comm);
+        let op = DistOperator::new(&be, &rs.setup.op, &rs.halo);
+        RankOperator { be, op }
     }
 }
 

@@ -138,7 +138,7 @@ fn owned_rows_equal_the_whole_grids(name: &str, level: u32) {
                 .collect();
             rs.halo.zero_ghosts(&mut x);
             let be = DistBackend::new(comm);
-            let op = DistOperator::new(&rs.setup.op, &rs.halo);
+            let op = DistOperator::new(&be, &rs.setup.op, &rs.halo);
             let mut y = be.zeros(x.len());
             be.apply(&op, &x, &mut y);
             let d = be.diagonal(&op);
@@ -188,7 +188,7 @@ fn jacobi_cg_on_several_ranks_solves_as_one() {
         let got = threads::run(ranks, |comm| {
             let rs = RankSetup::new(&case, Some(4), comm, &Silent).unwrap();
             let be = DistBackend::new(comm);
-            let op = DistOperator::new(&rs.setup.op, &rs.halo);
+            let op = DistOperator::new(&be, &rs.setup.op, &rs.halo);
             let b = rs.fixed_rhs();
             let mut u = be.zeros(b.len());
             let stats = solve(&be, &op, None, &b, &mut u, &JACOBI_CG).unwrap();

@@ -36,11 +36,10 @@
 use rayon::prelude::*;
 
 use super::blocks::BlockJacobi;
-use crate::backend::LinearOperator;
+use crate::backend::{CpuBackend, LinearOperator};
 use crate::comm::{agree, Comm, Serial};
 use crate::discrete::dofs::DofMap;
 use crate::error::{Error, Result};
-use crate::exact::ExactSum;
 use crate::fem::operator::ElasticOperator;
 use crate::solver::floor_diagonal_against;
 use crate::solver::lanczos::{largest_eigenvalue, PreconditionedOperator};
@@ -109,14 +108,6 @@ impl LevelShare for Whole<'_> {
     }
 }
 
-/// `a · b` over the ranks of `comm` (every rank's exact partial sum, added
-/// exactly and rounded once). Collective.
-fn total_dot(comm: &dyn Comm, a: &[f64], b: &[f64]) -> f64 {
-    let mut s = [ExactSum::dot(a, b)];
-    comm.sum_exact(&mut s);
-    s[0].value()
-}
-
 /// The start of the Lanczos estimate on a level with unknowns `dofs`: every
 /// entry non-zero, with no grid-aligned pattern, a function of the lattice
 /// node and component alone (so that every rank's share of a level starts
@@ -159,6 +150,7 @@ impl Chebyshev {
             }
         }
         let comm = share.comm();
+        let cpu = CpuBackend::new();
         let floored = floor_diagonal_against(&mut d, true, comm.max(largest)).map_err(|(i, v)| {
             Error::Breakdown {
                 method: "multigrid".into(),
@@ -178,7 +170,7 @@ impl Chebyshev {
         let ops = PreconditionedOperator {
             apply: &|x, y| share.apply(x, y),
             pre: &|r, z| share.precondition(&pre, r, z),
-            dot: &|a, b| total_dot(comm, a, b),
+            dot: &|a, b| cpu.total_dot(comm, a, b),
         };
         let mut rows = [owned as f64];
         comm.sum(&mut rows);
