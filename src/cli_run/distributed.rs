@@ -3,7 +3,8 @@
 //! case and solves its share; rank 0 prints and writes DIR/report.json (with
 //! a row per rank), also when the run fails. On the CPU of each rank, with
 //! the case's preconditioner (`auto`: the multigrid V-cycle, every level
-//! shared out over the ranks). `--output volume` (or `all`): each
+//! shared out over the ranks); with `--backend gpu`, on each rank's GPU
+//! with Jacobi. `--output volume` (or `all`): each
 //! rank writes its piece `solution_<rank>.vtu` and rank 0 `solution.pvtu`
 //! listing them; `--output surface` (or `all`): rank 0 writes
 //! `surface.vtp`, gathered from every rank.
@@ -32,24 +33,30 @@ pub fn run(
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let ranks = comm.size();
-    if BackendChoice::resolve(device.backend)? == BackendChoice::Gpu {
-        return Err(cgfem_gpu::Error::UnsupportedOnBackend {
-            backend: format!("distributed ({ranks} ranks)"),
-            what: "the GPU backend".into(),
-            hint: "use --backend cpu, or run as one process".into(),
-        }
-        .into());
-    }
+    // `--backend gpu` puts each rank on its GPU (Jacobi); otherwise the
+    // ranks solve on their CPUs, with the multigrid V-cycle.
+    let gpu = match BackendChoice::resolve(device.backend)? {
+        BackendChoice::Gpu => super::open_device(device)?,
+        BackendChoice::Cpu | BackendChoice::Auto => None,
+    };
     let lead = comm.rank() == 0;
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     let files = outputs.paraview.files;
     if lead {
         let pre = match case.spec.solver.preconditioner {
+            Preconditioner::Auto if gpu.is_some() => "Jacobi",
             Preconditioner::Auto | Preconditioner::Multigrid => "multigrid",
             Preconditioner::Jacobi => "Jacobi",
             Preconditioner::None => "no preconditioner",
         };
-        println!("case {name} ({}): {ranks} ranks, CPU, {pre}", case.file);
+        let on = match &gpu {
+            Some(ctx) => format!("GPU {}", ctx.adapter.name),
+            None => "CPU".to_string(),
+        };
+        println!(
+            "case {name} ({}): {ranks} ranks, {on} each, {pre}",
+            case.file
+        );
     }
     let pieces = (files.volume() || files.surface()).then_some(Pieces {
         dir,
@@ -64,7 +71,7 @@ pub fn run(
         report,
         files,
         result,
-    } = cgfem_gpu::distributed::run::run(case, level, comm, quiet, pieces);
+    } = cgfem_gpu::distributed::run::run(case, level, comm, quiet, pieces, gpu);
     progress.finish();
     if lead {
         let b = &report.bodies.first();

@@ -5,10 +5,12 @@
 //! rank ([`RankRow`]). The Newton path is refused on more than one rank.
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
+use super::backend::DistBackend;
 use super::halo::{owner_cell, Reach};
-use super::solve::{solve_rank, RankSolution};
+use super::solve::{solve_rank, RankSolution, RankSolver};
 use super::surface::gather_surface;
 use super::RankSetup;
 use crate::case::Case;
@@ -20,6 +22,7 @@ use crate::driver::output::{write_piece, ParaView};
 use crate::driver::surface_output::write_surface;
 use crate::element::ElementOrder;
 use crate::error::{Error, Result};
+use crate::gpu::{GpuBackend, GpuContext, GpuOperator, Precision};
 use crate::grid::peak_resident_bytes;
 use crate::output::Written;
 use crate::progress::Progress;
@@ -55,11 +58,24 @@ pub fn run(
     comm: &dyn Comm,
     progress: &dyn Progress,
     pieces: Option<Pieces>,
+    gpu: Option<Arc<GpuContext>>,
 ) -> RunOutcome {
     let mut report = Report::new(case);
-    report.backend = format!("cpu×{}", comm.size());
+    report.backend = match &gpu {
+        Some(ctx) => format!("gpu:{}×{}", ctx.adapter.name, comm.size()),
+        None => format!("cpu×{}", comm.size()),
+    };
     let mut files = Vec::new();
-    let result = run_into(case, level, comm, progress, pieces, &mut report, &mut files);
+    let result = run_into(
+        case,
+        level,
+        comm,
+        progress,
+        pieces,
+        gpu,
+        &mut report,
+        &mut files,
+    );
     if let Err(e) = &result {
         report.fail(e);
     }
@@ -70,12 +86,14 @@ pub fn run(
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_into(
     case: &Case,
     level: Option<u32>,
     comm: &dyn Comm,
     progress: &dyn Progress,
     pieces: Option<Pieces>,
+    gpu: Option<Arc<GpuContext>>,
     report: &mut Report,
     files: &mut Vec<String>,
 ) -> Result<()> {
@@ -86,6 +104,14 @@ fn run_into(
             hint: "run it as one process (without mpirun)".into(),
         });
     }
+    let on_gpu;
+    let case = match &gpu {
+        Some(ctx) => {
+            on_gpu = for_gpu_ranks(case, ctx, comm.size())?;
+            &on_gpu
+        }
+        None => case,
+    };
     let t = Instant::now();
     let rs = RankSetup::new(case, level, comm, progress)?;
     let setup_seconds = t.elapsed().as_secs_f64();
@@ -94,7 +120,18 @@ fn run_into(
     report.timings.insert("setup".into(), setup_seconds);
     let t = Instant::now();
     let mut fp = FixedPointReport::default();
-    let solved = solve_rank(&rs, case, comm, &mut fp, progress);
+    let solved = match gpu {
+        None => {
+            let mut solver = RankSolver::new(&rs, comm);
+            solve_rank(&rs, case, comm, &mut solver, &mut fp, progress)
+        }
+        Some(ctx) => {
+            let be = GpuBackend::new(ctx);
+            let local = agree(comm, GpuOperator::new(&be, &rs.setup.op))?;
+            let mut solver = RankSolver::with(DistBackend::on(be, comm), &local, &rs.halo, None);
+            solve_rank(&rs, case, comm, &mut solver, &mut fp, progress)
+        }
+    };
     let solve_seconds = t.elapsed().as_secs_f64();
     report.timings.insert("solve".into(), solve_seconds);
     report.timings.insert("krylov".into(), fp.krylov_seconds);
@@ -136,6 +173,35 @@ fn run_into(
             .insert("output".into(), t.elapsed().as_secs_f64());
     }
     Ok(())
+}
+
+/// The case as the ranks' GPUs solve it: Jacobi for `auto` (the V-cycle
+/// on the ranks runs on their CPUs). The multigrid preconditioner, and a
+/// device without f64, are refused (exit code 2).
+fn for_gpu_ranks(case: &Case, ctx: &GpuContext, ranks: usize) -> Result<Case> {
+    let refuse = |what: &str, hint: &str| Error::UnsupportedOnBackend {
+        backend: format!("distributed GPU ({ranks} ranks)"),
+        what: what.into(),
+        hint: hint.into(),
+    };
+    if ctx.precision != Precision::F64 {
+        return Err(refuse(
+            "a device without f64",
+            "use --backend cpu, or run as one process",
+        ));
+    }
+    let mut case = case.clone();
+    match case.spec.solver.preconditioner {
+        Preconditioner::Multigrid => {
+            return Err(refuse(
+                "the multigrid preconditioner",
+                "set solver.preconditioner = \"jacobi\" (or \"auto\"), or use --backend cpu",
+            ))
+        }
+        Preconditioner::Auto => case.spec.solver.preconditioner = Preconditioner::Jacobi,
+        Preconditioner::Jacobi | Preconditioner::None => {}
+    }
+    Ok(case)
 }
 
 /// Writes the files `p` asks for: this rank's piece and, on rank 0, the

@@ -7,10 +7,11 @@
 //! fits add up each rank's brick ([`BrickShare`]).
 
 use super::backend::{DistBackend, DistOperator};
+use super::halo::Halo;
 use super::halo::Reach;
 use super::multigrid::RankMultigrid;
 use super::RankSetup;
-use crate::backend::{Backend, LinearOperator};
+use crate::backend::{Backend, CpuBackend, LinearOperator};
 use crate::case::physics::OuterMethod;
 use crate::case::Case;
 use crate::comm::agree;
@@ -26,7 +27,8 @@ use crate::exact::ExactSum;
 use crate::grid::{CellBox, Grid};
 use crate::progress::Progress;
 use crate::solver::{
-    solve, solve_preconditioned, KrylovOptions, KrylovStats, Preconditioner, TimedInverse,
+    solve, solve_preconditioned, ApplyInverse, KrylovOptions, KrylovStats, Preconditioner,
+    TimedInverse,
 };
 
 /// A rank counts the cells of its brick.
@@ -46,64 +48,83 @@ impl CellShare for BrickShare<'_> {
     }
 }
 
-/// The rank's Krylov solves: its [`DistBackend`] with Jacobi, or with the
-/// V-cycle of the rank's multigrid levels when the set-up built them.
-pub struct RankSolver<'a> {
-    be: DistBackend<'a>,
-    op: DistOperator<'a>,
-    diag: Vec<f64>,
-    multigrid: Option<RankMultigrid<'a>>,
+/// The rank's Krylov solves: its [`DistBackend`] (over the CPU, or the
+/// rank's GPU) with Jacobi, or with the V-cycle of the rank's multigrid
+/// levels (CPU) when the set-up built them.
+pub struct RankSolver<'a, B: Backend + 'static = CpuBackend> {
+    be: DistBackend<'a, B>,
+    op: DistOperator<'a, B>,
+    diag: B::Vector,
+    multigrid: Option<Box<dyn ApplyInverse<DistBackend<'a, B>> + 'a>>,
     /// The V-cycles applied so far and their seconds.
     cycles: (usize, f64),
+    /// The outer loop's host products.
+    host: CpuBackend,
 }
 
-impl<'a> RankSolver<'a> {
+impl<'a> RankSolver<'a, CpuBackend> {
+    /// The rank's solver on its CPU, with the set-up's multigrid levels.
     pub fn new(rs: &'a RankSetup, comm: &'a dyn Comm) -> Self {
-        let be = DistBackend::new(comm);
-        let op = DistOperator::new(&be, &rs.setup.op, &rs.halo);
+        let multigrid = rs.multigrid.as_ref().map(|h| {
+            Box::new(RankMultigrid::new(rs, h, comm)) as Box<dyn ApplyInverse<DistBackend<'a>>>
+        });
+        RankSolver::with(DistBackend::new(comm), &rs.setup.op, &rs.halo, multigrid)
+    }
+}
+
+impl<'a, B: Backend + 'static> RankSolver<'a, B> {
+    /// The solver of the rank's operator `local` on `be`, with its halo and
+    /// a V-cycle where there is one.
+    pub fn with(
+        be: DistBackend<'a, B>,
+        local: &'a B::Operator<'a>,
+        halo: &'a Halo,
+        multigrid: Option<Box<dyn ApplyInverse<DistBackend<'a, B>> + 'a>>,
+    ) -> Self {
+        let op = DistOperator::new(&be, local, halo);
         let diag = be.diagonal(&op);
-        let multigrid = rs
-            .multigrid
-            .as_ref()
-            .map(|h| RankMultigrid::new(rs, h, comm));
         RankSolver {
             be,
             op,
             diag,
             multigrid,
             cycles: (0, 0.0),
+            host: CpuBackend::new(),
         }
     }
 }
 
-impl LinearSolver for RankSolver<'_> {
+impl<B: Backend + 'static> LinearSolver for RankSolver<'_, B> {
     fn solve(
         &mut self,
         rhs: &[f64],
         u: &mut Vec<f64>,
         opts: &KrylovOptions,
     ) -> Result<KrylovStats> {
-        let rhs = rhs.to_vec();
-        match (&self.multigrid, opts.preconditioner) {
+        let rhs = self.be.upload(rhs);
+        let mut x = self.be.upload(u);
+        let stats = match (&self.multigrid, opts.preconditioner) {
             (Some(mg), Preconditioner::Multigrid | Preconditioner::Auto) => {
-                let timed = TimedInverse::new(mg);
-                let stats = solve_preconditioned(&self.be, &self.op, &timed, &rhs, u, opts);
+                let timed = TimedInverse::new(mg.as_ref());
+                let stats = solve_preconditioned(&self.be, &self.op, &timed, &rhs, &mut x, opts);
                 let (n, seconds) = timed.totals();
                 self.cycles = (self.cycles.0 + n, self.cycles.1 + seconds);
                 stats
             }
-            _ => solve(&self.be, &self.op, Some(&self.diag), &rhs, u, opts),
-        }
+            _ => solve(&self.be, &self.op, Some(&self.diag), &rhs, &mut x, opts),
+        };
+        *u = self.be.download(&x);
+        stats
     }
 
     fn v_cycles(&self) -> Option<(usize, f64)> {
         self.multigrid.as_ref().map(|_| self.cycles)
     }
 
-    /// The outer loop's product ([`DistBackend::total_dot`]; the ghosts'
+    /// The outer loop's product ([`CpuBackend::total_dot`]; the ghosts'
     /// entries are zero). Collective.
     fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        self.be.total_dot(a, b)
+        self.host.total_dot(self.be.comm(), a, b)
     }
 
     /// Any rank's interrupt stops every rank at the same boundary.
@@ -160,13 +181,14 @@ pub struct RankSolution {
 
 /// Solves the rank's share of the case (the fixed point of the recovered
 /// load, as [`crate::driver::solve::solve_with_progress`] does on one
-/// rank), then recovers the reactions and takes the error norms, each
+/// rank, with the rank's `solver`: [`RankSolver`]), then recovers the reactions and takes the error norms, each
 /// summed over the ranks. An error on any rank is an error on every rank.
 /// Collective.
 pub fn solve_rank(
     rs: &RankSetup,
     case: &Case,
     comm: &dyn Comm,
+    solver: &mut dyn LinearSolver,
     report: &mut FixedPointReport,
     progress: &dyn Progress,
 ) -> Result<RankSolution> {
@@ -187,11 +209,10 @@ pub fn solve_rank(
     let spec = &case.spec.solver;
     let opts = fixed_point_options(spec);
     let fixed = rs.fixed_rhs();
-    let mut solver = RankSolver::new(rs, comm);
     let mut u = match spec.outer {
-        _ if load.is_zero() => solve_once(&fixed, &mut solver, &opts, report, progress)?,
+        _ if load.is_zero() => solve_once(&fixed, &mut *solver, &opts, report, progress)?,
         OuterMethod::Fgmres => fgmres_fixed_point(
-            &mut solver,
+            &mut *solver,
             &RankOperator::new(rs, comm),
             &fixed,
             &mut recovered,
@@ -199,9 +220,14 @@ pub fn solve_rank(
             report,
             progress,
         )?,
-        OuterMethod::Picard => {
-            fixed_point_with_progress(&mut solver, &fixed, &mut recovered, &opts, report, progress)?
-        }
+        OuterMethod::Picard => fixed_point_with_progress(
+            &mut *solver,
+            &fixed,
+            &mut recovered,
+            &opts,
+            report,
+            progress,
+        )?,
     };
     report.v_cycles = solver.v_cycles();
     rs.halo.fill_ghosts(comm, &mut u, Reach::Window);

@@ -263,7 +263,8 @@ fn ranks_repeat_one_rank(case: &Case, name: &str, level: u32, counts: &[usize]) 
         let got = threads::run(ranks, |comm| {
             let rs = RankSetup::new(case, Some(level), comm, &Silent).unwrap();
             let mut r = crate::driver::fixed_point::FixedPointReport::default();
-            let sol = solve::solve_rank(&rs, case, comm, &mut r, &Silent).unwrap();
+            let mut solver = solve::RankSolver::new(&rs, comm);
+            let sol = solve::solve_rank(&rs, case, comm, &mut solver, &mut r, &Silent).unwrap();
             let levels = rs.multigrid.as_ref().map(|h| h.num_levels());
             (owned(&rs, &sol.u), (r, sol.reactions, sol.error, levels))
         });
@@ -371,7 +372,7 @@ fn a_run_on_ranks_reports_the_body_as_one_rank() {
     let reports = threads::run(3, |comm| {
         let run::RunOutcome {
             mut report, result, ..
-        } = run::run(&case, Some(4), comm, &Silent, None);
+        } = run::run(&case, Some(4), comm, &Silent, None, None);
         // Each rank's own seconds.
         report.timings.clear();
         (report, result)
@@ -476,7 +477,7 @@ fn a_free_piece_is_refused_on_ranks_as_on_one() {
     let held = two_cubes(true);
     for ranks in [1, 2, 3] {
         let reports = threads::run(ranks, |comm| {
-            run::run(&held, None, comm, &Silent, None).report
+            run::run(&held, None, comm, &Silent, None, None).report
         });
         let weights: Vec<f64> = reports[0].reactions.iter().map(|r| r.force[2]).collect();
         assert_eq!(
@@ -533,7 +534,7 @@ fn the_pieces_of_three_ranks_make_the_one_rank_solution() {
         },
     };
     let files = threads::run(3, |comm| {
-        let out = run::run(&case, Some(3), comm, &Silent, Some(pieces));
+        let out = run::run(&case, Some(3), comm, &Silent, Some(pieces), None);
         out.result.unwrap();
         out.files
     });
@@ -615,7 +616,7 @@ fn the_surface_of_three_ranks_is_the_one_rank_surface(name: &str, level: u32) {
         },
     };
     let files = threads::run(3, |comm| {
-        let out = run::run(&case, Some(level), comm, &Silent, Some(pieces));
+        let out = run::run(&case, Some(level), comm, &Silent, Some(pieces), None);
         out.result.unwrap();
         out.files
     });
@@ -680,7 +681,7 @@ fn an_interrupt_on_one_rank_stops_every_rank_together() {
             polls: 0.into(),
             after: if comm.rank() == 1 { 3 } else { usize::MAX },
         };
-        let out = run::run(&case, Some(3), comm, &progress, None);
+        let out = run::run(&case, Some(3), comm, &progress, None, None);
         (out.result, out.report.status)
     });
     let mut stopped_at = Vec::new();
@@ -693,4 +694,62 @@ fn an_interrupt_on_one_rank_stops_every_rank_together() {
     }
     assert!(stopped_at.iter().all(|&k| k == stopped_at[0]));
     assert!(stopped_at[0] >= 1, "stopped after a solve: {stopped_at:?}");
+}
+
+/// Each rank on its GPU (lavapipe here, one device shared by the threads):
+/// the Jacobi fixed point of the sphere on 2 and 3 ranks against the CPU's
+/// one-rank run. The device's dot products are rounded on the device (each
+/// rank's part is added exactly over the ranks), so a solve may take one
+/// iteration more or less; the outer iterations, the displacement (to the
+/// outer tolerance) and the energy error may not move.
+#[test]
+fn gpu_ranks_solve_as_one_cpu_rank() {
+    let Some(ctx) = crate::gpu::context_or_skip(crate::gpu::PrecisionChoice::F64) else {
+        return;
+    };
+    let (case, level) = (jacobi_case("sphere.toml"), 4);
+    let whole = Setup::new(&case, Some(level)).unwrap();
+    let mut report = crate::driver::fixed_point::FixedPointReport::default();
+    let one = crate::driver::solve::solve(&whole, &case.spec.solver, &mut report).unwrap();
+    let wu = by_node(&whole, &one.u);
+    let (l, m) = (whole.problem.lambda, whole.problem.mu);
+    let exact = whole.problem.exact.as_ref().unwrap();
+    let (g, c, d) = (&whole.grid, &whole.cells, &whole.op.dofs);
+    let whole_error = error_norms(g, c, d, &one.u, exact, l, m);
+    for ranks in [2, 3] {
+        let got = threads::run(ranks, |comm| {
+            let rs = RankSetup::new(&case, Some(level), comm, &Silent).unwrap();
+            let be = crate::gpu::GpuBackend::new(ctx.clone());
+            let local = crate::gpu::GpuOperator::new(&be, &rs.setup.op).unwrap();
+            let mut solver =
+                solve::RankSolver::with(DistBackend::on(be, comm), &local, &rs.halo, None);
+            let mut r = crate::driver::fixed_point::FixedPointReport::default();
+            let sol = solve::solve_rank(&rs, &case, comm, &mut solver, &mut r, &Silent).unwrap();
+            (owned(&rs, &sol.u), (r, sol.error.unwrap()))
+        });
+        let (values, reports): (Vec<_>, Vec<_>) = got.into_iter().unzip();
+        for (r, error) in &reports {
+            assert_eq!(r.iterations, report.iterations, "{ranks} ranks: outer");
+            let per_solve = r
+                .iterations_per_solve
+                .iter()
+                .zip(&report.iterations_per_solve);
+            for (k, (a, b)) in per_solve.enumerate() {
+                assert!(
+                    a.abs_diff(*b) <= 1,
+                    "{ranks} ranks, solve {k}: {a} against {b}"
+                );
+            }
+            let (a, b): (usize, usize) = (
+                r.iterations_per_solve.iter().sum(),
+                report.iterations_per_solve.iter().sum(),
+            );
+            let rel = (error.energy - whole_error.energy).abs() / whole_error.energy;
+            assert!(rel < 1e-8, "{ranks} ranks: energy error {rel:e} apart");
+            eprintln!("{ranks} GPU ranks: Krylov {a} (CPU {b}), energy error {rel:.1e} apart");
+        }
+        let (diff, once) = compare(&wu, &values);
+        assert!(once);
+        assert!(diff < 1e-9, "{ranks} ranks: displacements {diff:e} apart");
+    }
 }
