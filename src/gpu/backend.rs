@@ -292,6 +292,16 @@ impl Backend for GpuBackend {
         self.read_buffer(&v.buf, 0, v.len)
     }
 
+    /// Gathered on the device ([`super::entries`]).
+    fn read_entries(&self, v: &GpuVector, idx: &[usize]) -> Vec<f64> {
+        self.read_entries_on_device(v, idx)
+    }
+
+    /// Scattered on the device ([`super::entries`]).
+    fn write_entries(&self, values: &[f64], idx: &[usize], v: &mut GpuVector) {
+        self.write_entries_on_device(values, idx, v);
+    }
+
     fn apply(&self, op: &GpuOperator<'_>, x: &GpuVector, y: &mut GpuVector) {
         check_len("apply", op.nrows(), &[x.len, y.len]);
         let mut enc = self.encoder();

@@ -146,9 +146,10 @@ pub struct Q1Params {
     pub pad2: u32,
 }
 
-/// Params of the multigrid gathers (`block_rows`, `prolong_add`,
-/// `restrict`, `dense_matvec`): `n` invocations, the 2D row stride, and the
-/// fine and coarse lattices' nodes per axis (the transfers only).
+/// Params of the gathers (`block_rows`, `prolong_add`, `restrict`,
+/// `dense_matvec`, `gather_entries`, `scatter_entries`): `n` invocations,
+/// the 2D row stride, and the fine and coarse lattices' nodes per axis (the
+/// transfers only).
 /// Keep in sync with `GatherParams` in those shaders.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -212,11 +213,13 @@ pub enum Kernel {
     Restrict,
     DenseMatvec,
     HyperTangent,
+    GatherEntries,
+    ScatterEntries,
 }
 
 impl Kernel {
     /// Every kernel, in a fixed order (the pipeline table's).
-    pub const ALL: [Kernel; 26] = [
+    pub const ALL: [Kernel; 28] = [
         Kernel::Copy,
         Kernel::Scale,
         Kernel::Axpy,
@@ -243,6 +246,8 @@ impl Kernel {
         Kernel::Restrict,
         Kernel::DenseMatvec,
         Kernel::HyperTangent,
+        Kernel::GatherEntries,
+        Kernel::ScatterEntries,
     ];
 
     /// The file stem in `shaders/` (= the CPU mirror's name).
@@ -273,6 +278,8 @@ impl Kernel {
             Kernel::Restrict => "restrict",
             Kernel::DenseMatvec => "dense_matvec",
             Kernel::HyperTangent => "hyper_tangent",
+            Kernel::GatherEntries => "gather_entries",
+            Kernel::ScatterEntries => "scatter_entries",
         }
     }
 
@@ -320,6 +327,8 @@ impl Kernel {
             Kernel::Restrict => include_str!("../../shaders/restrict.wgsl"),
             Kernel::DenseMatvec => include_str!("../../shaders/dense_matvec.wgsl"),
             Kernel::HyperTangent => include_str!("../../shaders/hyper_tangent.wgsl"),
+            Kernel::GatherEntries => include_str!("../../shaders/gather_entries.wgsl"),
+            Kernel::ScatterEntries => include_str!("../../shaders/scatter_entries.wgsl"),
         }
     }
 

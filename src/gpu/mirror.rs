@@ -6,7 +6,7 @@
 // Index loops, not slice methods, to read like the shaders.
 #![allow(clippy::manual_memcpy)]
 
-use super::kernels::{ApplyParams, Q1Params, RedParams, VecParams};
+use super::kernels::{ApplyParams, GatherParams, Q1Params, RedParams, VecParams};
 use super::kernels::{PER, WG};
 use super::q1_terms::{
     form_product, mass_product, stencil_terms, NO_PARTIAL, PARTIAL_LEN, SEG, SEGMENT_WORDS,
@@ -54,6 +54,20 @@ pub fn axpy2(prm: &VecParams, scal: &[f64], u: &[f64], w: &[f64], y: &mut [f64])
 pub fn pointwise_mul(prm: &VecParams, x: &[f64], y: &[f64], z: &mut [f64]) {
     for i in 0..prm.n as usize {
         z[i] = x[i] * y[i];
+    }
+}
+
+/// `out[k] = v[idx[k]]`.
+pub fn gather_entries(prm: &GatherParams, v: &[f64], out: &mut [f64], idx: &[u32]) {
+    for k in 0..prm.n as usize {
+        out[k] = v[idx[k] as usize];
+    }
+}
+
+/// `v[idx[k]] = values[k]`.
+pub fn scatter_entries(prm: &GatherParams, values: &[f64], v: &mut [f64], idx: &[u32]) {
+    for k in 0..prm.n as usize {
+        v[idx[k] as usize] = values[k];
     }
 }
 

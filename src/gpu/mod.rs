@@ -13,6 +13,7 @@ pub mod backend;
 pub mod context;
 pub mod defect;
 pub mod device_krylov;
+mod entries;
 pub mod fused_cg;
 pub mod kernels;
 pub mod linear;

@@ -163,9 +163,12 @@ fn params_structs_match_their_wgsl_twins() {
             Kernel::Q1Cells | Kernel::Q1Nodes | Kernel::Q1NodesDot => ("Q1Params", &q1),
             Kernel::CgUpdate => ("UpdateParams", &update),
             Kernel::CgDirection => ("DirectionParams", &direction),
-            Kernel::BlockRows | Kernel::ProlongAdd | Kernel::Restrict | Kernel::DenseMatvec => {
-                ("GatherParams", &gather)
-            }
+            Kernel::BlockRows
+            | Kernel::ProlongAdd
+            | Kernel::Restrict
+            | Kernel::DenseMatvec
+            | Kernel::GatherEntries
+            | Kernel::ScatterEntries => ("GatherParams", &gather),
             Kernel::ScalarRatio | Kernel::KrylovCheck => ("ScalParams", &scal),
             Kernel::HyperTangent => ("HyperTangentParams", &hyper),
             _ => ("VecParams", &vec),
