@@ -1,10 +1,13 @@
-//! [`DistBackend`]: the [`Backend`] of one rank. Its vectors are the
-//! rank's unknowns with the ghosts' entries kept at zero, so a local dot
-//! product counts every owned unknown once and the exact sum over the ranks
-//! is the whole product, to the bit the one-rank product; the apply brings the ghosts of its input from their
-//! owners, applies the rank's operator and zeroes the ghost rows again.
-//! Every other kernel is the CPU backend's, on the local entries, so the
-//! Krylov methods of [`crate::solver`] run unchanged on P ranks.
+//! [`DistBackend`]: the [`Backend`] of one rank, over the rank's own
+//! backend (the CPU's, or its GPU's). Its vectors are the rank's unknowns
+//! with the ghosts' entries kept at zero, so a local dot product counts
+//! every owned unknown once and the exact sum of the ranks' parts is the
+//! whole product (on the CPU, to the bit the one-rank product); the apply
+//! brings the ghosts of its input from their owners
+//! ([`Backend::read_entries`], [`Backend::write_entries`]), applies the
+//! rank's operator and zeroes the ghost rows again. Every other kernel is
+//! the rank's backend's, on the local entries, so the Krylov methods of
+//! [`crate::solver`] run unchanged on P ranks.
 
 use std::cell::RefCell;
 

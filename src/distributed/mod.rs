@@ -12,8 +12,9 @@
 //! with Jacobi or the multigrid V-cycle, every level shared out as the
 //! solve's ([`solve`], [`multigrid`]); the reactions, error norms and the
 //! body's counts are summed over the bricks into one report, and the
-//! ParaView output is written in pieces ([`run`]). Not distributed yet: the
-//! GPU and the Newton path.
+//! ParaView output is written in pieces ([`run`]). A rank may solve on its
+//! GPU ([`backend`], Jacobi). Not distributed yet: the device V-cycle and
+//! the Newton path.
 
 pub mod backend;
 pub mod halo;
