@@ -44,11 +44,9 @@ use crate::fem::level::pathological_cells;
 use crate::fem::operator::ElasticOperator;
 use crate::grid::{CellBox, Grid};
 use crate::multigrid::blocks::BlockJacobi;
-use crate::multigrid::cycle::{vcycle, CycleOps, LevelWork};
+use crate::multigrid::cycle::{vcycle, HostLevels, LevelWork, OnHost};
 use crate::multigrid::galerkin_s::FineSTerm;
-use crate::multigrid::smoother::{
-    chebyshev_update, rsub_assign, sub_assign, Chebyshev, LevelShare,
-};
+use crate::multigrid::smoother::{Chebyshev, LevelShare};
 use crate::multigrid::transfer::{Lattice, Transfer};
 use crate::multigrid::{level_below, rediscretised, shifted_factor, LevelBelow, MultigridOptions};
 use crate::progress::Silent;
@@ -345,11 +343,11 @@ impl Coarsest {
 /// One V-cycle on the rank's share of every level, as the Krylov solve's
 /// preconditioner.
 pub struct RankMultigrid<'a> {
-    levels: RankLevels<'a>,
+    levels: OnHost<RankLevels<'a>>,
     work: RefCell<Vec<LevelWork<Vec<f64>>>>,
 }
 
-/// The rank's [`CycleOps`].
+/// The rank's [`HostLevels`].
 struct RankLevels<'a> {
     shares: Vec<Share<'a>>,
     hierarchy: &'a RankHierarchy,
@@ -370,11 +368,11 @@ impl<'a> RankMultigrid<'a> {
             .collect();
         let c = &hierarchy.coarsest;
         let n = 3 * c.places.iter().map(Vec::len).sum::<usize>();
-        let levels = RankLevels {
+        let levels = OnHost(RankLevels {
             shares,
             hierarchy,
             coarse: RefCell::new((vec![0.0; n], c.factor.solve_scratch())),
-        };
+        });
         let work = RefCell::new(LevelWork::all(&levels));
         RankMultigrid { levels, work }
     }
@@ -401,9 +399,7 @@ impl<'a> RankLevels<'a> {
     }
 }
 
-impl CycleOps for RankLevels<'_> {
-    type Vector = Vec<f64>;
-
+impl HostLevels for RankLevels<'_> {
     fn num_levels(&self) -> usize {
         self.shares.len()
     }
@@ -412,60 +408,27 @@ impl CycleOps for RankLevels<'_> {
         self.shares[level].op.nrows()
     }
 
-    fn zeros(&self, n: usize) -> Vec<f64> {
-        vec![0.0; n]
+    fn smoother(&self, level: usize) -> &Chebyshev {
+        &self.hierarchy.smoothers[level]
     }
 
-    fn apply(&self, level: usize, x: &Vec<f64>, y: &mut Vec<f64>) {
+    fn apply(&self, level: usize, x: &[f64], y: &mut [f64]) {
         self.shares[level].apply(x, y);
     }
 
-    fn precondition(&self, level: usize, r: &Vec<f64>, z: &mut Vec<f64>) {
+    fn precondition(&self, level: usize, r: &[f64], z: &mut [f64]) {
         self.shares[level].precondition(&self.hierarchy.smoothers[level].pre, r, z);
     }
 
-    fn chebyshev(&self, level: usize) -> (f64, f64, usize) {
-        let s = &self.hierarchy.smoothers[level];
-        (s.lo, s.hi, s.degree)
-    }
-
-    fn chebyshev_update(
-        &self,
-        _level: usize,
-        _step: usize,
-        (a, c): (f64, f64),
-        z: &Vec<f64>,
-        d: &mut Vec<f64>,
-        x: &mut Vec<f64>,
-    ) {
-        chebyshev_update(a, c, z, d, x);
-    }
-
-    fn sub_assign(&self, _level: usize, r: &mut Vec<f64>, v: &Vec<f64>) {
-        sub_assign(r, v);
-    }
-
-    fn rsub_assign(&self, _level: usize, r: &mut Vec<f64>, b: &Vec<f64>) {
-        rsub_assign(r, b);
-    }
-
-    fn copy(&self, src: &Vec<f64>, dst: &mut Vec<f64>) {
-        dst.copy_from_slice(src);
-    }
-
-    fn fill_zero(&self, x: &mut Vec<f64>) {
-        x.fill(0.0);
-    }
-
     /// The fine residual's ghosts brought, the coarse ghost rows zeroed.
-    fn restrict(&self, level: usize, fine: &Vec<f64>, coarse: &mut Vec<f64>) {
+    fn restrict(&self, level: usize, fine: &[f64], coarse: &mut [f64]) {
         let transfer = self.transfer(level);
         self.shares[level].with_ghosts(fine, Reach::Window, |f| transfer.restrict(f, coarse));
         self.shares[level + 1].halo.zero_ghosts(coarse);
     }
 
     /// The coarse correction's ghosts brought, the fine ghost rows zeroed.
-    fn prolong_add(&self, level: usize, coarse: &Vec<f64>, fine: &mut Vec<f64>) {
+    fn prolong_add(&self, level: usize, coarse: &[f64], fine: &mut [f64]) {
         let transfer = self.transfer(level);
         self.shares[level + 1]
             .with_ghosts(coarse, Reach::Window, |c| transfer.prolong_add(c, fine));
@@ -474,7 +437,7 @@ impl CycleOps for RankLevels<'_> {
 
     /// Every rank's owned entries gathered into the whole level, solved on
     /// every rank, this rank's kept.
-    fn coarse_solve(&self, b: &Vec<f64>, x: &mut Vec<f64>) {
+    fn coarse_solve(&self, b: &[f64], x: &mut [f64]) {
         let c = &self.hierarchy.coarsest;
         let comm = self.shares[0].comm;
         let mine: Vec<f64> = c

@@ -23,6 +23,7 @@ use std::sync::Mutex;
 
 use faer::dyn_stack::MemBuffer;
 
+use super::smoother::Chebyshev;
 use super::smoother::{chebyshev_coefficients, chebyshev_update, rsub_assign, sub_assign};
 use super::Hierarchy;
 use crate::backend::{CpuBackend, LinearOperator};
@@ -162,7 +163,7 @@ fn smooth<O: CycleOps>(
 
 /// The V-cycle of a hierarchy over the solve's operator `fine`, on the CPU.
 pub struct Multigrid<'a> {
-    levels: CpuLevels<'a>,
+    levels: OnHost<CpuLevels<'a>>,
     work: Mutex<CpuWork>,
 }
 
@@ -174,7 +175,7 @@ struct CpuWork {
     x: Vec<f64>,
 }
 
-/// The CPU's [`CycleOps`]: the hierarchy's operators, smoothers, transfers
+/// The CPU's [`HostLevels`]: the hierarchy's operators, smoothers, transfers
 /// and Cholesky factor, with the factor's solve scratch.
 struct CpuLevels<'a> {
     fine: &'a ElasticOperator,
@@ -185,11 +186,11 @@ struct CpuLevels<'a> {
 impl<'a> Multigrid<'a> {
     /// The preconditioner of `fine` (the operator `hierarchy` was built for).
     pub fn new(fine: &'a ElasticOperator, hierarchy: &'a Hierarchy) -> Multigrid<'a> {
-        let levels = CpuLevels {
+        let levels = OnHost(CpuLevels {
             fine,
             hierarchy,
             direct: Mutex::new(hierarchy.direct.solve_scratch()),
-        };
+        });
         let n = fine.nrows();
         let work = Mutex::new(CpuWork {
             levels: LevelWork::all(&levels),
@@ -204,7 +205,7 @@ impl<'a> Multigrid<'a> {
     /// # Panics
     /// If `r` or `z` do not have the size of the operator.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
-        let n = self.levels.fine.nrows();
+        let n = self.levels.0.fine.nrows();
         assert!(r.len() == n && z.len() == n, "multigrid: vectors of {n}");
         let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
         let CpuWork { levels, b, x } = &mut *guard;
@@ -218,16 +219,14 @@ impl ApplyInverse<CpuBackend> for Multigrid<'_> {
     /// [`Multigrid::apply`] on whole vectors: the cycle runs on `r` and `z`
     /// themselves, without the copies a slice needs.
     fn apply_inverse(&self, r: &Vec<f64>, z: &mut Vec<f64>) {
-        let n = self.levels.fine.nrows();
+        let n = self.levels.0.fine.nrows();
         assert!(r.len() == n && z.len() == n, "multigrid: vectors of {n}");
         let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
         vcycle(&self.levels, 0, r, z, &mut guard.levels);
     }
 }
 
-impl CycleOps for CpuLevels<'_> {
-    type Vector = Vec<f64>;
-
+impl HostLevels for CpuLevels<'_> {
     fn num_levels(&self) -> usize {
         self.hierarchy.num_levels()
     }
@@ -236,20 +235,89 @@ impl CycleOps for CpuLevels<'_> {
         self.hierarchy.level(self.fine, level).nrows()
     }
 
+    fn smoother(&self, level: usize) -> &Chebyshev {
+        &self.hierarchy.smoothers[level]
+    }
+
+    fn apply(&self, level: usize, x: &[f64], y: &mut [f64]) {
+        self.hierarchy.level(self.fine, level).apply(x, y);
+    }
+
+    fn precondition(&self, level: usize, r: &[f64], z: &mut [f64]) {
+        self.hierarchy.smoothers[level].pre.apply(r, z);
+    }
+
+    fn restrict(&self, level: usize, fine: &[f64], coarse: &mut [f64]) {
+        self.hierarchy
+            .transfer(self.fine, level)
+            .restrict(fine, coarse);
+    }
+
+    fn prolong_add(&self, level: usize, coarse: &[f64], fine: &mut [f64]) {
+        self.hierarchy
+            .transfer(self.fine, level)
+            .prolong_add(coarse, fine);
+    }
+
+    fn coarse_solve(&self, b: &[f64], x: &mut [f64]) {
+        x.copy_from_slice(b);
+        let mut scratch = self.direct.lock().unwrap_or_else(|e| e.into_inner());
+        self.hierarchy.direct.solve_in_place_with(x, &mut scratch);
+    }
+}
+
+/// Levels whose vectors are host vectors: one process's hierarchy
+/// ([`Multigrid`]) or one rank's share of it
+/// (`crate::distributed::multigrid`). Their operators, smoothers'
+/// preconditioners, transfers and coarse solve differ; the cycle's vector
+/// steps are the host's, written once ([`OnHost`]).
+pub trait HostLevels {
+    /// Levels, the coarsest included.
+    fn num_levels(&self) -> usize;
+    /// Unknowns of `level`.
+    fn nrows(&self, level: usize) -> usize;
+    /// The smoother of `level` (all but the coarsest).
+    fn smoother(&self, level: usize) -> &Chebyshev;
+    /// `y = A_level x`.
+    fn apply(&self, level: usize, x: &[f64], y: &mut [f64]);
+    /// `z = B⁻¹ r` of the smoother of `level`.
+    fn precondition(&self, level: usize, r: &[f64], z: &mut [f64]);
+    /// `coarse = Pᵀ fine` from `level` to `level + 1`.
+    fn restrict(&self, level: usize, fine: &[f64], coarse: &mut [f64]);
+    /// `fine = fine + P coarse` from `level + 1` to `level`.
+    fn prolong_add(&self, level: usize, coarse: &[f64], fine: &mut [f64]);
+    /// `x = A⁻¹ b` on the coarsest level.
+    fn coarse_solve(&self, b: &[f64], x: &mut [f64]);
+}
+
+/// The [`CycleOps`] of host levels.
+pub struct OnHost<L>(pub L);
+
+impl<L: HostLevels> CycleOps for OnHost<L> {
+    type Vector = Vec<f64>;
+
+    fn num_levels(&self) -> usize {
+        self.0.num_levels()
+    }
+
+    fn nrows(&self, level: usize) -> usize {
+        self.0.nrows(level)
+    }
+
     fn zeros(&self, n: usize) -> Vec<f64> {
         vec![0.0; n]
     }
 
     fn apply(&self, level: usize, x: &Vec<f64>, y: &mut Vec<f64>) {
-        self.hierarchy.level(self.fine, level).apply(x, y);
+        self.0.apply(level, x, y);
     }
 
     fn precondition(&self, level: usize, r: &Vec<f64>, z: &mut Vec<f64>) {
-        self.hierarchy.smoothers[level].pre.apply(r, z);
+        self.0.precondition(level, r, z);
     }
 
     fn chebyshev(&self, level: usize) -> (f64, f64, usize) {
-        let s = &self.hierarchy.smoothers[level];
+        let s = self.0.smoother(level);
         (s.lo, s.hi, s.degree)
     }
 
@@ -282,20 +350,14 @@ impl CycleOps for CpuLevels<'_> {
     }
 
     fn restrict(&self, level: usize, fine: &Vec<f64>, coarse: &mut Vec<f64>) {
-        self.hierarchy
-            .transfer(self.fine, level)
-            .restrict(fine, coarse);
+        self.0.restrict(level, fine, coarse);
     }
 
     fn prolong_add(&self, level: usize, coarse: &Vec<f64>, fine: &mut Vec<f64>) {
-        self.hierarchy
-            .transfer(self.fine, level)
-            .prolong_add(coarse, fine);
+        self.0.prolong_add(level, coarse, fine);
     }
 
     fn coarse_solve(&self, b: &Vec<f64>, x: &mut Vec<f64>) {
-        x.copy_from_slice(b);
-        let mut scratch = self.direct.lock().unwrap_or_else(|e| e.into_inner());
-        self.hierarchy.direct.solve_in_place_with(x, &mut scratch);
+        self.0.coarse_solve(b, x);
     }
 }
