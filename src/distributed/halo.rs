@@ -28,6 +28,12 @@ pub struct Halo {
     /// Per neighbour: its rank and the ghosts it owns, in the order asked
     /// (near first), and how many are near.
     recvs: Vec<Exchange>,
+    /// The entries (three per node) of `sends` and `recvs`, neighbour after
+    /// neighbour, for each reach ([`Reach::Near`], [`Reach::Window`]).
+    sent: [Vec<usize>; 2],
+    received: [Vec<usize>; 2],
+    /// The entries of the ghosts.
+    ghost_entries: Vec<usize>,
 }
 
 /// One neighbour's share of a ghost exchange.
@@ -137,7 +143,7 @@ impl Halo {
             .map(|(&q, w)| (q, 1 + w[0] as usize))
             .collect();
         let asked = comm.exchange(&lists, &incoming);
-        let sends = incoming
+        let sends: Vec<Exchange> = incoming
             .iter()
             .zip(asked)
             .map(|(&(q, _), list)| {
@@ -156,7 +162,7 @@ impl Halo {
                 }
             })
             .collect();
-        let recvs = neighbours
+        let recvs: Vec<Exchange> = neighbours
             .iter()
             .filter(|&&q| !asks[q].is_empty())
             .map(|&q| Exchange {
@@ -165,7 +171,11 @@ impl Halo {
                 nodes: asks[q].iter().map(|&(_, a)| a).collect(),
             })
             .collect();
+        let reaches = [Reach::Near, Reach::Window];
         Halo {
+            sent: reaches.map(|r| entries_of(&sends, r)),
+            received: reaches.map(|r| entries_of(&recvs, r)),
+            ghost_entries: entries(&ghosts),
             owned,
             ghosts,
             sends,
@@ -191,40 +201,32 @@ impl Halo {
         comm: &dyn Comm,
         reach: Reach,
         read: impl FnOnce(&[usize]) -> Vec<f64>,
-    ) -> (Vec<usize>, Vec<f64>) {
-        let take = |e: &Exchange| match reach {
-            Reach::Near => e.near,
-            Reach::Window => e.nodes.len(),
-        };
-        let entries = |e: &Exchange| {
-            e.nodes[..take(e)]
-                .iter()
-                .flat_map(|&a| (0..3).map(move |c| 3 * a as usize + c))
-                .collect::<Vec<_>>()
-        };
-        let asked: Vec<usize> = self.sends.iter().flat_map(entries).collect();
-        let values = read(&asked);
+    ) -> (&[usize], Vec<f64>) {
+        let values = read(&self.sent[reach as usize]);
         let mut at = 0;
         let sends: Vec<(usize, Vec<f64>)> = self
             .sends
             .iter()
             .map(|e| {
-                let n = 3 * take(e);
+                let n = 3 * e.take(reach);
                 at += n;
                 (e.rank, values[at - n..at].to_vec())
             })
             .collect();
-        let recvs: Vec<(usize, usize)> = self.recvs.iter().map(|e| (e.rank, 3 * take(e))).collect();
+        let recvs: Vec<(usize, usize)> = self
+            .recvs
+            .iter()
+            .map(|e| (e.rank, 3 * e.take(reach)))
+            .collect();
         let got = comm.exchange(&sends, &recvs);
-        let ghosts = self.recvs.iter().flat_map(entries).collect();
-        (ghosts, got.concat())
+        (&self.received[reach as usize], got.concat())
     }
 
     /// Brings the ghost entries of `x` (three per node) that `reach` takes
     /// from their owners. Collective.
     pub fn fill_ghosts(&self, comm: &dyn Comm, x: &mut [f64], reach: Reach) {
         let (ghosts, values) = self.exchange(comm, reach, |i| i.iter().map(|&k| x[k]).collect());
-        for (k, v) in ghosts.into_iter().zip(values) {
+        for (&k, v) in ghosts.iter().zip(values) {
             x[k] = v;
         }
     }
@@ -238,7 +240,7 @@ impl Halo {
         reach: Reach,
     ) {
         let (ghosts, values) = self.exchange(comm, reach, |i| be.read_entries(x, i));
-        be.write_entries(&values, &ghosts, x);
+        be.write_entries(&values, ghosts, x);
     }
 
     /// Sets the ghost entries of `x` (three per node) to zero.
@@ -251,21 +253,13 @@ impl Halo {
 
     /// [`Halo::zero_ghosts`] on a vector of `be`.
     pub fn zero_ghosts_on<B: Backend>(&self, be: &B, x: &mut B::Vector) {
-        let entries: Vec<usize> = self
-            .ghosts
-            .iter()
-            .flat_map(|&a| (0..3).map(move |c| 3 * a as usize + c))
-            .collect();
-        be.write_entries(&vec![0.0; entries.len()], &entries, x);
+        let zeros = vec![0.0; self.ghost_entries.len()];
+        be.write_entries(&zeros, &self.ghost_entries, x);
     }
 
     /// Bytes one [`Halo::fill_ghosts`] of `reach` receives (f64 values).
     pub fn bytes_per_fill(&self, reach: Reach) -> usize {
-        let nodes = |e: &Exchange| match reach {
-            Reach::Near => e.near,
-            Reach::Window => e.nodes.len(),
-        };
-        self.recvs.iter().map(|e| 24 * nodes(e)).sum()
+        8 * self.received[reach as usize].len()
     }
 }
 
@@ -274,4 +268,30 @@ impl Halo {
 fn near_node(grid: &Grid, order: ElementOrder, node: usize, b: &CellBox) -> bool {
     let (p, l) = (order.degree(), lattice_ijk(grid, order, node));
     (0..3).all(|a| p * b.lo[a] <= l[a] && l[a] <= p * b.hi[a])
+}
+
+impl Exchange {
+    /// How many of its nodes `reach` takes.
+    fn take(&self, reach: Reach) -> usize {
+        match reach {
+            Reach::Near => self.near,
+            Reach::Window => self.nodes.len(),
+        }
+    }
+}
+
+/// The entries (three per node) of `nodes`.
+fn entries(nodes: &[u32]) -> Vec<usize> {
+    nodes
+        .iter()
+        .flat_map(|&a| (0..3).map(move |c| 3 * a as usize + c))
+        .collect()
+}
+
+/// The entries of the nodes `reach` takes of every exchange of `list`, one
+/// after the other.
+fn entries_of(list: &[Exchange], reach: Reach) -> Vec<usize> {
+    list.iter()
+        .flat_map(|e| entries(&e.nodes[..e.take(reach)]))
+        .collect()
 }
