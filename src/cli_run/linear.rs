@@ -272,19 +272,7 @@ pub fn run(
         report
             .timings
             .insert("solve".into(), t.elapsed().as_secs_f64());
-        report.timings.insert("krylov".into(), fp.krylov_seconds);
-        report
-            .timings
-            .insert("recovery".into(), fp.recovery_seconds);
-        if fp.recoveries > 0 {
-            let each = fp.recovery_seconds / fp.recoveries as f64;
-            report.timings.insert("recovery_each".into(), each);
-        }
-        if let Some((n, seconds)) = fp.v_cycles.filter(|&(n, _)| n > 0) {
-            report
-                .timings
-                .insert("v_cycle_each".into(), seconds / n as f64);
-        }
+        report.timings.extend(fp.timings());
         let so = &solver_spec;
         report.krylov = Some(Krylov::of(so, fp));
         report.fixed_point = Some(FixedPoint::of(so, fp));

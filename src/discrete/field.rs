@@ -90,6 +90,25 @@ impl CellField {
         self.at(values, &Shapes::at(self.order, xi, self.h))
     }
 
+    /// `u_h(x)` at a point `x` of the cell (the shape functions' values
+    /// only, not their gradients).
+    pub fn value(&self, x: [f64; 3]) -> [f64; 3] {
+        let xi = [0, 1, 2].map(|a| (x[a] - self.lo[a]) / self.h);
+        let values = match &self.pieces {
+            Some(p) => &p.1[p.0.piece_of(x)],
+            None => &self.values,
+        };
+        let mut n = [0.0; 27];
+        shape_values(self.order, xi, &mut n[..self.nodes_per_cell]);
+        let mut out = [0.0; 3];
+        for (na, va) in n[..self.nodes_per_cell].iter().zip(values) {
+            for (o, v) in out.iter_mut().zip(va) {
+                *o += na * v;
+            }
+        }
+        out
+    }
+
     /// `u_h` and `∇u_h` at point `q` of the rule that `table` tabulates,
     /// in this cell (not a split one: the rule's points are not known).
     pub fn at_tabulated(&self, table: &ShapeTable, q: usize) -> ([f64; 3], [[f64; 3]; 3]) {
@@ -121,6 +140,17 @@ impl CellField {
 pub struct ShapeTable(Vec<Shapes>);
 
 impl ShapeTable {
+    /// The shape functions' values at point `q` (`nodes_per_cell` of them
+    /// and zeros after).
+    pub fn values(&self, q: usize) -> &[f64; 27] {
+        &self.0[q].n
+    }
+
+    /// The shape functions' physical gradients at point `q`.
+    pub fn gradients(&self, q: usize) -> &[[f64; 3]; 27] {
+        &self.0[q].dn
+    }
+
     pub fn new(order: ElementOrder, rule: &[([f64; 3], f64)], h: f64) -> ShapeTable {
         ShapeTable(
             rule.iter()

@@ -134,15 +134,7 @@ fn run_into(
     };
     let solve_seconds = t.elapsed().as_secs_f64();
     report.timings.insert("solve".into(), solve_seconds);
-    report.timings.insert("krylov".into(), fp.krylov_seconds);
-    report
-        .timings
-        .insert("recovery".into(), fp.recovery_seconds);
-    if let Some((n, seconds)) = fp.v_cycles.filter(|&(n, _)| n > 0) {
-        report
-            .timings
-            .insert("v_cycle_each".into(), seconds / n as f64);
-    }
+    report.timings.extend(fp.timings());
     let mut spec = case.spec.solver.clone();
     if spec.preconditioner == Preconditioner::Auto {
         // `auto` is the V-cycle on the ranks' CPUs.

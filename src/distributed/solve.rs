@@ -209,6 +209,9 @@ pub fn solve_rank(
     let spec = &case.spec.solver;
     let opts = fixed_point_options(spec);
     let fixed = rs.fixed_rhs();
+    if !load.is_zero() {
+        report.plan_seconds = agree(comm, load.plan())?;
+    }
     let mut u = match spec.outer {
         _ if load.is_zero() => solve_once(&fixed, &mut *solver, &opts, report, progress)?,
         OuterMethod::Fgmres => fgmres_fixed_point(

@@ -60,9 +60,36 @@ pub struct FixedPointReport {
     /// The recoveries those seconds were spent on (the loop's, and the one
     /// of the reactions).
     pub recoveries: usize,
+    /// Seconds spent planning the recoveries' patch fits before the loop
+    /// ([`super::solve::RecoveredLoad::plan`]): not in `recovery_seconds`.
+    pub plan_seconds: f64,
     /// The multigrid V-cycles of the solves and their seconds, where the
     /// solver timed them ([`LinearSolver::v_cycles`]).
     pub v_cycles: Option<(usize, f64)>,
+}
+
+impl FixedPointReport {
+    /// The loop's timings for a report: `krylov`, `recovery`,
+    /// `recovery_plans` (when the fits were planned before the loop),
+    /// `recovery_each` (the mean of one recovery) and `v_cycle_each` (the
+    /// mean of one V-cycle, where the solver timed them), in seconds.
+    pub fn timings(&self) -> Vec<(String, f64)> {
+        let mut out = vec![
+            ("krylov".to_string(), self.krylov_seconds),
+            ("recovery".to_string(), self.recovery_seconds),
+        ];
+        if self.plan_seconds > 0.0 {
+            out.push(("recovery_plans".to_string(), self.plan_seconds));
+        }
+        if self.recoveries > 0 {
+            let each = self.recovery_seconds / self.recoveries as f64;
+            out.push(("recovery_each".to_string(), each));
+        }
+        if let Some((n, seconds)) = self.v_cycles.filter(|&(n, _)| n > 0) {
+            out.push(("v_cycle_each".to_string(), seconds / n as f64));
+        }
+        out
+    }
 }
 
 /// Runs the loop, solving with `solver` (any backend). `recovered(U)` returns

@@ -15,7 +15,10 @@ use crate::discrete::field::{stress_voigt, value_and_gradient, CellField, ShapeT
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::fem::rhs::DirichletPoint;
-use crate::recovery::{recover_around, recover_planned, FitPlans, Recovered, Sample, SprOptions};
+use crate::recovery::{
+    plan_fits, recover_around, recover_planned, FitPlans, InsideMoments, Monomials, PatchSamples,
+    Recovered, Sample, SprOptions,
+};
 
 /// The Q1 vertex nodes of the cells holding Dirichlet points and of the cells
 /// whose flux correction uses the recovered stress (the patches the traction
@@ -101,6 +104,27 @@ pub fn recover_stress(
     )
 }
 
+/// Makes the fit plans of [`recover_stress`] on `nodes` in `plans`, from
+/// the sample positions alone: a fit's patch, acceptance and factor do not
+/// depend on the values, so the samples are taken as zero.
+pub fn plan_stress(setup: &Setup, nodes: &[usize], plans: &OnceLock<FitPlans>) -> Result<()> {
+    let rule = tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis());
+    let zero = |cell: usize, out: &mut Vec<Sample<6>>| {
+        let mut xs = Vec::new();
+        sample_positions(setup, cell, &rule, &mut xs);
+        out.extend(xs.into_iter().map(|x| (x, [0.0; 6])));
+    };
+    plan_fits(
+        &setup.grid,
+        &setup.cells.kinds,
+        nodes,
+        setup.op.dofs.order.degree(),
+        &zero,
+        &stress_options(setup),
+        plans,
+    )
+}
+
 /// [`recover_stress`] on `nodes` without plans, taking the fits of the
 /// nodes that `known` (a stress recovery of the same `u`) holds from it.
 pub fn recover_stress_around(
@@ -120,30 +144,87 @@ pub fn recover_stress_around(
     )
 }
 
-/// The stress of `u` at the [`sample_positions`] of a cell.
-fn stress_samples<'a>(
+/// The stress of `u` at the [`sample_positions`] of a cell, and an inside
+/// cell's moments as one product with its nodal values.
+struct StressSamples<'a> {
     setup: &'a Setup,
     u: &'a [f64],
-) -> impl Fn(usize, &mut Vec<Sample<6>>) + Sync + 'a {
+    rule: Vec<([f64; 3], f64)>,
+    /// An inside cell's samples are the rule's points: their shape
+    /// functions are the same in every inside cell.
+    table: ShapeTable,
+    inside: InsideMoments,
+}
+
+/// [`StressSamples`] of `u`.
+fn stress_samples<'a>(setup: &'a Setup, u: &'a [f64]) -> StressSamples<'a> {
     let (lambda, mu) = (setup.problem.lambda, setup.problem.mu);
     let order = setup.op.dofs.order;
     let rule = tensor_gauss_rule(order.gauss_points_per_axis());
-    // An inside cell's samples are the rule's points: their shape functions
-    // are the same in every inside cell.
     let table = ShapeTable::new(order, &rule, setup.grid.h);
-    move |cell: usize, out: &mut Vec<Sample<6>>| {
+    let xi: Vec<[f64; 3]> = rule.iter().map(|(x, _)| *x).collect();
+    // The stress of the unit nodal value `k = 3a + i` at point `q`.
+    let unit = |q: usize, c: usize, k: usize| {
+        let mut g = [[0.0; 3]; 3];
+        g[k % 3] = table.gradients(q)[k / 3];
+        stress_voigt(&g, lambda, mu)[c]
+    };
+    let cols = 3 * order.nodes_per_cell();
+    let inside = InsideMoments::new(order.degree(), &xi, 6, cols, unit);
+    StressSamples {
+        setup,
+        u,
+        rule,
+        table,
+        inside,
+    }
+}
+
+impl PatchSamples<6> for StressSamples<'_> {
+    fn samples(&self, cell: usize, out: &mut Vec<Sample<6>>) {
+        let (lambda, mu) = (self.setup.problem.lambda, self.setup.problem.mu);
         let mut xs = Vec::new();
-        sample_positions(setup, cell, &rule, &mut xs);
-        let field = CellField::new(&setup.grid, &setup.op.dofs, u, cell);
-        let inside = setup.cells.kinds[cell] == CellKind::Inside;
+        sample_positions(self.setup, cell, &self.rule, &mut xs);
+        let field = CellField::new(&self.setup.grid, &self.setup.op.dofs, self.u, cell);
+        let inside = self.setup.cells.kinds[cell] == CellKind::Inside;
         out.extend(xs.into_iter().enumerate().map(|(q, x)| {
             let (_, g) = match inside {
-                true => field.at_tabulated(&table, q),
+                true => field.at_tabulated(&self.table, q),
                 false => field.value_and_gradient(x),
             };
             (x, stress_voigt(&g, lambda, mu))
         }));
     }
+
+    fn moments(&self, cell: usize, basis: &Monomials, out: &mut [f64]) -> bool {
+        inside_moments(self.setup, self.u, cell, &self.inside, basis, out)
+    }
+}
+
+/// An inside cell's moments `M u_cell` ([`InsideMoments`]) of the field
+/// `u`; `false` for any other cell.
+pub(super) fn inside_moments(
+    setup: &Setup,
+    u: &[f64],
+    cell: usize,
+    inside: &InsideMoments,
+    basis: &Monomials,
+    out: &mut [f64],
+) -> bool {
+    if setup.cells.kinds[cell] != CellKind::Inside {
+        return false;
+    }
+    let npc = setup.op.dofs.order.nodes_per_cell();
+    let mut nodes = [0usize; 27];
+    setup
+        .op
+        .dofs
+        .cell_active_nodes(&setup.grid, cell, &mut nodes[..npc]);
+    let mut values = [0.0; 81];
+    for (v, &node) in values.chunks_exact_mut(3).zip(&nodes[..npc]) {
+        v.copy_from_slice(&u[3 * node..3 * node + 3]);
+    }
+    inside.moments(basis, &values[..3 * npc], out)
 }
 
 /// The stress recovery's options: patches keep to their node's piece.
@@ -198,4 +279,56 @@ pub fn reactions(setup: &Setup, u: &[f64], t_hat: &[[f64; 3]]) -> Vec<[f64; 3]> 
             [0, 1, 2].map(|i| t[i] - k * p.mask[i] * (v[i] - p.g[i]))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::case::Case;
+
+    /// An inside cell's stress moments from its nodal values equal the
+    /// moments of its stress samples, on the paper's sphere at level 3.
+    #[test]
+    fn inside_stress_moments_equal_the_moments_of_the_samples() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sphere.toml");
+        let case = Case::from_file(&path).unwrap();
+        let setup = Setup::new(&case, Some(3)).unwrap();
+        let u: Vec<f64> = (0..setup.op.dofs.ndofs())
+            .map(|k| (0.37 * k as f64).sin())
+            .collect();
+        let samples = stress_samples(&setup, &u);
+        let basis = Monomials::new(1);
+        let (mut got, mut want) = (vec![0.0; 24], vec![0.0; 24]);
+        let (mut buf, mut phi) = (Vec::new(), vec![0.0; 4]);
+        let inside =
+            (0..setup.grid.num_cells()).filter(|&c| setup.cells.kinds[c] == CellKind::Inside);
+        let mut checked = 0;
+        for cell in inside {
+            assert!(samples.moments(cell, &basis, &mut got));
+            buf.clear();
+            samples.samples(cell, &mut buf);
+            want.fill(0.0);
+            let b = setup.grid.cell_box(cell);
+            let centre = [0, 1, 2].map(|a| 0.5 * (b.lo[a] + b.hi[a]));
+            for (x, v) in &buf {
+                basis.values(
+                    [0, 1, 2].map(|a| (x[a] - centre[a]) / setup.grid.h),
+                    &mut phi,
+                );
+                for (j, p) in phi.iter().enumerate() {
+                    for c in 0..6 {
+                        want[j * 6 + c] += p * v[c];
+                    }
+                }
+            }
+            let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (a, b) in want.iter().zip(&got) {
+                assert!((a - b).abs() <= 1e-12 * scale, "cell {cell}: {a} {b}");
+            }
+            checked += 1;
+        }
+        assert!(checked > 0);
+        let cut = setup.cells.cut[0];
+        assert!(!samples.moments(cut, &basis, &mut got));
+    }
 }

@@ -8,10 +8,12 @@ use std::sync::OnceLock;
 use super::fixed_point::{fixed_point_with_progress, FixedPointOptions, FixedPointReport};
 use super::linear::{CpuSolver, LinearSolver};
 use super::outer_krylov::fgmres_fixed_point;
-use super::recovery::{reactions, recover_stress, recovered_tractions, traction_patch_nodes};
+use super::recovery::{
+    plan_stress, reactions, recover_stress, recovered_tractions, traction_patch_nodes,
+};
 use super::setup::Setup;
 use super::share::{CellShare, Whole};
-use super::stabilisation::{recover_displacement, s_rhs};
+use super::stabilisation::{plan_displacement, recover_displacement, s_rhs};
 use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
 use crate::exact::ExactSum;
@@ -121,6 +123,7 @@ pub fn solve_with_progress(
         // Nothing is recovered into the right-hand side: one solve is the answer.
         solve_once(&setup.fixed_rhs, solver, &opts, report, progress)?
     } else {
+        report.plan_seconds = load.plan()?;
         match spec.outer {
             OuterMethod::Fgmres => fgmres_fixed_point(
                 solver,
@@ -227,10 +230,9 @@ impl<'a> RecoveredLoad<'a> {
         let setup = self.setup;
         let sigma = recover_stress(setup, u, &self.nodes, Some(&self.stress_plans))?;
         let t_hat = recovered_tractions(&setup.dirichlet, &sigma)?;
-        let extra =
-            setup
-                .flux
-                .dirichlet_densities(&setup.grid, &setup.cells, &sigma, &setup.dirichlet)?;
+        let extra = setup
+            .flux
+            .dirichlet_densities(&setup.cells, &sigma, &setup.dirichlet)?;
         let mut reactions = reactions(setup, u, &t_hat);
         for (r, e) in reactions.iter_mut().zip(&extra) {
             for k in 0..3 {
@@ -242,6 +244,24 @@ impl<'a> RecoveredLoad<'a> {
             reactions,
             stress: sigma,
         })
+    }
+
+    /// Plans the patch fits of the loop's recoveries (the stress's and,
+    /// with the S-term, the displacement's) from their sample positions, so
+    /// that every recovery of the loop solves its fits from the cells'
+    /// moments ([`crate::recovery::recover_planned`]); returns the seconds
+    /// it took. The plans depend on the geometry and the loads only: this is
+    /// the set-up of the recoveries, done once before the loop.
+    pub fn plan(&self) -> Result<f64> {
+        let t = std::time::Instant::now();
+        let setup = self.setup;
+        if self.held {
+            plan_stress(setup, &self.nodes, &self.stress_plans)?;
+        }
+        if self.stabilised {
+            plan_displacement(setup, &setup.omega_star, &self.displacement_plans)?;
+        }
+        Ok(t.elapsed().as_secs_f64())
     }
 
     /// Whether nothing is recovered into the right-hand side (no Dirichlet

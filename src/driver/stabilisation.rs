@@ -26,21 +26,20 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::recovery::{sample_positions, vertex_nodes_of};
+use super::recovery::{inside_moments, sample_positions, vertex_nodes_of};
 use super::setup::Setup;
 use super::share::CellShare;
-use crate::discrete::field::CellField;
+use crate::discrete::field::{CellField, ShapeTable};
 use crate::element::reference::vector_mass;
 use crate::element::{tensor_gauss_rule, ElementOrder};
 use crate::error::Result;
 use crate::exact::ExactSum;
 use crate::fem::problem::Boundary;
-use crate::fem::rhs::add_point_load;
 use crate::fem::rigid_resultant::RigidFit;
 use crate::quadrature::saye::SurfacePoint;
 use crate::recovery::{
-    recover_planned, FitPlans, LinearConstraints, Monomials, Patch, PatchSamples, Recovered,
-    Sample, SprOptions,
+    plan_fits, recover_planned, BlendTable, FitPlans, InsideMoments, LinearConstraints, Monomials,
+    Patch, PatchSamples, Recovered, Sample, SprOptions,
 };
 
 /// `K_S` of one cell, row-major: `(k2 E / h²) h³ M_ref`.
@@ -62,6 +61,9 @@ struct DisplacementSamples<'a, F> {
     setup: &'a Setup,
     on_cell: F,
     rule: Vec<([f64; 3], f64)>,
+    /// The nodal values of the field when `on_cell` evaluates `u_h`: an
+    /// inside cell's moments are then one product with them.
+    nodal: Option<(&'a [f64], InsideMoments)>,
 }
 
 impl<F, G> PatchSamples<3> for DisplacementSamples<'_, F>
@@ -74,6 +76,13 @@ where
         sample_positions(self.setup, cell, &self.rule, &mut xs);
         let value = (self.on_cell)(cell);
         out.extend(xs.into_iter().map(|x| (x, value(x))));
+    }
+
+    fn moments(&self, cell: usize, basis: &Monomials, out: &mut [f64]) -> bool {
+        match &self.nodal {
+            Some((u, inside)) => inside_moments(self.setup, u, cell, inside, basis, out),
+            None => false,
+        }
     }
 
     /// `h² (∇·σ(û))(x_node) = −h² b(x_node)`: three rows on the stacked
@@ -201,9 +210,12 @@ pub fn recover_displacement(
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
     let on_cell = |cell| {
         let field = CellField::new(grid, dofs, u, cell);
-        move |x| field.value_and_gradient(x).0
+        move |x| field.value(x)
     };
-    recover_displacement_of(setup, omega_star, on_cell, plans)
+    let (nodes, samples, degree) = displacement_fits(setup, omega_star, on_cell, Some(u));
+    let opts = displacement_options(setup);
+    let kinds = &setup.cells.kinds;
+    recover_planned(grid, kinds, &nodes, degree, &samples, &opts, plans)
 }
 
 /// The displacement recovery `S` of any field at the SPR sample points of
@@ -220,25 +232,63 @@ where
     F: Fn(usize) -> G + Sync,
     G: Fn([f64; 3]) -> [f64; 3],
 {
-    let nodes = vertex_nodes_of(setup, omega_star);
+    let (nodes, samples, degree) = displacement_fits(setup, omega_star, on_cell, None);
+    let opts = displacement_options(setup);
+    let (grid, kinds) = (&setup.grid, &setup.cells.kinds);
+    recover_planned(grid, kinds, &nodes, degree, &samples, &opts, plans)
+}
+
+/// Makes the fit plans of [`recover_displacement`] on Ω* in `plans`, from
+/// the sample positions and the constraints alone.
+pub fn plan_displacement(
+    setup: &Setup,
+    omega_star: &[usize],
+    plans: &OnceLock<FitPlans>,
+) -> Result<()> {
+    let zero = |_| |_| [0.0; 3];
+    let (nodes, samples, degree) = displacement_fits(setup, omega_star, zero, None);
+    let opts = displacement_options(setup);
+    let (grid, kinds) = (&setup.grid, &setup.cells.kinds);
+    plan_fits(grid, kinds, &nodes, degree, &samples, &opts, plans)
+}
+
+/// The nodes, samples and degree of the displacement fits on Ω*; `nodal`:
+/// the field's nodal values when `on_cell` evaluates `u_h`.
+fn displacement_fits<'a, F>(
+    setup: &'a Setup,
+    omega_star: &[usize],
+    on_cell: F,
+    nodal: Option<&'a [f64]>,
+) -> (Vec<usize>, DisplacementSamples<'a, F>, usize) {
+    let order = setup.op.dofs.order;
+    let rule = tensor_gauss_rule(order.gauss_points_per_axis());
+    let degree = order.degree() + 1;
+    let nodal = nodal.map(|u| {
+        let shapes = ShapeTable::new(order, &rule, setup.grid.h);
+        let xi: Vec<[f64; 3]> = rule.iter().map(|(x, _)| *x).collect();
+        // Component `c` of the unit nodal value `k = 3a + i` at point `q`.
+        let unit = |q: usize, c: usize, k: usize| match k % 3 == c {
+            true => shapes.values(q)[k / 3],
+            false => 0.0,
+        };
+        let cols = 3 * order.nodes_per_cell();
+        (u, InsideMoments::new(degree, &xi, 3, cols, unit))
+    });
     let samples = DisplacementSamples {
         setup,
         on_cell,
-        rule: tensor_gauss_rule(setup.op.dofs.order.gauss_points_per_axis()),
+        rule,
+        nodal,
     };
-    let degree = setup.op.dofs.order.degree() + 1;
-    recover_planned(
-        &setup.grid,
-        &setup.cells.kinds,
-        &nodes,
-        degree,
-        &samples,
-        &SprOptions {
-            pieces: Some(&setup.pieces.of_cell),
-            ..SprOptions::default()
-        },
-        plans,
-    )
+    (vertex_nodes_of(setup, omega_star), samples, degree)
+}
+
+/// The displacement fits' options: patches keep to their node's piece.
+fn displacement_options(setup: &Setup) -> SprOptions<'_> {
+    SprOptions {
+        pieces: Some(&setup.pieces.of_cell),
+        ..SprOptions::default()
+    }
 }
 
 /// `F_S = (k2 E / h²) Σ_{c ∈ Ω*} ∫_c Nᵀ (S + R a) dV`, Gauss rule of one
@@ -260,29 +310,34 @@ pub fn s_rhs(
     let (grid, dofs) = (&setup.grid, &setup.op.dofs);
     let rule = tensor_gauss_rule(dofs.order.gauss_points_per_axis() + 1);
     let vol = grid.h.powi(3);
+    let nq = rule.len();
+    // The rule's points are the same in every cell: the blend of `S` and
+    // the shape functions are tabulated there once (Ω* holds no split cell).
+    let xis: Vec<[f64; 3]> = rule.iter().map(|(xi, _)| *xi).collect();
+    let table = BlendTable::new(s.basis(), &xis);
+    let shapes = ShapeTable::new(dofs.order, &rule, grid.h);
+    let npc = dofs.order.nodes_per_cell();
     // One projection per piece of the body: the pieces share no node, so
     // each must be balanced on its own.
     let of_cell = &setup.pieces.of_cell;
     let mut fits = piece_fits(setup, omega_star, share);
-    let mut values = Vec::with_capacity(omega_star.len() * rule.len());
-    let mut points = Vec::with_capacity(rule.len());
-    for &c in omega_star {
-        let fit = &mut fits[of_cell[c] as usize];
-        let lo = grid.cell_box(c).lo;
-        let blend = s.cell_blend(c)?;
-        let field = CellField::new(grid, dofs, u, c);
-        let counted = share.counts(c);
-        points.clear();
-        for (xi, w) in &rule {
-            let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-            let sx = blend.eval(x);
-            if counted {
-                let ux = field.value_and_gradient(x).0;
-                points.push((x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a])));
-            }
-            values.push((c, x, w * vol, sx));
+    // `S` at each cell's points, by component (`[c · nq + q]`).
+    let mut blended = vec![0.0; omega_star.len() * 3 * nq];
+    let mut points = Vec::with_capacity(nq);
+    for (&c, sx) in omega_star.iter().zip(blended.chunks_exact_mut(3 * nq)) {
+        s.blend_at_table(c, &table, sx)?;
+        if !share.counts(c) {
+            continue;
         }
-        fit.add_cell(&points);
+        let lo = grid.cell_box(c).lo;
+        let field = CellField::new(grid, dofs, u, c);
+        points.clear();
+        for (q, (xi, w)) in rule.iter().enumerate() {
+            let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
+            let ux = field.at_tabulated(&shapes, q).0;
+            points.push((x, w * vol, [0, 1, 2].map(|a| ux[a] - sx[a * nq + q])));
+        }
+        fits[of_cell[c] as usize].add_cell(&points);
     }
     let mut sums: Vec<ExactSum> = fits.iter().flat_map(|f| f.sums().to_vec()).collect();
     share.sum_exact(&mut sums);
@@ -294,11 +349,27 @@ pub fn s_rhs(
         false => vec![[0.0; 6]; fits.len()],
     };
     let mut rhs = vec![0.0; dofs.ndofs()];
-    for &(c, x, w, sx) in &values {
+    let mut nodes = [0usize; 27];
+    for (&c, sx) in omega_star.iter().zip(blended.chunks_exact(3 * nq)) {
         let piece = of_cell[c] as usize;
-        let r = fits[piece].value(x, &a[piece]);
-        let v = [0, 1, 2].map(|k| (sx[k] + r[k]) * factor * w);
-        add_point_load(grid, dofs, c, x, v, &mut rhs);
+        let lo = grid.cell_box(c).lo;
+        let mut fe = [[0.0; 3]; 27];
+        for (q, (xi, w)) in rule.iter().enumerate() {
+            let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
+            let r = fits[piece].value(x, &a[piece]);
+            let v = [0, 1, 2].map(|k| (sx[k * nq + q] + r[k]) * factor * w * vol);
+            for (f, n) in fe.iter_mut().zip(&shapes.values(q)[..npc]) {
+                for k in 0..3 {
+                    f[k] += n * v[k];
+                }
+            }
+        }
+        dofs.cell_active_nodes(grid, c, &mut nodes[..npc]);
+        for (f, &node) in fe.iter().zip(&nodes[..npc]) {
+            for k in 0..3 {
+                rhs[3 * node + k] += f[k];
+            }
+        }
     }
     Ok(rhs)
 }

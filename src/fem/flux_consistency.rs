@@ -84,11 +84,11 @@ use super::rhs::{
 use crate::cells::split::Split;
 use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
 use crate::discrete::dofs::DofMap;
-use crate::element::ElementOrder;
+use crate::element::{shape_values, ElementOrder};
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
-use crate::recovery::Recovered;
+use crate::recovery::{BlendTable, Recovered};
 
 /// The flux defects of the cut cells and the share of each load source.
 #[derive(Clone, Debug)]
@@ -262,9 +262,7 @@ impl FluxCorrection {
         for (r, d) in defect.iter().enumerate() {
             let xi = [r % n, (r / n) % n, r / (n * n)].map(|a| self.points[a]);
             let x = [0, 1, 2].map(|a| lo[a] + grid.h * xi[a]);
-            let t = tau(x)?;
-            let f = [0, 1, 2].map(|c| factor * (0..3).map(|j| d[j] * t[c][j]).sum::<f64>());
-            sink(x, f);
+            sink(x, defect_load(factor, d, &tau(x)?));
         }
         Ok(())
     }
@@ -338,15 +336,70 @@ impl FluxCorrection {
             .filter(|&i| dofs.split.cell(cells.cut[i]).is_none())
             .collect();
         let cell_of = |i: usize| cells.cut[i];
+        let table = self.blend_table(sigma);
+        let shapes = self.fitting_shapes(dofs.order);
+        let npc = dofs.order.nodes_per_cell();
         let element = per_item(|i, fe| {
-            let c = cells.cut[i];
-            let blend = sigma.cell_blend(c)?;
-            let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
-            let mut sink = |x, f| add_element_point_load(grid, dofs.order, c, x, f, fe);
-            self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)
+            let mut tau = vec![0.0; 6 * self.nq];
+            sigma.blend_at_table(cells.cut[i], &table, &mut tau)?;
+            let factor = self.recovered_share[i];
+            for (r, (d, n)) in self
+                .defect(i)
+                .iter()
+                .zip(shapes.chunks_exact(npc))
+                .enumerate()
+            {
+                let f = defect_load(factor, d, &self.stress_at(&tau, r));
+                for (a, na) in n.iter().enumerate() {
+                    for k in 0..3 {
+                        fe[3 * a + k] += na * f[k];
+                    }
+                }
+            }
+            Ok(())
         });
         add_cell_loads(grid, dofs, &recovered, &cell_of, rhs, element)
     }
+
+    /// The fitting points in the cell's reference coordinates, `r` in
+    /// [`FluxCorrection::for_each_load`]'s order.
+    fn reference_points(&self) -> Vec<[f64; 3]> {
+        let n = self.points.len();
+        (0..self.nq)
+            .map(|r| [r % n, (r / n) % n, r / (n * n)].map(|a| self.points[a]))
+            .collect()
+    }
+
+    /// The stress tensor at fitting point `r` of blended Voigt values
+    /// `tau[c · nq + r]` ([`Recovered::blend_at_table`]).
+    fn stress_at(&self, tau: &[f64], r: usize) -> [[f64; 3]; 3] {
+        voigt_matrix(&std::array::from_fn(|c| tau[c * self.nq + r]))
+    }
+
+    /// The recovered stress's blend at the fitting points.
+    fn blend_table(&self, sigma: &Recovered<6>) -> BlendTable {
+        BlendTable::new(sigma.basis(), &self.reference_points())
+    }
+
+    /// The shape functions of `order` at the fitting points, `nodes_per_cell`
+    /// per point.
+    fn fitting_shapes(&self, order: ElementOrder) -> Vec<f64> {
+        let npc = order.nodes_per_cell();
+        let mut out = vec![0.0; self.nq * npc];
+        for (xi, n) in self
+            .reference_points()
+            .iter()
+            .zip(out.chunks_exact_mut(npc))
+        {
+            shape_values(order, *xi, n);
+        }
+        out
+    }
+}
+
+/// The point load `f_i = factor Σ_j D_j τ_ij` of one fitting point.
+fn defect_load(factor: f64, d: &[f64; 3], t: &[[f64; 3]; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|c| factor * (0..3).map(|j| d[j] * t[c][j]).sum::<f64>())
 }
 
 impl FluxCorrection {
@@ -359,7 +412,6 @@ impl FluxCorrection {
     /// correction stays a load on the free boundary.
     pub fn dirichlet_densities(
         &self,
-        grid: &Grid,
         cells: &Cells,
         sigma: &Recovered<6>,
         dirichlet: &[DirichletPoint],
@@ -370,16 +422,19 @@ impl FluxCorrection {
             (0..3).for_each(|k| a[k] += p.w * p.mask[k]);
         }
         let mut density: HashMap<usize, [f64; 3]> = HashMap::new();
+        let table = self.blend_table(sigma);
+        let mut tau = vec![0.0; 6 * self.nq];
         for i in self.recovered_cells() {
             let c = cells.cut[i];
             let Some(&a) = area.get(&c) else {
                 continue;
             };
             let mut force = [0.0; 3];
-            let blend = sigma.cell_blend(c)?;
-            let mut tau = |x: [f64; 3]| Ok(voigt_matrix(&blend.eval(x)));
-            let mut sink = |_, f: [f64; 3]| (0..3).for_each(|k| force[k] += f[k]);
-            self.for_each_load(grid, cells, i, self.recovered_share[i], &mut tau, &mut sink)?;
+            sigma.blend_at_table(c, &table, &mut tau)?;
+            for (r, d) in self.defect(i).iter().enumerate() {
+                let f = defect_load(self.recovered_share[i], d, &self.stress_at(&tau, r));
+                (0..3).for_each(|k| force[k] += f[k]);
+            }
             let d = [0, 1, 2].map(|k| if a[k] > 0.0 { force[k] / a[k] } else { 0.0 });
             density.insert(c, d);
         }

@@ -39,11 +39,18 @@
 //! refinement on the residual computed from the samples,
 //! `Aᵀ(B − A b) − Cᵀλ` and `d − C b`, rather than from `AᵀA`: this brings the
 //! error of the normal equations, `~cond(A)²·ε`, down to that of a QR solve,
-//! `~cond(A)·ε`, so that degree-p data are reproduced to round-off.
+//! `~cond(A)·ε`, so that degree-p data are reproduced to round-off. (A
+//! plan's later fits solve once from the moments where that is as accurate,
+//! [`FitFactor::solves_from_moments`].)
+//!
+//! *Acceptance, decided.* `λ ≥ τ^p` is decided by a Cholesky factorisation
+//! of the whitened normal matrix less `τ^p I`, which exists exactly when its
+//! smallest eigenvalue exceeds `τ^p`; the eigenvalue itself is computed only
+//! for a rejected fit's message.
 
 use std::fmt;
 
-use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use nalgebra::{DMatrix, DMatrixViewMut, DVector, SymmetricEigen};
 
 use super::kkt::{design_matrix, values_matrix, Design, Kkt};
 use super::{Monomials, Sample};
@@ -156,15 +163,76 @@ pub fn fit_and_factor<const NC: usize>(
     constraints: Option<&LinearConstraints>,
     opts: &FitOptions,
 ) -> Result<(Vec<f64>, FitFactor), FitFailure> {
-    let points: Vec<[f64; 3]> = samples.iter().map(|(x, _)| *x).collect();
-    let (factor, design_matrix) = FitFactor::prepare(basis, &points, NC, constraints, opts)?;
+    check_count(basis, samples.len(), opts)?;
+    let centroid = centroid(samples.iter().map(|(x, _)| *x), samples.len());
     let design = Design {
-        a: design_matrix,
+        a: design_matrix(basis, centroid, samples.iter().map(|(x, _)| *x)),
         b: values_matrix(samples),
     };
+    let normal = design.a.tr_mul(&design.a);
+    let factor = FitFactor::prepare(
+        basis,
+        centroid,
+        normal,
+        samples.len(),
+        NC,
+        constraints,
+        opts,
+    )?;
     let a = factor.solve(design)?;
     Ok((a, factor))
 }
+
+/// The [`FitFactor`] of a fit of `nc` components at the scaled `points`,
+/// without a fit: what a plan keeps ([`super::plan`]). Its normal matrix
+/// comes from one pass over the points, without the design matrix.
+pub fn plan_factor(
+    basis: &Monomials,
+    points: &[[f64; 3]],
+    nc: usize,
+    constraints: Option<&LinearConstraints>,
+    opts: &FitOptions,
+) -> Result<FitFactor, FitFailure> {
+    check_count(basis, points.len(), opts)?;
+    let centroid = centroid(points.iter().copied(), points.len());
+    let normal = normal_matrix(basis, centroid, points.iter().copied());
+    FitFactor::prepare(basis, centroid, normal, points.len(), nc, constraints, opts)
+}
+
+/// [`FitFailure::TooFewPoints`] when `n` points cannot fit `basis`.
+fn check_count(basis: &Monomials, n: usize, opts: &FitOptions) -> Result<(), FitFailure> {
+    let need = (opts.min_sample_ratio * basis.len() as f64).ceil() as usize;
+    match n < need {
+        true => Err(FitFailure::TooFewPoints { have: n, need }),
+        false => Ok(()),
+    }
+}
+
+/// `AᵀA` of the sample points in the centred coordinates `ζ = ξ − ξ̄`,
+/// each point's basis values evaluated once and the symmetric half summed.
+fn normal_matrix(
+    basis: &Monomials,
+    centroid: [f64; 3],
+    points: impl Iterator<Item = [f64; 3]>,
+) -> DMatrix<f64> {
+    let nb = basis.len();
+    let mut upper = vec![0.0; nb * nb];
+    let mut phi = [0.0; MAX_TERMS];
+    let phi = &mut phi[..nb];
+    for x in points {
+        basis.values([0, 1, 2].map(|k| x[k] - centroid[k]), phi);
+        for (i, &pi) in phi.iter().enumerate() {
+            let row = &mut upper[i * nb..(i + 1) * nb];
+            for (r, &pj) in row[i..].iter_mut().zip(&phi[i..]) {
+                *r += pi * pj;
+            }
+        }
+    }
+    DMatrix::from_fn(nb, nb, |i, j| upper[i.min(j) * nb + i.max(j)])
+}
+
+/// The largest basis [`normal_matrix`] takes (degree 3).
+const MAX_TERMS: usize = 20;
 
 /// The half of a patch fit that depends on the sample points and the
 /// constraints only, never on the values: the points' centroid, the shift
@@ -182,39 +250,27 @@ pub struct FitFactor {
 }
 
 impl FitFactor {
-    /// Checks and factors the fit of `nc` components at `points` (scaled);
-    /// returns the factor and the design matrix in the centred coordinates.
+    /// Checks and factors the fit of `nc` components with the normal matrix
+    /// `normal = AᵀA` of `n` samples in the coordinates centred at
+    /// `centroid`.
     fn prepare(
         basis: &Monomials,
-        points: &[[f64; 3]],
+        centroid: [f64; 3],
+        normal: DMatrix<f64>,
+        n: usize,
         nc: usize,
         constraints: Option<&LinearConstraints>,
         opts: &FitOptions,
-    ) -> Result<(FitFactor, DMatrix<f64>), FitFailure> {
+    ) -> Result<FitFactor, FitFailure> {
         let nb = basis.len();
-        let need = (opts.min_sample_ratio * nb as f64).ceil() as usize;
-        if points.len() < need {
-            return Err(FitFailure::TooFewPoints {
-                have: points.len(),
-                need,
-            });
-        }
         if let Some(k) = constraints {
             check_shape(k, nc * nb)?;
         }
-        let centroid = centroid(points);
         let shift = basis.translation(centroid);
-        let a = design_matrix(basis, centroid, points.iter().copied());
-        let mut m = a.tr_mul(&a);
-        let lambda = stability(
-            &m,
-            points.len(),
-            &(shift.transpose() * box_gram(basis) * &shift),
-        );
         let min = opts.stability.powi(basis.degree().max(1) as i32);
-        if lambda.is_nan() || lambda < min {
-            return Err(FitFailure::Unstable { lambda, min });
-        }
+        let gram = shift.transpose() * basis.box_gram() * &shift;
+        stable(&normal, n, &gram, min)?;
+        let mut m = normal;
         let s = equilibrate(&mut m);
         let eigenvalues = m.symmetric_eigenvalues();
         let condition = eigenvalues.max() / eigenvalues.min();
@@ -223,13 +279,12 @@ impl FitFactor {
             d: k.d.clone(),
         });
         let kkt = Kkt::new(&m, &s, nc, constraints.as_ref())?;
-        let factor = FitFactor {
+        Ok(FitFactor {
             condition,
             centroid,
             shift,
             kkt,
-        };
-        Ok((factor, a))
+        })
     }
 
     /// The centroid `ξ̄` of the sample points, the origin of the centred
@@ -281,13 +336,33 @@ impl FitFactor {
     /// # Panics
     /// When `nc` is not the factor's number of components.
     pub(super) fn fit_moments(&self, atb: &[f64], nc: usize) -> Result<Vec<f64>, FitFailure> {
-        assert_eq!(
-            nc * self.shift.nrows(),
-            self.kkt.c.ncols(),
-            "components of a fit factor"
-        );
-        let x = self.kkt.solve(&self.kkt.rhs_from_moments(atb, nc));
-        self.in_node_basis(&x, nc)
+        let mut a = vec![0.0; nc * self.shift.nrows()];
+        self.fit_moments_into(atb, nc, &mut a)?;
+        Ok(a)
+    }
+
+    /// [`FitFactor::fit_moments`] into `out` (`nc · n_b` coefficients). An
+    /// unconstrained fit solves the components as the columns of one
+    /// `n_b × nc` right-hand side in place.
+    ///
+    /// # Panics
+    /// When `nc` is not the factor's number of components.
+    pub(super) fn fit_moments_into(
+        &self,
+        atb: &[f64],
+        nc: usize,
+        out: &mut [f64],
+    ) -> Result<(), FitFailure> {
+        let nb = self.shift.nrows();
+        assert_eq!(nc * nb, self.kkt.c.ncols(), "components of a fit factor");
+        if self.kkt.c.nrows() > 0 {
+            let x = self.kkt.solve(&self.kkt.rhs_from_moments(atb, nc));
+            return self.in_node_basis(x.as_slice(), nc, out);
+        }
+        let s = &self.kkt.s;
+        let mut y = DMatrix::from_fn(nb, nc, |j, c| s[j] * atb[j * nc + c]);
+        self.kkt.solve_normal_in_place(&mut y);
+        self.in_node_basis(y.as_slice(), nc, out)
     }
 
     /// The constrained least-squares solve with iterative refinement, mapped
@@ -304,35 +379,39 @@ impl FitFactor {
         }
         // A near-singular KKT matrix (dependent or inconsistent rows) shows up
         // as a residual far above round-off (the normal matrix alone is
-        // checked by `stability` in `prepare`).
+        // checked by `stable` in `prepare`).
         if kkt.c.nrows() > 0 {
             let res = kkt.residual(&design, &x).amax();
             if res.is_nan() || res > 1e-9 * (1.0 + rhs) {
                 return Err(FitFailure::Singular);
             }
         }
-        self.in_node_basis(&x, nc)
+        let mut a = vec![0.0; nc * self.shift.nrows()];
+        self.in_node_basis(x.as_slice(), nc, &mut a)?;
+        Ok(a)
     }
 
     /// The node-basis coefficients `a = T S x` of the solution `x` of the
-    /// equilibrated system (component `c`, term `j` at `c·n_b + j`).
-    fn in_node_basis(&self, x: &DVector<f64>, nc: usize) -> Result<Vec<f64>, FitFailure> {
+    /// equilibrated system (component `c`, term `j` at `c·n_b + j`, in `x`
+    /// and in `out`).
+    fn in_node_basis(&self, x: &[f64], nc: usize, out: &mut [f64]) -> Result<(), FitFailure> {
         let nb = self.shift.nrows();
         let centred = DMatrix::from_fn(nb, nc, |j, c| self.kkt.s[j] * x[c * nb + j]);
-        let a = (&self.shift * centred).as_slice().to_vec();
-        if a.iter().any(|v| !v.is_finite()) {
+        let mut a = DMatrixViewMut::from_slice(out, nb, nc);
+        a.gemm(1.0, &self.shift, &centred, 0.0);
+        if out.iter().any(|v| !v.is_finite()) {
             return Err(FitFailure::NonFinite);
         }
-        Ok(a)
+        Ok(())
     }
 }
 
-/// The centroid `ξ̄` of the sample points.
-fn centroid(points: &[[f64; 3]]) -> [f64; 3] {
+/// The centroid `ξ̄` of the `n` sample points.
+fn centroid(points: impl Iterator<Item = [f64; 3]>, n: usize) -> [f64; 3] {
     let mut c = [0.0; 3];
     for x in points {
         for k in 0..3 {
-            c[k] += x[k] / points.len() as f64;
+            c[k] += x[k] / n as f64;
         }
     }
     c
@@ -372,41 +451,31 @@ fn equilibrate(m: &mut DMatrix<f64>) -> Vec<f64> {
     s
 }
 
-/// `λ = λ_min(L⁻¹ (M/n) L⁻ᵀ)` for the normal matrix `M` of `n` samples and the
-/// Gram matrix `G = L Lᵀ` of the box, both in the same basis (≤ 0 when the
-/// cloud does not determine the polynomial).
-fn stability(m: &DMatrix<f64>, n: usize, gram: &DMatrix<f64>) -> f64 {
+/// Whether the cloud of `n` samples with normal matrix `M` controls the
+/// polynomial on the box: `λ = λ_min(L⁻¹ (M/n) L⁻ᵀ) ≥ min`, with the Gram
+/// matrix `G = L Lᵀ` of the box in the same basis. Decided by a Cholesky
+/// factorisation of `L⁻¹ (M/n) L⁻ᵀ − min I` (it exists exactly when every
+/// eigenvalue exceeds `min`); `λ` itself is computed only for the error.
+fn stable(m: &DMatrix<f64>, n: usize, gram: &DMatrix<f64>, min: f64) -> Result<(), FitFailure> {
     let l = gram
         .clone()
         .cholesky()
         .expect("a Gram matrix of independent monomials is positive definite")
         .l();
     let scaled = m / n as f64;
-    let Some(half) = l.solve_lower_triangular(&scaled) else {
-        return 0.0;
+    let whitened = l.solve_lower_triangular(&scaled).and_then(|half| {
+        let w = l.solve_lower_triangular(&half.transpose())?;
+        Some((&w + w.transpose()) * 0.5)
+    });
+    let Some(w) = whitened else {
+        return Err(FitFailure::Unstable { lambda: 0.0, min });
     };
-    let Some(w) = l.solve_lower_triangular(&half.transpose()) else {
-        return 0.0;
-    };
-    SymmetricEigen::new((&w + w.transpose()) * 0.5)
-        .eigenvalues
-        .min()
-}
-
-/// `G_ef = ∫ φ_e φ_f dμ` for the uniform probability `μ` on `[−1, 1]³`: per
-/// axis the moment of `t^k` is `1/(k+1)` for even `k`, 0 for odd `k`.
-fn box_gram(basis: &Monomials) -> DMatrix<f64> {
-    let e = basis.exponents();
-    let moment = |k: usize| {
-        if k.is_multiple_of(2) {
-            1.0 / (k + 1) as f64
-        } else {
-            0.0
-        }
-    };
-    DMatrix::from_fn(e.len(), e.len(), |a, b| {
-        (0..3).map(|k| moment(e[a][k] + e[b][k])).product()
-    })
+    let shifted = &w - DMatrix::identity(w.nrows(), w.ncols()) * min;
+    if shifted.cholesky().is_some() {
+        return Ok(());
+    }
+    let lambda = SymmetricEigen::new(w).eigenvalues.min();
+    Err(FitFailure::Unstable { lambda, min })
 }
 
 /// Checks that `k` has `n` columns and one right-hand side per row.

@@ -154,17 +154,32 @@ impl Kkt {
         res
     }
 
-    /// The correction `K⁻¹ r`.
+    /// `Y ← M̃⁻¹ Y` for the columns of `y` (`n_b × NC`): the solve of an
+    /// unconstrained fit, one column per component.
+    pub(super) fn solve_normal_in_place(&self, y: &mut DMatrix<f64>) {
+        self.normal.solve_mut(y);
+    }
+
+    /// The correction `K⁻¹ r`, by the Schur complement (struct doc), the
+    /// component blocks solved in place as the columns of `n_b × NC`
+    /// matrices.
     pub(super) fn solve(&self, r: &DVector<f64>) -> DVector<f64> {
         let (n, rows) = (self.c.ncols(), self.c.nrows());
-        let y = block_solve(&self.normal, &r.rows(0, n).into_owned());
+        let nb = self.s.len();
+        let mut out = r.clone();
+        self.normal
+            .solve_mut(&mut out.rows_mut(0, n).reshape_generic(Dyn(nb), Dyn(n / nb)));
         let Some(schur) = &self.schur else {
-            return y;
+            return out;
         };
-        let lambda = schur.solve(&(&self.c * &y - r.rows(n, rows)));
-        let x = y - block_solve(&self.normal, &self.c.tr_mul(&lambda));
-        let mut out = DVector::zeros(n + rows);
-        out.rows_mut(0, n).copy_from(&x);
+        let mut lambda = &self.c * out.rows(0, n) - r.rows(n, rows);
+        schur.solve_mut(&mut lambda);
+        let mut w = self.c.tr_mul(&lambda);
+        self.normal
+            .solve_mut(&mut w.rows_mut(0, n).reshape_generic(Dyn(nb), Dyn(n / nb)));
+        for i in 0..n {
+            out[i] -= w[i];
+        }
         out.rows_mut(n, rows).copy_from(&lambda);
         out
     }

@@ -30,6 +30,7 @@
 //! it is defined on the whole cell box, also outside Ω (polynomial extension).
 
 mod fit;
+mod inside;
 mod kkt;
 mod mirror;
 #[cfg(test)]
@@ -48,9 +49,10 @@ mod tests;
 use nalgebra::DMatrix;
 
 pub use fit::{fit_polynomial, FitFactor, FitFailure, FitOptions, LinearConstraints};
+pub use inside::InsideMoments;
 pub use mirror::Mirror;
-pub use plan::{recover_planned, FitPlans};
-pub use recovered::{CellBlend, Recovered};
+pub use plan::{plan_fits, recover_planned, FitPlans};
+pub use recovered::{BlendTable, CellBlend, Recovered};
 pub use spr::{recover, recover_around, Patch, PatchInfo, PatchSamples, RecoveryStats, SprOptions};
 
 /// A sample: a point (physical, or scaled for [`fit_polynomial`]) and the `NC`
@@ -66,10 +68,12 @@ pub const MAX_DEGREE: usize = 8;
 ///
 /// Terms are graded: by total degree, then lexicographically with higher powers
 /// of `ξ` first, then of `η` (p = 2: `1, ξ, η, ζ, ξ², ξη, ξζ, η², ηζ, ζ²`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Monomials {
     degree: usize,
     exponents: Vec<[usize; 3]>,
+    /// The Gram matrix of the terms on the box ([`Monomials::box_gram`]).
+    gram: DMatrix<f64>,
     /// The terms of a change of origin ([`Monomials::for_each_shift`]):
     /// `(e, f, Π_k C(e_k, f_k), e − f)` for every pair `f ≤ e`.
     shifts: Vec<(usize, usize, u32, [usize; 3])>,
@@ -102,11 +106,19 @@ impl Monomials {
                 }
             }
         }
+        let gram = box_gram(&exponents);
         Monomials {
             degree,
             exponents,
+            gram,
             shifts,
         }
+    }
+
+    /// `G_ef = ∫ φ_e φ_f dμ` for the uniform probability `μ` on `[−1, 1]³`,
+    /// the reference of a fit's stability ([`FitOptions`]).
+    pub fn box_gram(&self) -> &DMatrix<f64> {
+        &self.gram
     }
 
     pub fn degree(&self) -> usize {
@@ -205,4 +217,19 @@ impl Monomials {
 /// `C(n, k)` as a float.
 fn binomial(n: usize, k: usize) -> f64 {
     (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}
+
+/// `G_ef = ∫ φ_e φ_f dμ` for the uniform probability `μ` on `[−1, 1]³`: per
+/// axis the moment of `t^k` is `1/(k+1)` for even `k`, 0 for odd `k`.
+fn box_gram(e: &[[usize; 3]]) -> DMatrix<f64> {
+    let moment = |k: usize| {
+        if k.is_multiple_of(2) {
+            1.0 / (k + 1) as f64
+        } else {
+            0.0
+        }
+    };
+    DMatrix::from_fn(e.len(), e.len(), |a, b| {
+        (0..3).map(|k| moment(e[a][k] + e[b][k])).product()
+    })
 }

@@ -44,13 +44,14 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
     let basis = Monomials::new(plans.degree);
     let stride = basis.len() * NC;
     let cells = cell_data(grid, &basis, samples, plans);
-    let fits: Vec<Option<Vec<f64>>> = plans
-        .plans
-        .par_iter()
+    let mut coeffs = vec![0.0; nodes.len() * stride];
+    let solved = coeffs
+        .par_chunks_mut(stride)
+        .zip(&plans.plans)
         .zip(&nodes)
         .map_init(
             || (vec![0.0; stride], vec![0.0; stride], Vec::new()),
-            |(atb, mirrored, buf), (plan, &node)| {
+            |(atb, mirrored, buf), ((out, plan), &node)| {
                 let centre = grid.node_position(ElementOrder::Q1, node);
                 if !plan.factor.solves_from_moments() {
                     buf.clear();
@@ -60,7 +61,9 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
                             (scaled(centre, grid.h, x), v)
                         }));
                     }
-                    return plan.factor.fit(&basis, buf).ok();
+                    let fit = plan.factor.fit(&basis, buf).ok()?;
+                    out.copy_from_slice(&fit);
+                    return Some(());
                 }
                 atb.fill(0.0);
                 let centroid = plan.factor.centroid();
@@ -79,13 +82,12 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
                         }
                     });
                 }
-                plan.factor.fit_moments(atb, NC).ok()
+                plan.factor.fit_moments_into(atb, NC, out).ok()
             },
         )
-        .collect();
-    let mut coeffs = Vec::with_capacity(nodes.len() * stride);
-    for fit in fits {
-        coeffs.extend(fit?);
+        .all(|fit| fit.is_some());
+    if !solved {
+        return None;
     }
     Some(Recovered {
         grid: grid.clone(),
@@ -134,6 +136,9 @@ fn cell_data<const NC: usize, S: PatchSamples<NC>>(
         .for_each_init(
             || (Vec::new(), vec![0.0; basis.len()]),
             |(buf, phi), (((m, kept), &cell), &keep)| {
+                if !keep && samples.moments(cell, basis, m) {
+                    return;
+                }
                 buf.clear();
                 samples.samples(cell, buf);
                 let centre = cell_centre(grid, cell);

@@ -59,6 +59,28 @@ impl FitPlans {
     }
 }
 
+/// Makes the plans of a recovery on `nodes` in `plans` (a later
+/// [`recover_planned`] with the same nodes, degree, sample positions and
+/// constraints reuses them) without fitting: only the samples' positions
+/// and the constraints are read. Nothing is done when `plans` holds plans.
+pub fn plan_fits<const NC: usize, S: PatchSamples<NC>>(
+    grid: &Grid,
+    kinds: &[CellKind],
+    nodes: &[usize],
+    degree: usize,
+    samples: &S,
+    opts: &SprOptions,
+    plans: &OnceLock<FitPlans>,
+) -> Result<()> {
+    if plans.get().is_some() {
+        return Ok(());
+    }
+    let plan = Planning::PlanOnly;
+    let (_, kept) = recover_with(grid, kinds, nodes, degree, samples, opts, plan, None)?;
+    let _ = plans.set(FitPlans::new(degree, NC, kept));
+    Ok(())
+}
+
 /// [`super::recover`], reusing the plans in `plans` when it holds them (from
 /// an earlier call with the same nodes, degree, sample positions and
 /// constraints), and otherwise searching every patch's ring and leaving the

@@ -143,6 +143,72 @@ impl<const NC: usize> Recovered<NC> {
     }
 }
 
+/// The CPE blend's weights at fixed points of a cell, the same in every
+/// cell: `N_i^lin(ξ_r) φ_e(ξ_r − o_i)` for each vertex `i` (local offset
+/// `o_i`), term `e` and point `r` (reference coordinates `ξ_r ∈ [0, 1]³`),
+/// so that [`Recovered::blend_at_table`] needs neither the vertices'
+/// polynomials moved to the cell nor the basis at each point.
+pub struct BlendTable {
+    terms: usize,
+    points: usize,
+    /// `[i][e][r]`: per vertex and term, the weights of all points.
+    weights: Vec<f64>,
+}
+
+impl BlendTable {
+    /// The table of `basis` at the reference points `points`.
+    pub fn new(basis: &Monomials, points: &[[f64; 3]]) -> BlendTable {
+        let (nb, np) = (basis.len(), points.len());
+        let mut weights = vec![0.0; 8 * nb * np];
+        let mut hat = [0.0; 8];
+        let mut phi = vec![0.0; nb];
+        for (r, xi) in points.iter().enumerate() {
+            shape_values(ElementOrder::Q1, *xi, &mut hat);
+            for (i, h) in hat.iter().enumerate() {
+                let o = [i & 1, (i >> 1) & 1, i >> 2].map(|b| b as f64);
+                basis.values([0, 1, 2].map(|k| xi[k] - o[k]), &mut phi);
+                for (e, p) in phi.iter().enumerate() {
+                    weights[(i * nb + e) * np + r] = h * p;
+                }
+            }
+        }
+        BlendTable {
+            terms: nb,
+            points: np,
+            weights,
+        }
+    }
+}
+
+impl<const NC: usize> Recovered<NC> {
+    /// The CPE blend `σ̂` of `cell` at the points of `table` (made with this
+    /// field's basis), into `out` by component: `out[c · n_p + r]`. Error
+    /// [`Error::Recovery`] when a vertex of the cell was not recovered.
+    ///
+    /// # Panics
+    /// When `cell` is not a cell of the grid, or `table` is of another basis,
+    /// or `out` does not hold `NC · n_p` values.
+    pub fn blend_at_table(&self, cell: usize, table: &BlendTable, out: &mut [f64]) -> Result<()> {
+        let (nb, np) = (self.basis.len(), table.points);
+        assert_eq!(table.terms, nb, "a blend table of another basis");
+        assert_eq!(out.len(), NC * np, "blend values of every point");
+        let mut vertices = [0; 8];
+        self.grid.cell_nodes(ElementOrder::Q1, cell, &mut vertices);
+        out.fill(0.0);
+        for (i, &node) in vertices.iter().enumerate() {
+            let a = self.coefficients(node)?;
+            for e in 0..nb {
+                let w = &table.weights[(i * nb + e) * np..(i * nb + e + 1) * np];
+                for (c, o) in out.chunks_exact_mut(np).enumerate() {
+                    let ace = a[c * nb + e];
+                    o.iter_mut().zip(w).for_each(|(o, w)| *o += ace * w);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The CPE blend on one cell: its 8 vertices' polynomials in the cell's
 /// scaled coordinates `ξ = (x − lo)/h` ([`Recovered::cell_blend`]).
 pub struct CellBlend<'a, const NC: usize> {

@@ -9,7 +9,9 @@
 
 use rayon::prelude::*;
 
-use super::fit::{fit_and_factor, FitFactor, FitFailure, FitOptions, LinearConstraints};
+use super::fit::{
+    fit_and_factor, plan_factor, FitFactor, FitFailure, FitOptions, LinearConstraints,
+};
 use super::mirror::{reflect_sample, ring_cells, Mirror, PatchCell};
 use super::recovered::Recovered;
 use super::regular::{is_regular, RegularFit};
@@ -33,6 +35,15 @@ pub trait PatchSamples<const NC: usize>: Sync {
     /// [`Patch::scaled`]); none by default. Asked again for every ring tried.
     fn constraints(&self, _patch: &Patch<'_>, _basis: &Monomials) -> Option<LinearConstraints> {
         None
+    }
+
+    /// The moments `Σ_s φ_j(ξ_c(x_s)) v_{s,c}` of `cell`'s samples about
+    /// the cell's centre (`ξ_c = (x − x_c)/h`), into `out` (`n_b · NC`, term
+    /// `j`, component `c` at `j·NC + c`), where they can be had without the
+    /// samples ([`super::InsideMoments`]); `false` (the default, nothing
+    /// written) otherwise.
+    fn moments(&self, _cell: usize, _basis: &Monomials, _out: &mut [f64]) -> bool {
+        false
     }
 
     /// The field value `value` seen in the mirror across a plane normal to
@@ -183,6 +194,9 @@ pub(super) enum Planning {
     /// Search, and return each accepted fit's plan (one per distinct node,
     /// ascending).
     SearchAndKeep,
+    /// [`Planning::SearchAndKeep`] without the fits: the plans only, the
+    /// coefficients left zero (the samples' values are not read).
+    PlanOnly,
 }
 
 /// The recovery of [`recover`], [`recover_around`] and
@@ -204,7 +218,7 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
     let mut nodes = nodes.to_vec();
     nodes.sort_unstable();
     nodes.dedup();
-    let keep = matches!(planning, Planning::SearchAndKeep);
+    let keep = matches!(planning, Planning::SearchAndKeep | Planning::PlanOnly);
     let num_nodes = grid.num_nodes(ElementOrder::Q1);
     if let Some(&node) = nodes.iter().find(|&&n| n >= num_nodes) {
         return Err(Error::Recovery {
@@ -227,6 +241,7 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
             Mirror::none()
         },
         keep,
+        fits: !matches!(planning, Planning::PlanOnly),
     };
     let stride = NC * basis.len();
     let mut coeffs = vec![0.0; nodes.len() * stride];
@@ -280,7 +295,9 @@ pub(super) fn recover_with<const NC: usize, S: PatchSamples<NC>>(
             |(buf, cache), (((c, i), &node), _)| {
                 let fit = ctx.fit_node(node, buf, cache);
                 fit.map(|fit| {
-                    c.copy_from_slice(&fit.coefficients);
+                    if !fit.coefficients.is_empty() {
+                        c.copy_from_slice(&fit.coefficients);
+                    }
                     *i = fit.info;
                     fit.plan
                 })
@@ -311,6 +328,7 @@ pub(super) struct NodePlan {
 
 /// What [`Context::fit_node`] returns.
 struct NodeFit {
+    /// Empty for [`Planning::PlanOnly`].
     coefficients: Vec<f64>,
     info: PatchInfo,
     /// The accepted fit, when the recovery keeps them.
@@ -329,6 +347,8 @@ struct Context<'a, S> {
     mirror: Mirror,
     /// Whether each fit returns its [`NodePlan`] ([`Planning::SearchAndKeep`]).
     keep: bool,
+    /// Whether the fits are solved (not for [`Planning::PlanOnly`]).
+    fits: bool,
 }
 
 impl<S> Context<'_, S> {
@@ -421,6 +441,7 @@ impl<S> Context<'_, S> {
         let center = self.grid.node_position(ElementOrder::Q1, node);
         let vertex = node_ijk(self.grid, node);
         let (mut patch_cells, mut cells) = (Vec::new(), Vec::new());
+        let mut points = Vec::new();
         let mut piece: Option<Option<u32>> = None;
         buf.clear();
         let mut failure = None;
@@ -459,7 +480,16 @@ impl<S> Context<'_, S> {
                 cells: &cells,
             };
             let constraints = self.samples.constraints(&patch, self.basis);
-            let fitted = fit_and_factor(self.basis, buf, constraints.as_ref(), &self.opts.fit);
+            let (basis, fit) = (self.basis, &self.opts.fit);
+            let fitted = match self.fits {
+                true => fit_and_factor(basis, buf, constraints.as_ref(), fit),
+                false => {
+                    points.clear();
+                    points.extend(buf.iter().map(|(x, _)| *x));
+                    plan_factor(basis, &points, NC, constraints.as_ref(), fit)
+                        .map(|factor| (Vec::new(), factor))
+                }
+            };
             match fitted {
                 Ok((coefficients, factor)) => {
                     let info = PatchInfo {

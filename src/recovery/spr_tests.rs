@@ -451,3 +451,63 @@ fn patch_constraints_reach_the_fit() {
     }
     assert!(moved > 1e-6, "the free fits already matched: {moved:e}");
 }
+
+/// Plans made from the sample positions alone ([`plan_fits`], zero values)
+/// are those a searched recovery keeps, and a recovery from them equals the
+/// searched one to round-off.
+#[test]
+fn plans_from_positions_alone_equal_the_searched_ones() {
+    let (grid, cells) = sphere(4, 1.0, 0.9, ElementOrder::Q1);
+    let nodes = vertices(&grid, &cells, |k| k == CellKind::Cut);
+    let opts = SprOptions::default();
+    let zero = analytic(&grid, &cells, 2, |_| [0.0; 2]);
+    let plans = OnceLock::new();
+    plan_fits(&grid, &cells.kinds, &nodes, 1, &zero, &opts, &plans).unwrap();
+    let field = analytic(&grid, &cells, 2, smooth);
+    let plain = recover(&grid, &cells.kinds, &nodes, 1, &field, &opts).unwrap();
+    assert_eq!(plans.get().unwrap().rings(), plain.rings());
+    let planned =
+        recover_planned(&grid, &cells.kinds, &nodes, 1, &field, &opts, Some(&plans)).unwrap();
+    for &node in plain.nodes() {
+        assert_close(
+            plain.coefficients(node).unwrap(),
+            planned.coefficients(node).unwrap(),
+        );
+    }
+}
+
+/// The blend tabulated at fixed points of a cell ([`BlendTable`]) equals the
+/// cell's blend evaluated there, on cut and inside cells.
+#[test]
+fn a_tabulated_blend_equals_the_cell_blend() {
+    let (grid, cells) = sphere(3, 1.0, 0.9, ElementOrder::Q1);
+    let nodes = vertices(&grid, &cells, |k| k != CellKind::Outside);
+    let field = analytic(&grid, &cells, 2, smooth);
+    let rec = recover(
+        &grid,
+        &cells.kinds,
+        &nodes,
+        1,
+        &field,
+        &SprOptions::default(),
+    )
+    .unwrap();
+    let points = [
+        [0.1, 0.5, 0.9],
+        [0.0, 0.0, 0.0],
+        [1.0, 0.3, 0.7],
+        [0.62, 0.21, 0.44],
+    ];
+    let table = BlendTable::new(rec.basis(), &points);
+    let mut tabulated = [0.0; 2 * 4];
+    for c in (0..grid.num_cells()).filter(|&c| cells.kinds[c] != CellKind::Outside) {
+        rec.blend_at_table(c, &table, &mut tabulated).unwrap();
+        let blend = rec.cell_blend(c).unwrap();
+        let lo = grid.cell_box(c).lo;
+        for (r, xi) in points.iter().enumerate() {
+            let want = blend.eval([0, 1, 2].map(|a| lo[a] + grid.h * xi[a]));
+            let got = [tabulated[r], tabulated[4 + r]];
+            assert_close(&want, &got);
+        }
+    }
+}

@@ -185,3 +185,39 @@ fn bad_constraints_are_reported() {
         Err(FitFailure::Singular)
     );
 }
+
+/// An inside cell's moments as one product with its nodal values
+/// ([`InsideMoments`]) equal the moments of its samples: a trilinear field
+/// at the 2³ Gauss points, about the cell's centre.
+#[test]
+fn inside_moments_equal_the_moments_of_the_samples() {
+    use crate::element::{shape_values, tensor_gauss_rule, ElementOrder};
+    let rule = tensor_gauss_rule(2);
+    let xi: Vec<[f64; 3]> = rule.iter().map(|(x, _)| *x).collect();
+    let shape = |q: usize, a: usize| {
+        let mut n = [0.0; 8];
+        shape_values(ElementOrder::Q1, xi[q], &mut n);
+        n[a]
+    };
+    let unit = |q: usize, c: usize, k: usize| if k % 3 == c { shape(q, k / 3) } else { 0.0 };
+    let inside = InsideMoments::new(2, &xi, 3, 24, unit);
+    let u: Vec<f64> = (0..24).map(|k| (0.7 * k as f64).sin()).collect();
+    let basis = Monomials::new(2);
+    let mut got = vec![0.0; basis.len() * 3];
+    assert!(inside.moments(&basis, &u, &mut got));
+    let mut want = vec![0.0; basis.len() * 3];
+    let mut phi = vec![0.0; basis.len()];
+    for (q, x) in xi.iter().enumerate() {
+        basis.values(x.map(|v| v - 0.5), &mut phi);
+        for c in 0..3 {
+            let v: f64 = (0..8).map(|a| shape(q, a) * u[3 * a + c]).sum();
+            for (j, p) in phi.iter().enumerate() {
+                want[j * 3 + c] += p * v;
+            }
+        }
+    }
+    for (a, b) in want.iter().zip(&got) {
+        assert!((a - b).abs() <= 1e-14, "{a} {b}");
+    }
+    assert!(!inside.moments(&Monomials::new(1), &u, &mut got[..12]));
+}
