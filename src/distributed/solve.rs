@@ -12,16 +12,14 @@ use super::halo::Reach;
 use super::multigrid::RankMultigrid;
 use super::RankSetup;
 use crate::backend::{Backend, CpuBackend, LinearOperator};
-use crate::case::physics::OuterMethod;
 use crate::case::Case;
 use crate::comm::agree;
 use crate::comm::Comm;
 use crate::discrete::field::{error_sums, ErrorNorms};
-use crate::driver::fixed_point::{fixed_point_with_progress, FixedPointReport};
+use crate::driver::fixed_point::FixedPointReport;
 use crate::driver::linear::LinearSolver;
-use crate::driver::outer_krylov::fgmres_fixed_point;
 use crate::driver::share::CellShare;
-use crate::driver::solve::{fixed_point_options, reactions_by_tag, solve_once, RecoveredLoad};
+use crate::driver::solve::{outer_solve, reactions_by_tag, RecoveredLoad};
 use crate::error::Result;
 use crate::exact::ExactSum;
 use crate::grid::{CellBox, Grid};
@@ -206,32 +204,22 @@ pub fn solve_rank(
         rs.halo.zero_ghosts(&mut f);
         Ok(f)
     };
-    let spec = &case.spec.solver;
-    let opts = fixed_point_options(spec);
     let fixed = rs.fixed_rhs();
-    if !load.is_zero() {
-        report.plan_seconds = agree(comm, load.plan())?;
-    }
-    let mut u = match spec.outer {
-        _ if load.is_zero() => solve_once(&fixed, &mut *solver, &opts, report, progress)?,
-        OuterMethod::Fgmres => fgmres_fixed_point(
-            &mut *solver,
-            &RankOperator::new(rs, comm),
-            &fixed,
-            &mut recovered,
-            &opts,
-            report,
-            progress,
-        )?,
-        OuterMethod::Picard => fixed_point_with_progress(
-            &mut *solver,
-            &fixed,
-            &mut recovered,
-            &opts,
-            report,
-            progress,
-        )?,
-    };
+    let plan = || agree(comm, load.plan());
+    let plan = (!load.is_zero()).then_some(&plan as &dyn Fn() -> Result<f64>);
+    let op = RankOperator::new(rs, comm);
+    let spec = &case.spec.solver;
+    let solver = &mut *solver;
+    let mut u = outer_solve(
+        plan,
+        solver,
+        &op,
+        &fixed,
+        &mut recovered,
+        spec,
+        report,
+        progress,
+    )?;
     report.v_cycles = solver.v_cycles();
     rs.halo.fill_ghosts(comm, &mut u, Reach::Window);
     let tags = case.body().geometry.tag_names().len();

@@ -14,6 +14,7 @@ use super::recovery::{
 use super::setup::Setup;
 use super::share::{CellShare, Whole};
 use super::stabilisation::{plan_displacement, recover_displacement, s_rhs};
+use crate::backend::LinearOperator;
 use crate::case::physics::{OuterMethod, SolverSpec};
 use crate::error::{Error, Result};
 use crate::exact::ExactSum;
@@ -118,32 +119,19 @@ pub fn solve_with_progress(
     setup.check_held()?;
     let load = RecoveredLoad::new(setup);
     let mut traction_load = |u: &[f64]| load.at(u);
-    let opts = fixed_point_options(spec);
-    let u = if load.is_zero() {
-        // Nothing is recovered into the right-hand side: one solve is the answer.
-        solve_once(&setup.fixed_rhs, solver, &opts, report, progress)?
-    } else {
-        report.plan_seconds = load.plan()?;
-        match spec.outer {
-            OuterMethod::Fgmres => fgmres_fixed_point(
-                solver,
-                &setup.op,
-                &setup.fixed_rhs,
-                &mut traction_load,
-                &opts,
-                report,
-                progress,
-            )?,
-            OuterMethod::Picard => fixed_point_with_progress(
-                solver,
-                &setup.fixed_rhs,
-                &mut traction_load,
-                &opts,
-                report,
-                progress,
-            )?,
-        }
-    };
+    let plan = || load.plan();
+    let plan = (!load.is_zero()).then_some(&plan as &dyn Fn() -> Result<f64>);
+    let (op, fixed) = (&setup.op, &setup.fixed_rhs);
+    let u = outer_solve(
+        plan,
+        solver,
+        op,
+        fixed,
+        &mut traction_load,
+        spec,
+        report,
+        progress,
+    )?;
     let _span = tracing::info_span!("recovery").entered();
     let t = std::time::Instant::now();
     progress.event(&Event::Start {
@@ -172,6 +160,37 @@ pub fn solve_with_progress(
         reactions,
         stress,
     })
+}
+
+/// Solves `A U = F + R(U)` (`fixed` is `F`, `recovered(U)` is `R(U)`) by
+/// the case's outer method, after planning the recoveries' fits
+/// (`plan`, [`RecoveredLoad::plan`]: its seconds go to the report); `plan`
+/// `None`: nothing is recovered, and one solve is the answer. `op` is `A`
+/// on the host, for the outer FGMRES.
+#[allow(clippy::too_many_arguments)]
+pub fn outer_solve(
+    plan: Option<&dyn Fn() -> Result<f64>>,
+    solver: &mut dyn LinearSolver,
+    op: &dyn LinearOperator,
+    fixed: &[f64],
+    recovered: &mut dyn FnMut(&[f64]) -> Result<Vec<f64>>,
+    spec: &SolverSpec,
+    report: &mut FixedPointReport,
+    progress: &dyn Progress,
+) -> Result<Vec<f64>> {
+    let opts = fixed_point_options(spec);
+    let Some(plan) = plan else {
+        return solve_once(fixed, solver, &opts, report, progress);
+    };
+    report.plan_seconds = plan()?;
+    match spec.outer {
+        OuterMethod::Fgmres => {
+            fgmres_fixed_point(solver, op, fixed, recovered, &opts, report, progress)
+        }
+        OuterMethod::Picard => {
+            fixed_point_with_progress(solver, fixed, recovered, &opts, report, progress)
+        }
+    }
 }
 
 /// The part of the right-hand side recovered from a displacement: the
@@ -300,7 +319,7 @@ impl<'a> RecoveredLoad<'a> {
 }
 
 /// A single Krylov solve of `A U = F` (`fixed`: nothing is recovered).
-pub fn solve_once(
+fn solve_once(
     fixed: &[f64],
     solver: &mut dyn LinearSolver,
     opts: &FixedPointOptions,

@@ -340,8 +340,9 @@ impl FluxCorrection {
         let shapes = self.fitting_shapes(dofs.order);
         let npc = dofs.order.nodes_per_cell();
         let element = per_item(|i, fe| {
-            let mut tau = vec![0.0; 6 * self.nq];
-            sigma.blend_at_table(cells.cut[i], &table, &mut tau)?;
+            let mut tau = [0.0; 6 * MAX_FITTING_POINTS];
+            let tau = &mut tau[..6 * self.nq];
+            sigma.blend_at_table(cells.cut[i], &table, tau)?;
             let factor = self.recovered_share[i];
             for (r, (d, n)) in self
                 .defect(i)
@@ -349,7 +350,7 @@ impl FluxCorrection {
                 .zip(shapes.chunks_exact(npc))
                 .enumerate()
             {
-                let f = defect_load(factor, d, &self.stress_at(&tau, r));
+                let f = defect_load(factor, d, &self.stress_at(tau, r));
                 for (a, na) in n.iter().enumerate() {
                     for k in 0..3 {
                         fe[3 * a + k] += na * f[k];
@@ -396,6 +397,9 @@ impl FluxCorrection {
         out
     }
 }
+
+/// The most fitting points of a cell, `(2p + 1)³` for Q2.
+const MAX_FITTING_POINTS: usize = 125;
 
 /// The point load `f_i = factor Σ_j D_j τ_ij` of one fitting point.
 fn defect_load(factor: f64, d: &[f64; 3], t: &[[f64; 3]; 3]) -> [f64; 3] {

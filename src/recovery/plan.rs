@@ -6,9 +6,11 @@
 //! fixed-point loop, which recovers a new displacement on the same patches at
 //! every iteration, pays for the ring search, the stability check and the
 //! factorisations once, and solves each fit from the moments of its cells'
-//! samples ([`super::moments`]). The coefficients equal [`super::recover`]'s
-//! to round-off (the first recovery refines its solves on the samples, the
-//! later ones solve once from the moments).
+//! samples ([`super::moments`]). The plans are made either by a first
+//! recovery ([`recover_planned`], which also fits its values, refined on the
+//! samples) or from the sample positions alone ([`plan_fits`], before the
+//! loop, no fit solved). The coefficients from plans equal
+//! [`super::recover`]'s to round-off.
 
 use std::sync::OnceLock;
 
