@@ -50,7 +50,7 @@
 
 use std::fmt;
 
-use nalgebra::{DMatrix, DMatrixViewMut, DVector, SymmetricEigen};
+use nalgebra::{DMatrix, DMatrixView, DMatrixViewMut, DVector, SymmetricEigen};
 
 use super::kkt::{design_matrix, values_matrix, Design, Kkt};
 use super::{Monomials, Sample};
@@ -337,13 +337,15 @@ impl FitFactor {
     /// When `nc` is not the factor's number of components.
     pub(super) fn fit_moments(&self, atb: &[f64], nc: usize) -> Result<Vec<f64>, FitFailure> {
         let mut a = vec![0.0; nc * self.shift.nrows()];
-        self.fit_moments_into(atb, nc, &mut a)?;
+        self.fit_moments_into(atb, nc, &mut a, &mut Vec::new())?;
         Ok(a)
     }
 
-    /// [`FitFactor::fit_moments`] into `out` (`nc · n_b` coefficients). An
-    /// unconstrained fit solves the components as the columns of one
-    /// `n_b × nc` right-hand side in place.
+    /// [`FitFactor::fit_moments`] into `out` (`nc · n_b` coefficients), with
+    /// `scratch` (any length; resized) as its work space. An unconstrained
+    /// fit solves the components as the columns of one `n_b × nc`
+    /// right-hand side in place, and allocates nothing once `scratch` has
+    /// grown to `2 · nc · n_b`.
     ///
     /// # Panics
     /// When `nc` is not the factor's number of components.
@@ -352,17 +354,25 @@ impl FitFactor {
         atb: &[f64],
         nc: usize,
         out: &mut [f64],
+        scratch: &mut Vec<f64>,
     ) -> Result<(), FitFailure> {
         let nb = self.shift.nrows();
         assert_eq!(nc * nb, self.kkt.c.ncols(), "components of a fit factor");
+        scratch.resize(2 * nb * nc, 0.0);
+        let (y, centred) = scratch.split_at_mut(nb * nc);
         if self.kkt.c.nrows() > 0 {
             let x = self.kkt.solve(&self.kkt.rhs_from_moments(atb, nc));
-            return self.in_node_basis(x.as_slice(), nc, out);
+            return self.in_node_basis(x.as_slice(), nc, out, centred);
         }
         let s = &self.kkt.s;
-        let mut y = DMatrix::from_fn(nb, nc, |j, c| s[j] * atb[j * nc + c]);
-        self.kkt.solve_normal_in_place(&mut y);
-        self.in_node_basis(y.as_slice(), nc, out)
+        for (c, column) in y.chunks_exact_mut(nb).enumerate() {
+            for (j, v) in column.iter_mut().enumerate() {
+                *v = s[j] * atb[j * nc + c];
+            }
+        }
+        self.kkt
+            .solve_normal_in_place(&mut DMatrixViewMut::from_slice(y, nb, nc));
+        self.in_node_basis(y, nc, out, centred)
     }
 
     /// The constrained least-squares solve with iterative refinement, mapped
@@ -387,16 +397,28 @@ impl FitFactor {
             }
         }
         let mut a = vec![0.0; nc * self.shift.nrows()];
-        self.in_node_basis(x.as_slice(), nc, &mut a)?;
+        let mut centred = vec![0.0; a.len()];
+        self.in_node_basis(x.as_slice(), nc, &mut a, &mut centred)?;
         Ok(a)
     }
 
     /// The node-basis coefficients `a = T S x` of the solution `x` of the
     /// equilibrated system (component `c`, term `j` at `c·n_b + j`, in `x`
     /// and in `out`).
-    fn in_node_basis(&self, x: &[f64], nc: usize, out: &mut [f64]) -> Result<(), FitFailure> {
+    fn in_node_basis(
+        &self,
+        x: &[f64],
+        nc: usize,
+        out: &mut [f64],
+        centred: &mut [f64],
+    ) -> Result<(), FitFailure> {
         let nb = self.shift.nrows();
-        let centred = DMatrix::from_fn(nb, nc, |j, c| self.kkt.s[j] * x[c * nb + j]);
+        for (column, xc) in centred.chunks_exact_mut(nb).zip(x.chunks_exact(nb)) {
+            for ((v, xj), sj) in column.iter_mut().zip(xc).zip(&self.kkt.s) {
+                *v = sj * xj;
+            }
+        }
+        let centred = DMatrixView::from_slice(centred, nb, nc);
         let mut a = DMatrixViewMut::from_slice(out, nb, nc);
         a.gemm(1.0, &self.shift, &centred, 0.0);
         if out.iter().any(|v| !v.is_finite()) {

@@ -2,7 +2,7 @@
 //! dense matrices ([`Design`]) and the factored KKT system ([`Kkt`]) with its
 //! residual on the samples, which the iterative refinement reads.
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use nalgebra::{Cholesky, DMatrix, DMatrixViewMut, DVector, Dyn};
 
 use super::fit::{FitFailure, LinearConstraints};
 use super::{Monomials, Sample};
@@ -156,7 +156,7 @@ impl Kkt {
 
     /// `Y ← M̃⁻¹ Y` for the columns of `y` (`n_b × NC`): the solve of an
     /// unconstrained fit, one column per component.
-    pub(super) fn solve_normal_in_place(&self, y: &mut DMatrix<f64>) {
+    pub(super) fn solve_normal_in_place(&self, y: &mut DMatrixViewMut<f64>) {
         self.normal.solve_mut(y);
     }
 

@@ -173,6 +173,26 @@ impl Monomials {
         }
     }
 
+    /// Moments moved by [`Monomials::for_each_shift`]: `to[e] += Σ_f w_ef(t)
+    /// from[f]`, each of `to` and `from` holding `NC` components per term
+    /// (term `j`, component `c` at `j·NC + c`). The same sums, in the same
+    /// order, as a `for_each_shift` that adds `w · from[f·NC + c]` to
+    /// `to[e·NC + c]`.
+    ///
+    /// # Panics
+    /// When `to` or `from` holds fewer than [`Monomials::len`] terms.
+    pub fn shift_moments<const NC: usize>(&self, t: [f64; 3], from: &[f64], to: &mut [f64]) {
+        let pw = self.powers(t);
+        let (from, to) = (from.as_chunks::<NC>().0, to.as_chunks_mut::<NC>().0);
+        for &(e, f, binom, d) in &self.shifts {
+            let w = binom as f64 * pw[d[0]][0] * pw[d[1]][1] * pw[d[2]][2];
+            let (a, b) = (&mut to[e], &from[f]);
+            for c in 0..NC {
+                a[c] += w * b[c];
+            }
+        }
+    }
+
     /// Powers `ξ_k^e` for `e ≤ p`, per axis.
     fn powers(&self, xi: [f64; 3]) -> [[f64; 3]; MAX_DEGREE + 1] {
         let mut pw = [[1.0; 3]; MAX_DEGREE + 1];

@@ -50,8 +50,8 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
         .zip(&plans.plans)
         .zip(&nodes)
         .map_init(
-            || (vec![0.0; stride], vec![0.0; stride], Vec::new()),
-            |(atb, mirrored, buf), ((out, plan), &node)| {
+            || (vec![0.0; stride], vec![0.0; stride], Vec::new(), Vec::new()),
+            |(atb, mirrored, buf, scratch), ((out, plan), &node)| {
                 let centre = grid.node_position(ElementOrder::Q1, node);
                 if !plan.factor.solves_from_moments() {
                     buf.clear();
@@ -76,13 +76,9 @@ pub(super) fn recover_from_moments<const NC: usize, S: PatchSamples<NC>>(
                         x = reflect_point(grid, mask, x);
                     }
                     let t = [0, 1, 2].map(|k| (x[k] - centre[k]) / grid.h - centroid[k]);
-                    basis.for_each_shift(t, |e, f, w| {
-                        for c in 0..NC {
-                            atb[e * NC + c] += w * m[f * NC + c];
-                        }
-                    });
+                    basis.shift_moments::<NC>(t, m, atb);
                 }
-                plan.factor.fit_moments_into(atb, NC, out).ok()
+                plan.factor.fit_moments_into(atb, NC, out, scratch).ok()
             },
         )
         .all(|fit| fit.is_some());
