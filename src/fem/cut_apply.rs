@@ -111,8 +111,8 @@ impl CutKernel {
         let mut interp = [[0.0; 3]; 5];
         let mut deriv = [[0.0; 3]; 5];
         for (q, &t) in points.iter().enumerate() {
-            interp[q][..=p].copy_from_slice(&lagrange(&nodes, t));
-            deriv[q][..=p].copy_from_slice(&lagrange_derivative(&nodes, t));
+            interp[q][..=p].copy_from_slice(&lagrange(&nodes, t)[..=p]);
+            deriv[q][..=p].copy_from_slice(&lagrange_derivative(&nodes, t)[..=p]);
         }
         CutKernel {
             order,

@@ -479,25 +479,35 @@ fn cell_defect(
         // A repaired rule is first order: nothing to make consistent.
         return d;
     }
-    // `d[r][j] += w ∂_j L_r(ξ)` (grad = true) or `w c_j L_r(ξ)`.
+    // `d[r][j] += w ∂_j L_r(ξ)` (grad = true) or `w c_j L_r(ξ)`; the
+    // products are formed left to right, as `w_j ℓ'_a ℓ_b ℓ_c / h`, with the
+    // leading ones shared between the points' `r`.
     let mut add = |x: [f64; 3], w: [f64; 3], grad: bool| {
         let e = xi(x);
         let l = e.map(|s| lagrange(t, s));
-        let dl = e.map(|s| lagrange_derivative(t, s));
-        for k in 0..n {
-            for jj in 0..n {
-                for ii in 0..n {
-                    let r = ii + n * (jj + n * k);
-                    let lv = [l[0][ii], l[1][jj], l[2][k]];
-                    if grad {
-                        let dv = [dl[0][ii], dl[1][jj], dl[2][k]];
-                        d[r][0] += w[0] * dv[0] * lv[1] * lv[2] / h;
-                        d[r][1] += w[1] * lv[0] * dv[1] * lv[2] / h;
-                        d[r][2] += w[2] * lv[0] * lv[1] * dv[2] / h;
-                    } else {
-                        let v = lv[0] * lv[1] * lv[2];
-                        for a in 0..3 {
-                            d[r][a] += w[a] * v;
+        if grad {
+            let dl = e.map(|s| lagrange_derivative(t, s));
+            for ii in 0..n {
+                let a = [w[0] * dl[0][ii], w[1] * l[0][ii], w[2] * l[0][ii]];
+                for jj in 0..n {
+                    let b = [a[0] * l[1][jj], a[1] * dl[1][jj], a[2] * l[1][jj]];
+                    for k in 0..n {
+                        let r = ii + n * (jj + n * k);
+                        d[r][0] += b[0] * l[2][k] / h;
+                        d[r][1] += b[1] * l[2][k] / h;
+                        d[r][2] += b[2] * dl[2][k] / h;
+                    }
+                }
+            }
+        } else {
+            for ii in 0..n {
+                for jj in 0..n {
+                    let a = l[0][ii] * l[1][jj];
+                    for k in 0..n {
+                        let v = a * l[2][k];
+                        let dr = &mut d[ii + n * (jj + n * k)];
+                        for c in 0..3 {
+                            dr[c] += w[c] * v;
                         }
                     }
                 }

@@ -184,37 +184,51 @@ impl FitBasis {
     }
 }
 
+/// The most 1D nodes of a Lagrange basis here: the fitting points of Q2
+/// (3 or 5 per axis).
+pub const MAX_LAGRANGE_NODES: usize = 5;
+
+/// The values of a 1D Lagrange basis, on the stack: entry `i` for node `i`,
+/// zeros past the basis' nodes.
+pub type Lagrange1d = [f64; MAX_LAGRANGE_NODES];
+
 /// The 1D Lagrange basis of `nodes` at `t`: `ℓ_i(t) = Π_{r≠i} (t − t_r)/(t_i − t_r)`.
-pub fn lagrange(nodes: &[f64], t: f64) -> Vec<f64> {
-    (0..nodes.len())
-        .map(|i| {
-            nodes
-                .iter()
-                .enumerate()
-                .filter(|(r, _)| *r != i)
-                .map(|(_, tr)| (t - tr) / (nodes[i] - tr))
-                .product()
-        })
-        .collect()
+///
+/// # Panics
+/// With more than [`MAX_LAGRANGE_NODES`] nodes.
+pub fn lagrange(nodes: &[f64], t: f64) -> Lagrange1d {
+    let mut out = [0.0; MAX_LAGRANGE_NODES];
+    for (i, o) in out[..nodes.len()].iter_mut().enumerate() {
+        *o = nodes
+            .iter()
+            .enumerate()
+            .filter(|(r, _)| *r != i)
+            .map(|(_, tr)| (t - tr) / (nodes[i] - tr))
+            .product();
+    }
+    out
 }
 
 /// Derivatives `ℓ_i'(t)` of the 1D Lagrange basis of `nodes` (product rule).
-pub fn lagrange_derivative(nodes: &[f64], t: f64) -> Vec<f64> {
+///
+/// # Panics
+/// With more than [`MAX_LAGRANGE_NODES`] nodes.
+pub fn lagrange_derivative(nodes: &[f64], t: f64) -> Lagrange1d {
     let n = nodes.len();
-    (0..n)
-        .map(|i| {
-            (0..n)
-                .filter(|&k| k != i)
-                .map(|k| {
-                    let others: f64 = (0..n)
-                        .filter(|&r| r != i && r != k)
-                        .map(|r| (t - nodes[r]) / (nodes[i] - nodes[r]))
-                        .product();
-                    others / (nodes[i] - nodes[k])
-                })
-                .sum()
-        })
-        .collect()
+    let mut out = [0.0; MAX_LAGRANGE_NODES];
+    for (i, o) in out[..n].iter_mut().enumerate() {
+        *o = (0..n)
+            .filter(|&k| k != i)
+            .map(|k| {
+                let others: f64 = (0..n)
+                    .filter(|&r| r != i && r != k)
+                    .map(|r| (t - nodes[r]) / (nodes[i] - nodes[r]))
+                    .product();
+                others / (nodes[i] - nodes[k])
+            })
+            .sum();
+    }
+    out
 }
 
 /// The weights of every cut cell, `2 n³` per cell in slot order: the
