@@ -23,7 +23,7 @@ pub mod glued;
 pub mod split;
 pub mod pieces;
 
-pub use faces::{face_box, face_neighbour, face_rule};
+pub use faces::{face_box, face_neighbour, face_rule, CutFaceRules};
 pub use merge::NEGLIGIBLE_FRACTION;
 
 use rayon::prelude::*;

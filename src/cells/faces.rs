@@ -6,6 +6,9 @@
 //! makes the face terms of the consistency correction cancel between
 //! neighbours (see [`crate::fem::flux_consistency`]).
 
+use rayon::prelude::*;
+
+use super::CellKind;
 use crate::geometry::Geometry;
 use crate::grid::Grid;
 use crate::quadrature::saye::{box_rule, VolumePoint};
@@ -48,4 +51,63 @@ pub fn face_rule(
 ) -> Vec<VolumePoint> {
     let free: Vec<usize> = (0..3).filter(|&a| a != axis).collect();
     box_rule(g, &face_box(grid, cell, axis, side), &free, q).volume
+}
+
+/// The area rules ([`face_rule`]) of every face between two cut cells,
+/// each made once for the two cells that share it (the same rule from
+/// either side, bit for bit: the module doc).
+pub struct CutFaceRules {
+    /// Per face, its low cell and axis, ascending.
+    faces: Vec<(usize, usize)>,
+    rules: Vec<Vec<VolumePoint>>,
+}
+
+impl CutFaceRules {
+    /// The rules of `q` points per segment and dimension of the faces of the
+    /// cells of `cut` whose neighbour across the face is cut too (`kinds`).
+    pub fn new(
+        g: &Geometry,
+        grid: &Grid,
+        kinds: &[CellKind],
+        cut: &[usize],
+        q: usize,
+    ) -> CutFaceRules {
+        let mut faces: Vec<(usize, usize)> = Vec::new();
+        for &c in cut {
+            for axis in 0..3 {
+                for side in 0..2 {
+                    match face_neighbour(grid, c, axis, side) {
+                        Some(nb) if kinds[nb] == CellKind::Cut => {
+                            faces.push((if side == 0 { nb } else { c }, axis));
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        faces.sort_unstable();
+        faces.dedup();
+        let rules = faces
+            .par_iter()
+            .map(|&(c, axis)| face_rule(g, grid, c, axis, 1, q))
+            .collect();
+        CutFaceRules { faces, rules }
+    }
+
+    /// The rule of the face `(axis, side)` of `cell`, a cell of the `cut`
+    /// given to [`CutFaceRules::new`] whose neighbour there is cut.
+    ///
+    /// # Panics
+    /// When that face is not one of the rules'.
+    pub fn rule(&self, grid: &Grid, cell: usize, axis: usize, side: usize) -> &[VolumePoint] {
+        let low = match side {
+            0 => face_neighbour(grid, cell, axis, 0).expect("a face between two cells"),
+            _ => cell,
+        };
+        let k = self
+            .faces
+            .binary_search(&(low, axis))
+            .expect("a face between two cut cells");
+        &self.rules[k]
+    }
 }

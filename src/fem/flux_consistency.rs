@@ -82,7 +82,7 @@ use super::rhs::{
     DirichletPoint,
 };
 use crate::cells::split::Split;
-use crate::cells::{face_neighbour, face_rule, CellKind, Cells};
+use crate::cells::{face_neighbour, CellKind, Cells, CutFaceRules};
 use crate::discrete::dofs::DofMap;
 use crate::element::{shape_values, ElementOrder};
 use crate::error::Result;
@@ -128,11 +128,12 @@ impl FluxCorrection {
         let nq = basis.num_points();
         // Face rules exact on whole faces for `Q_{2p}` (2q − 1 ≥ 2p).
         let q = q.max(order.degree() + 1);
+        let faces = CutFaceRules::new(geometry, grid, &cells.kinds, &cells.cut, q);
         let mut defect: Vec<[f64; 3]> = (0..cells.cut.len())
             .into_par_iter()
             .flat_map_iter(|i| match split.cell(cells.cut[i]) {
                 Some(_) => vec![[0.0; 3]; nq],
-                None => cell_defect(grid, cells, geometry, &basis, q, i, &|_| true),
+                None => cell_defect(grid, cells, &faces, &basis, i, &|_| true),
             })
             .collect();
         let pieces: Vec<(usize, usize, Vec<[f64; 3]>)> = split
@@ -144,11 +145,7 @@ impl FluxCorrection {
             })
             .map(|(i, p, s)| {
                 let keep = |x: [f64; 3]| s.piece_of(x) == p;
-                (
-                    i,
-                    p,
-                    cell_defect(grid, cells, geometry, &basis, q, i, &keep),
-                )
+                (i, p, cell_defect(grid, cells, &faces, &basis, i, &keep))
             })
             .collect();
         // A split cell's own defect is the sum of its pieces'.
@@ -462,9 +459,8 @@ fn voigt_matrix(s: &[f64; 6]) -> [[f64; 3]; 3] {
 fn cell_defect(
     grid: &Grid,
     cells: &Cells,
-    g: &Geometry,
+    faces: &CutFaceRules,
     basis: &FitBasis,
-    q: usize,
     i: usize,
     keep: &dyn Fn([f64; 3]) -> bool,
 ) -> Vec<[f64; 3]> {
@@ -546,7 +542,7 @@ fn cell_defect(
                     }
                 }
                 CellKind::Cut => {
-                    for p in face_rule(g, grid, cell, axis, side, q) {
+                    for p in faces.rule(grid, cell, axis, side) {
                         w[axis] = sign * p.w;
                         if keep(p.x) {
                             add(p.x, w, false);
