@@ -94,16 +94,13 @@ impl CutFaceRules {
         CutFaceRules { faces, rules }
     }
 
-    /// The rule of the face `(axis, side)` of `cell`, a cell of the `cut`
-    /// given to [`CutFaceRules::new`] whose neighbour there is cut.
+    /// The rule of the face normal to `axis` on the high side of `low`, a
+    /// face between two cut cells of [`CutFaceRules::new`] (a cell's face
+    /// `(axis, 0)` is its low neighbour's `(axis, 1)`).
     ///
     /// # Panics
     /// When that face is not one of the rules'.
-    pub fn rule(&self, grid: &Grid, cell: usize, axis: usize, side: usize) -> &[VolumePoint] {
-        let low = match side {
-            0 => face_neighbour(grid, cell, axis, 0).expect("a face between two cells"),
-            _ => cell,
-        };
+    pub fn rule(&self, low: usize, axis: usize) -> &[VolumePoint] {
         let k = self
             .faces
             .binary_search(&(low, axis))

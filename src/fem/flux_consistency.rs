@@ -542,7 +542,8 @@ fn cell_defect(
                     }
                 }
                 CellKind::Cut => {
-                    for p in faces.rule(grid, cell, axis, side) {
+                    let low = if side == 0 { nb } else { cell };
+                    for p in faces.rule(low, axis) {
                         w[axis] = sign * p.w;
                         if keep(p.x) {
                             add(p.x, w, false);
