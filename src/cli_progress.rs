@@ -235,6 +235,11 @@ fn rate(state: &ProgressState, w: &mut dyn std::fmt::Write) {
 
 impl Progress for Terminal {
     fn event(&self, event: &Event) {
+        match event {
+            Event::Say { text } => return self.multi.suspend(|| println!("{text}")),
+            Event::Notice { text } => return self.multi.suspend(|| eprintln!("{text}")),
+            _ => {}
+        }
         if self.mode == Mode::Quiet {
             return;
         }
@@ -257,7 +262,7 @@ impl Terminal {
     /// Draws (or prints) a phase, Krylov or fixed-point event.
     fn show(&self, s: &mut State, event: Event) {
         match event {
-            Event::RunDone { .. } => {}
+            Event::RunDone { .. } | Event::Say { .. } | Event::Notice { .. } => {}
             Event::Start { phase, total } => self.start(s, phase, total),
             Event::Advance { steps, .. } => {
                 if let Some((_, bar, _)) = &s.phase {

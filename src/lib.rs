@@ -14,7 +14,7 @@
 //! | the case model | [`case`] |
 //! | physics | [`fem`], [`contact`], [`multigrid`] |
 //! | drivers and devices | [`driver`], [`gpu`], [`hyper`] |
-//! | runs and reports | [`report`], [`distributed`], [`bodies`], [`inspect`], [`bench`], [`reproduce`] |
+//! | runs and reports | [`report`], [`distributed`], [`bodies`], [`run`], [`inspect`], [`bench`], [`reproduce`] |
 // Kernels are written with explicit index loops, to read side by side with
 // their WGSL twins and the formulas they implement.
 #![allow(clippy::needless_range_loop)]
@@ -60,6 +60,7 @@ pub mod hyper;
 pub mod report;
 pub mod distributed;
 pub mod bodies;
+pub mod run;
 pub mod inspect;
 pub mod bench;
 pub mod reproduce;

@@ -12,13 +12,15 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use cgfem_gpu::case::Case;
-use cgfem_gpu::driver::output::OutputFiles;
+use cgfem_gpu::driver::output::{OutputFiles, ParaView};
 use cgfem_gpu::element::ElementOrder;
 use cgfem_gpu::gpu::{list_adapters, BackendChoice, PrecisionChoice};
 use cgfem_gpu::reproduce::{self, CutSweepOptions};
+use cgfem_gpu::run::{notes, DeviceRequest, RunOptions};
 use cgfem_gpu::solver::{KrylovMethod, Preconditioner};
+use cgfem_gpu::vtu::VtuEncoding;
 use cli_progress::Terminal;
-use cli_run::{run_case, Device, Outputs};
+use cli_run::run_case;
 
 #[derive(Parser)]
 #[command(
@@ -254,8 +256,12 @@ fn geometry(args: &CaseArgs, progress: &Terminal) -> anyhow::Result<()> {
         for (tag, area) in &r.domain.boundary_area_by_tag {
             println!("  boundary part '{tag}': area {area:.6e}");
         }
-        cli_run::repaired_note(r);
-        cli_run::glued_geometry_note(r);
+        for notice in [notes::repaired(r), notes::glued_geometry(r)]
+            .into_iter()
+            .flatten()
+        {
+            eprintln!("{notice}");
+        }
     }
     let files = match case.bodies.len() {
         1 => "cells.vtu, boundary.vtp".to_string(),
@@ -283,14 +289,26 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
             output,
             compress,
         } => {
-            let device = Device {
-                backend,
-                adapter,
-                precision,
+            let options = RunOptions {
+                level,
+                dir: PathBuf::new(),
+                paraview: ParaView {
+                    files: output,
+                    encoding: match compress {
+                        true => VtuEncoding::AppendedZlib,
+                        false => VtuEncoding::Appended,
+                    },
+                },
+                plots,
+                condition,
+                device: DeviceRequest {
+                    backend,
+                    adapter,
+                    precision,
+                },
             };
             progress.catch_ctrl_c()?;
-            let outputs = Outputs::new(out, plots, output, compress);
-            run_case(&case, level, &set, &outputs, condition, &device, progress)
+            run_case(&case, &set, out, options, progress)
         }
         Command::Geometry { case } => geometry(&case, progress),
         Command::Info => {

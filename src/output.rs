@@ -78,6 +78,11 @@ impl Written {
         }
     }
 
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
     /// Writes the file `name` of the folder with `write` (given its path),
     /// timed, and lists it once written.
     pub fn write(&mut self, name: &str, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {

@@ -1,6 +1,7 @@
 //! Progress of the long phases of a run, reported to an observer so that the
 //! library stays free of terminal code: the binary draws bars (or prints plain
-//! lines, or nothing) from these events. The observer is also asked, at each
+//! lines, or nothing) from these events, and prints the lines a run says
+//! ([`Event::Say`], [`Event::Notice`]). The observer is also asked, at each
 //! fixed-point iteration boundary (and each Newton iteration of a nonlinear
 //! run), whether the run should stop (Ctrl-C).
 
@@ -41,6 +42,13 @@ pub enum Event {
     Finish { phase: Phase },
     /// One run of a `reproduce` result ended; `summary` is a line for the user.
     RunDone { summary: String },
+    /// A line of the run's account for the user: what it solves, on what,
+    /// what it chose (the binary prints it on stdout, `--quiet` or not).
+    Say { text: String },
+    /// A finding about the input or the answer that the user must read (a
+    /// repaired mesh, glued walls), with its `note:` or `warning:` prefix
+    /// (the binary prints it on stderr, `--quiet` or not).
+    Notice { text: String },
     /// A Krylov solve ended: `index` 0 is the initial solve.
     KrylovSolve {
         index: usize,
@@ -84,6 +92,14 @@ pub trait Progress: Sync {
     /// with [`crate::Error::Interrupted`].
     fn should_stop(&self) -> bool {
         false
+    }
+    /// Says `text`: [`Event::Say`].
+    fn say(&self, text: String) {
+        self.event(&Event::Say { text });
+    }
+    /// Tells the finding `text`: [`Event::Notice`].
+    fn notice(&self, text: String) {
+        self.event(&Event::Notice { text });
     }
 }
 

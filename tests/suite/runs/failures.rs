@@ -20,8 +20,8 @@
 //!   at the first step, so that no step converged.
 //!
 //! Paths without a trigger from input, whose report is written by the same
-//! code as the walked ones (the linear path's one closure in
-//! `src/cli_run/linear.rs`; on the Newton path `src/cli_run/newton.rs`'s
+//! code as the walked ones (the linear path's one failure branch in
+//! `src/run/linear.rs`; on the Newton path `src/run/newton.rs`'s
 //! set-up branch and the run's outcome):
 //!
 //! - a breakdown of the linear Krylov solve itself (CG's `p·Ap ≤ 0`, a
