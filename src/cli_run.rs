@@ -24,11 +24,14 @@ pub fn run_case(
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
-    mesh_notes(&case);
+    let comm = world();
+    // Every rank reads the case; rank 0 tells what it found.
+    if comm.rank() == 0 {
+        mesh_notes(&case);
+    }
     let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     options.dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
     let newton = matches!(case.path, SolutionPath::Newton(_));
-    let comm = world();
     let outcome = cgfem_gpu::run::run_case(case, &options, comm.as_ref(), progress);
     progress.finish();
     let outcome = outcome?;

@@ -178,14 +178,12 @@ fn host_cell(grid: &Grid, kinds: &[CellKind], x: [f64; 3]) -> Option<usize> {
         for dj in 0..3 {
             for di in 0..3 {
                 let d = [di, dj, dk];
-                let ijk = [0, 1, 2].map(|a| (centre[a] + d[a]).checked_sub(1));
-                let Some(ijk) = ijk.iter().copied().collect::<Option<Vec<usize>>>() else {
+                // The neighbour's index along each axis, `None` off the grid.
+                let along = |a: usize| (centre[a] + d[a]).checked_sub(1).filter(|&i| i < grid.n[a]);
+                let (Some(i), Some(j), Some(k)) = (along(0), along(1), along(2)) else {
                     continue;
                 };
-                if (0..3).any(|a| ijk[a] >= grid.n[a]) {
-                    continue;
-                }
-                let c = grid.cell_index([ijk[0], ijk[1], ijk[2]]);
+                let c = grid.cell_index([i, j, k]);
                 if kinds[c] == CellKind::Outside {
                     continue;
                 }

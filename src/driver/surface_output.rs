@@ -8,7 +8,7 @@
 //! whose shape functions `N_a` the point is evaluated, see
 //! [`crate::discrete::boundary_mesh`]):
 //! - `displacement`: `u_h(x) = Σ_a N_a(ξ) u_a` over the Q1 or Q2 nodes of `K`,
-//!   `ξ = (x − x_K) / h` ([`value_and_gradient`]);
+//!   `ξ = (x − x_K) / h` ([`CellField::value_and_gradient`]);
 //! - `stress`: the SPR-recovered stress `σ̂(x) = Σ_i N_i^lin(ξ) σ*_i(x)`, the
 //!   CPE blend of the patch polynomials of `K`'s eight vertices (as
 //!   `solution.vtu`), a symmetric tensor;
@@ -28,11 +28,14 @@ use super::output::von_mises;
 use super::recovery::{recover_stress_around, vertex_nodes_of};
 use super::setup::Setup;
 use crate::discrete::boundary_mesh::BoundaryMesh;
-use crate::discrete::field::value_and_gradient;
+use crate::discrete::field::CellField;
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::recovery::Recovered;
 use crate::vtu::{write_vtp_triangles, DataArray, VtuEncoding};
+
+/// Vertices per parallel task of [`SurfaceFields::new`].
+const POINT_CHUNK: usize = 2048;
 
 /// The fields of `surface.vtp` at the vertices of a [`BoundaryMesh`].
 #[derive(Clone, Debug)]
@@ -63,18 +66,33 @@ impl SurfaceFields {
         hosts.sort_unstable();
         hosts.dedup();
         let sigma = &recover_stress_around(setup, u, &vertex_nodes_of(setup, &hosts), known)?;
-        let displacement = mesh
-            .points
-            .par_iter()
-            .zip(&mesh.host)
-            .map(|(&x, &cell)| value_and_gradient(grid, dofs, u, cell, x).0)
-            .collect();
-        let stress: Vec<[f64; 6]> = mesh
-            .points
-            .par_iter()
-            .zip(&mesh.host)
-            .map(|(&x, &cell)| sigma.eval(cell, x))
+        // The vertices by host cell, so that each cell's nodal values and
+        // stress blend are gathered once for all its vertices.
+        let mut by_host: Vec<usize> = (0..mesh.points.len()).collect();
+        by_host.sort_by_key(|&i| mesh.host[i]);
+        let fields: Vec<Vec<([f64; 3], [f64; 6])>> = by_host
+            .par_chunks(POINT_CHUNK)
+            .map(|chunk| {
+                let mut cell = None;
+                let mut at = Vec::with_capacity(chunk.len());
+                for &i in chunk {
+                    let (x, host) = (mesh.points[i], mesh.host[i]);
+                    if !matches!(&cell, Some((c, _, _)) if *c == host) {
+                        let field = CellField::new(grid, dofs, u, host);
+                        cell = Some((host, field, sigma.cell_blend(host)?));
+                    }
+                    let (_, field, blend) = cell.as_ref().expect("made above");
+                    at.push((field.value_and_gradient(x).0, blend.eval(x)));
+                }
+                Ok(at)
+            })
             .collect::<Result<_>>()?;
+        let mut displacement = vec![[0.0; 3]; mesh.points.len()];
+        let mut stress = vec![[0.0; 6]; mesh.points.len()];
+        for (&i, (v, s)) in by_host.iter().zip(fields.into_iter().flatten()) {
+            displacement[i] = v;
+            stress[i] = s;
+        }
         let von_mises = stress.par_iter().map(von_mises).collect();
         let exact = setup
             .problem
