@@ -5,7 +5,7 @@
 //! writes DIR/report.json, also when it fails (exit code 3) or is
 //! interrupted (130), and the ParaView files that `--output` selects.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use cgfem_gpu::case::{Case, SolutionPath};
 use cgfem_gpu::comm::Comm;
@@ -14,13 +14,11 @@ use cgfem_gpu::run::{notes, RunOptions, RunOutcome};
 
 use crate::cli_progress::Terminal;
 
-/// Runs the case at `path` (`set` overriding its keys) with `options`, whose
-/// folder `out` is, by default, out/<case name>.
+/// Runs the case at `path` (`set` overriding its keys) with `options`.
 pub fn run_case(
     path: &Path,
     set: &[String],
-    out: Option<PathBuf>,
-    mut options: RunOptions,
+    options: &RunOptions,
     progress: &Terminal,
 ) -> anyhow::Result<()> {
     let case = Case::from_file_with(path, set)?;
@@ -29,14 +27,12 @@ pub fn run_case(
     if comm.rank() == 0 {
         mesh_notes(&case);
     }
-    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
-    options.dir = out.unwrap_or_else(|| PathBuf::from("out").join(&name));
     let newton = matches!(case.path, SolutionPath::Newton(_));
-    let outcome = cgfem_gpu::run::run_case(case, &options, comm.as_ref(), progress);
+    let outcome = cgfem_gpu::run::run_case(case, options, comm.as_ref(), progress);
     progress.finish();
     let outcome = outcome?;
     if comm.rank() == 0 {
-        let dir = &options.dir;
+        let dir = &outcome.dir;
         match (comm.size() > 1, newton) {
             (true, _) => print_ranks(&outcome, dir),
             (false, true) => print_newton(&outcome, dir),

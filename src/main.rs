@@ -291,7 +291,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
         } => {
             let options = RunOptions {
                 level,
-                dir: PathBuf::new(),
+                out,
                 paraview: ParaView {
                     files: output,
                     encoding: match compress {
@@ -308,7 +308,7 @@ fn run(cli: Cli, progress: &Terminal) -> anyhow::Result<()> {
                 },
             };
             progress.catch_ctrl_c()?;
-            run_case(&case, &set, out, options, progress)
+            run_case(&case, &set, &options, progress)
         }
         Command::Geometry { case } => geometry(&case, progress),
         Command::Info => {

@@ -8,6 +8,8 @@
 //! them; surface output: rank 0 writes `surface.vtp`, gathered from every
 //! rank.
 
+use std::path::PathBuf;
+
 use super::{RunOptions, RunOutcome};
 use crate::case::Case;
 use crate::comm::Comm;
@@ -21,6 +23,7 @@ use crate::solver::Preconditioner;
 pub(super) fn run(
     case: &Case,
     options: &RunOptions,
+    dir: PathBuf,
     comm: &dyn Comm,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
@@ -54,14 +57,15 @@ pub(super) fn run(
     ));
     let files = options.paraview.files;
     let pieces = (files.volume() || files.surface()).then_some(Pieces {
-        dir: &options.dir,
+        dir: &dir,
         paraview: options.paraview,
     });
     let outcome = crate::distributed::run::run(case, options.level, comm, progress, pieces, gpu);
     if lead {
-        super::write_report(&options.dir, &outcome.report, &outcome.files)?;
+        super::write_report(&dir, &outcome.report, &outcome.files)?;
     }
     Ok(RunOutcome {
+        dir,
         report: outcome.report,
         files: outcome.files,
         result: outcome.result,

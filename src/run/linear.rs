@@ -5,6 +5,7 @@
 //! with plots residuals.svg and deformed.svg), each written atomically.
 
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -166,6 +167,7 @@ fn usable_device(
 pub(super) fn run(
     mut case: Case,
     options: &RunOptions,
+    dir: PathBuf,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
     let gpu = super::open_device(&options.device, progress)?;
@@ -174,7 +176,7 @@ pub(super) fn run(
     let mut solver_spec = case.spec.solver.clone();
     let mut report = Report::new(&case);
     let mut fp = FixedPointReport::default();
-    let mut written = Written::new(&options.dir);
+    let mut written = Written::new(&dir);
     // Every step after the case is read; a solver failure on the way (the
     // set-up's multigrid, the solve, the output's recovery) still leaves a
     // report.
@@ -191,6 +193,7 @@ pub(super) fn run(
     );
     match result {
         Ok(()) => Ok(RunOutcome {
+            dir,
             report,
             files: written.files,
             result: Ok(()),
@@ -199,6 +202,7 @@ pub(super) fn run(
             report.fail(&e);
             write_report(&report, &fp, options.plots, &mut written)?;
             Ok(RunOutcome {
+                dir,
                 report,
                 files: written.files,
                 result: Err(e),
@@ -335,7 +339,7 @@ fn solve_and_write(
         .insert("error_norms".into(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    super::create_dir(&options.dir)?;
+    super::create_dir(written.dir())?;
     let (geometry, u) = (&case.body().geometry, &solution.u);
     let paraview = options.paraview;
     let stress = Some(&solution.stress);

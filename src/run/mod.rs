@@ -35,8 +35,9 @@ use crate::report::Report;
 pub struct RunOptions {
     /// Every body's grid level (default: the case's).
     pub level: Option<u32>,
-    /// The output folder (created when the set-up succeeds).
-    pub dir: PathBuf,
+    /// The output folder (created when the set-up succeeds); by default
+    /// out/<case name>.
+    pub out: Option<PathBuf>,
     /// Which ParaView files, in which encoding.
     pub paraview: ParaView,
     /// Also DIR/residuals.svg and DIR/deformed.svg (the linear path).
@@ -62,6 +63,8 @@ pub struct DeviceRequest {
 /// the files written beside it (names in the output folder, in order), and
 /// whether it succeeded (the report then says why it did not).
 pub struct RunOutcome {
+    /// The output folder, DIR.
+    pub dir: PathBuf,
     pub report: Report,
     pub files: Vec<String>,
     pub result: Result<()>,
@@ -77,20 +80,23 @@ pub fn run_case(
     comm: &dyn Comm,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
-    let dir = &options.dir;
+    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
+    let dir = match &options.out {
+        Some(dir) => dir.clone(),
+        None => PathBuf::from("out").join(&name),
+    };
     if dir.exists() && !dir.is_dir() {
         return Err(Error::Io {
             path: dir.display().to_string(),
             reason: "--out names a file, not a folder".into(),
         });
     }
-    let name = case.spec.name.clone().unwrap_or_else(|| "case".into());
     if comm.size() > 1 {
         if options.condition && comm.rank() == 0 {
             progress
                 .say("note: --condition needs the whole operator on one rank; not computed".into());
         }
-        return distributed::run(&case, options, comm, progress);
+        return distributed::run(&case, options, dir, comm, progress);
     }
     if let SolutionPath::Newton(why) = &case.path {
         progress.say(format!(
@@ -100,9 +106,9 @@ pub fn run_case(
         if options.condition {
             progress.say("note: --condition applies to the linear path; not computed".into());
         }
-        return newton::run(&case, options, progress);
+        return newton::run(&case, options, dir, progress);
     }
-    linear::run(case, options, progress)
+    linear::run(case, options, dir, progress)
 }
 
 /// The GPU context to solve on, or `None` for the CPU; `auto` without an

@@ -3,6 +3,7 @@
 //! DIR/report.json — written also when a step fails or the run is
 //! interrupted, the last converged step's files kept.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::{RunOptions, RunOutcome};
@@ -35,6 +36,7 @@ fn tangent_device(options: &RunOptions) -> Result<Option<Arc<GpuContext>>> {
 pub(super) fn run(
     case: &Case,
     options: &RunOptions,
+    dir: PathBuf,
     progress: &dyn Progress,
 ) -> Result<RunOutcome> {
     if options.plots {
@@ -47,11 +49,10 @@ pub(super) fn run(
             ctx.adapter.name
         ));
     }
-    let dir = &options.dir;
     let outcome = match run_writing(
         case,
         options.level,
-        Some(dir),
+        Some(&dir),
         options.paraview,
         gpu,
         progress,
@@ -62,8 +63,9 @@ pub(super) fn run(
         Err(e) if matches!(e.exit_code(), 3 | 130) => {
             let mut report = Report::new(case);
             report.fail(&e);
-            super::write_report(dir, &report, &[])?;
+            super::write_report(&dir, &report, &[])?;
             return Ok(RunOutcome {
+                dir,
                 report,
                 files: Vec::new(),
                 result: Err(e),
@@ -71,8 +73,9 @@ pub(super) fn run(
         }
         Err(e) => return Err(e),
     };
-    super::write_report(dir, &outcome.report, &outcome.files)?;
+    super::write_report(&dir, &outcome.report, &outcome.files)?;
     Ok(RunOutcome {
+        dir,
         report: outcome.report,
         files: outcome.files,
         result: outcome.result,

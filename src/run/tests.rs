@@ -41,7 +41,7 @@ impl Progress for Lines {
 fn options(dir: &Path) -> RunOptions {
     RunOptions {
         level: None,
-        dir: dir.to_path_buf(),
+        out: Some(dir.to_path_buf()),
         paraview: ParaView {
             files: OutputFiles::Surface,
             ..ParaView::default()
