@@ -8,23 +8,11 @@ use crate::comm::Serial;
 use crate::driver::output::OutputFiles;
 use crate::progress::Event;
 
-/// A sphere of radius 1 with the paper's exact field, at level 2.
-const SPHERE: &str = r#"
-name = "sphere"
-[geometry]
-type = "sphere"
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-[grid]
-level = 2
-[material]
-young = 1000.0
-poisson = 0.3
-[exact]
-displacement = ["x + x^2 - 2*x*y", "-y - 2*x*y + y^3", "0"]
-[dirichlet.surface]
-value = "exact"
-"#;
+/// The shipped sphere (the paper's Problem 1), run at level 2.
+fn sphere(overrides: &[String]) -> Case {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sphere.toml");
+    Case::from_file_with(&path, overrides).unwrap()
+}
 
 /// The lines a run says and tells.
 #[derive(Default)]
@@ -40,7 +28,7 @@ impl Progress for Lines {
 
 fn options(dir: &Path) -> RunOptions {
     RunOptions {
-        level: None,
+        level: Some(2),
         out: Some(dir.to_path_buf()),
         paraview: ParaView {
             files: OutputFiles::Surface,
@@ -69,7 +57,7 @@ fn written(dir: &Path) -> serde_json::Value {
 #[test]
 fn a_linear_run_says_what_it_solves_and_writes_the_report_it_returns() {
     let dir = scratch("linear");
-    let case = Case::from_str("sphere.toml", SPHERE).unwrap();
+    let case = sphere(&[]);
     let lines = Lines::default();
     let outcome = run_case(case, &options(&dir), &Serial, &lines).unwrap();
     assert!(outcome.result.is_ok());
@@ -90,10 +78,8 @@ fn a_linear_run_says_what_it_solves_and_writes_the_report_it_returns() {
     };
     let said: Vec<String> = lines.iter().filter_map(said).collect();
     let dofs = outcome.report.dofs;
-    assert!(
-        said[0].starts_with("case sphere (sphere.toml): level 2, Q1, "),
-        "{said:?}"
-    );
+    let start = format!("case sphere ({}): level 2, Q1, ", outcome.report.file);
+    assert!(said[0].starts_with(&start), "{said:?}");
     assert!(said[0].contains(&format!(" {dofs} dofs")), "{said:?}");
     assert_eq!(said[1], "  backend cpu (f64)");
     assert_eq!(said.len(), 2, "{said:?}");
@@ -104,7 +90,7 @@ fn a_linear_run_says_what_it_solves_and_writes_the_report_it_returns() {
 fn a_failed_solve_comes_back_with_its_report_written() {
     let dir = scratch("failed");
     let overrides = ["solver.max_fixed_point=2".to_string()];
-    let case = Case::from_str_with("sphere.toml", SPHERE, &overrides).unwrap();
+    let case = sphere(&overrides);
     let outcome = run_case(case, &options(&dir), &Serial, &crate::progress::Silent).unwrap();
     let e = outcome.result.as_ref().unwrap_err();
     assert_eq!(e.exit_code(), 3, "{e}");
@@ -118,7 +104,7 @@ fn a_failed_solve_comes_back_with_its_report_written() {
 fn an_out_folder_that_is_a_file_is_refused_before_the_run() {
     let dir = scratch("file");
     std::fs::write(&dir, "keep").unwrap();
-    let case = Case::from_str("sphere.toml", SPHERE).unwrap();
+    let case = sphere(&[]);
     let err = run_case(case, &options(&dir), &Serial, &crate::progress::Silent).err();
     assert!(matches!(err, Some(Error::Io { .. })), "{err:?}");
     assert_eq!(std::fs::read_to_string(&dir).unwrap(), "keep");
