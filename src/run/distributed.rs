@@ -60,15 +60,16 @@ pub(super) fn run(
         dir: &dir,
         paraview: options.paraview,
     });
-    let outcome = crate::distributed::run::run(case, options.level, comm, progress, pieces, gpu);
+    let ran = crate::distributed::run::run(case, options.level, comm, progress, pieces, gpu);
     if lead {
-        super::write_report(&dir, &outcome.report, &outcome.files)?;
+        super::write_report(&dir, &ran.report, &ran.files)?;
     }
+    let (report, files, result) = (ran.report, ran.files, ran.result);
     Ok(RunOutcome {
         dir,
-        report: outcome.report,
-        files: outcome.files,
-        result: outcome.result,
+        report,
+        files,
+        result,
     })
 }
 

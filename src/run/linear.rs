@@ -41,8 +41,8 @@ fn write_report(
     plots: bool,
     written: &mut Written,
 ) -> Result<()> {
-    super::create_dir(written.dir())?;
     if plots {
+        super::create_dir(written.dir())?;
         let title = format!("{}: fixed-point convergence", report.case);
         let svg = fp.residual_chart(&title).to_svg()?;
         written.write("residuals.svg", |path| write_atomic(path, svg.as_bytes()))?;

@@ -49,35 +49,24 @@ pub(super) fn run(
             ctx.adapter.name
         ));
     }
-    let outcome = match run_writing(
-        case,
-        options.level,
-        Some(&dir),
-        options.paraview,
-        gpu,
-        progress,
-    ) {
-        Ok(outcome) => outcome,
-        // A solver failure before the first step (the bodies' multigrid set-up)
-        // still leaves a report.
-        Err(e) if matches!(e.exit_code(), 3 | 130) => {
-            let mut report = Report::new(case);
-            report.fail(&e);
-            super::write_report(&dir, &report, &[])?;
-            return Ok(RunOutcome {
-                dir,
-                report,
-                files: Vec::new(),
-                result: Err(e),
-            });
-        }
-        Err(e) => return Err(e),
-    };
-    super::write_report(&dir, &outcome.report, &outcome.files)?;
+    let paraview = options.paraview;
+    let (report, files, result) =
+        match run_writing(case, options.level, Some(&dir), paraview, gpu, progress) {
+            Ok(outcome) => (outcome.report, outcome.files, outcome.result),
+            // A solver failure before the first step (the bodies' multigrid
+            // set-up) still leaves a report.
+            Err(e) if matches!(e.exit_code(), 3 | 130) => {
+                let mut report = Report::new(case);
+                report.fail(&e);
+                (report, Vec::new(), Err(e))
+            }
+            Err(e) => return Err(e),
+        };
+    super::write_report(&dir, &report, &files)?;
     Ok(RunOutcome {
         dir,
-        report: outcome.report,
-        files: outcome.files,
-        result: outcome.result,
+        report,
+        files,
+        result,
     })
 }
