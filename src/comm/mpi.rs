@@ -17,9 +17,36 @@ pub struct Mpi {
     _universe: Universe,
 }
 
+/// The environment variables by which the common launchers tell a process
+/// that it is one rank of several: Open MPI's `mpirun`, MPICH's and Intel
+/// MPI's Hydra (PMI), PMIx launchers (Slurm's `srun --mpi=pmix`, Open MPI
+/// 5), MVAPICH.
+const LAUNCHER_VARIABLES: [&str; 5] = [
+    "OMPI_COMM_WORLD_SIZE",
+    "PMI_SIZE",
+    "PMI_RANK",
+    "PMIX_RANK",
+    "MV2_COMM_WORLD_SIZE",
+];
+
+/// Whether a launcher started this process, or `CGFEM_MPI=1` asks for MPI
+/// under a launcher that sets none of [`LAUNCHER_VARIABLES`]. Without
+/// either the run is the one-rank run and MPI is never touched (a singleton
+/// `MPI_Init` starts the MPI runtime for nothing).
+pub fn launched() -> bool {
+    std::env::var_os("CGFEM_MPI").is_some_and(|v| v == "1")
+        || LAUNCHER_VARIABLES
+            .iter()
+            .any(|v| std::env::var_os(v).is_some())
+}
+
 impl Mpi {
-    /// Initialises MPI; `None` when it was initialised already.
+    /// Initialises MPI when a launcher started this process ([`launched`]);
+    /// `None` without one, or when MPI was initialised already.
     pub fn init() -> Option<Mpi> {
+        if !launched() {
+            return None;
+        }
         let universe = mpi::initialize()?;
         Some(Mpi {
             world: universe.world(),
