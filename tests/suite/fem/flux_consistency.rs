@@ -24,6 +24,7 @@ struct Poly {
 
 impl Poly {
     fn random(rng: &mut ChaCha8Rng, p: usize) -> Poly {
+        assert!(p <= 2, "degrees up to 2 (the power tables of `eval`)");
         let n = (p + 1).pow(3);
         Poly {
             p,
@@ -34,24 +35,23 @@ impl Poly {
     /// Value and gradient (in local coordinates) at `xi`.
     fn eval(&self, xi: [f64; 3]) -> (f64, [f64; 3]) {
         let m = self.p + 1;
+        // ξ_k^j and its derivative j ξ_k^(j−1), j = 0..=p, per axis.
+        let mut pw = [[0.0; 3]; 3];
+        let mut dpw = [[0.0; 3]; 3];
+        for k in 0..3 {
+            pw[k][0] = 1.0;
+            for j in 1..m {
+                pw[k][j] = pw[k][j - 1] * xi[k];
+                dpw[k][j] = j as f64 * pw[k][j - 1];
+            }
+        }
         let (mut v, mut g) = (0.0, [0.0; 3]);
         for (e, c) in self.c.iter().enumerate() {
-            let a = [e % m, (e / m) % m, e / (m * m)];
-            let pw = |k: usize, d: bool| -> f64 {
-                if d {
-                    if a[k] == 0 {
-                        0.0
-                    } else {
-                        a[k] as f64 * xi[k].powi(a[k] as i32 - 1)
-                    }
-                } else {
-                    xi[k].powi(a[k] as i32)
-                }
-            };
-            v += c * pw(0, false) * pw(1, false) * pw(2, false);
-            g[0] += c * pw(0, true) * pw(1, false) * pw(2, false);
-            g[1] += c * pw(0, false) * pw(1, true) * pw(2, false);
-            g[2] += c * pw(0, false) * pw(1, false) * pw(2, true);
+            let [i, j, l] = [e % m, (e / m) % m, e / (m * m)];
+            v += c * pw[0][i] * pw[1][j] * pw[2][l];
+            g[0] += c * dpw[0][i] * pw[1][j] * pw[2][l];
+            g[1] += c * pw[0][i] * dpw[1][j] * pw[2][l];
+            g[2] += c * pw[0][i] * pw[1][j] * dpw[2][l];
         }
         (v, g)
     }
