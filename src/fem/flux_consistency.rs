@@ -476,23 +476,22 @@ fn cell_defect(
         return d;
     }
     // `d[r][j] += w ∂_j L_r(ξ)` (grad = true) or `w c_j L_r(ξ)`; the
-    // products are formed left to right, as `(w_j / h) ℓ'_a ℓ_b ℓ_c`, with
-    // the leading ones shared between the points' `r`.
+    // products are formed left to right, as `w_j ℓ'_a ℓ_b ℓ_c / h`, with the
+    // leading ones shared between the points' `r`.
     let mut add = |x: [f64; 3], w: [f64; 3], grad: bool| {
         let e = xi(x);
         let l = e.map(|s| lagrange(t, s));
         if grad {
             let dl = e.map(|s| lagrange_derivative(t, s));
-            let w = w.map(|c| c / h);
             for ii in 0..n {
                 let a = [w[0] * dl[0][ii], w[1] * l[0][ii], w[2] * l[0][ii]];
                 for jj in 0..n {
                     let b = [a[0] * l[1][jj], a[1] * dl[1][jj], a[2] * l[1][jj]];
                     for k in 0..n {
                         let r = ii + n * (jj + n * k);
-                        d[r][0] += b[0] * l[2][k];
-                        d[r][1] += b[1] * l[2][k];
-                        d[r][2] += b[2] * dl[2][k];
+                        d[r][0] += b[0] * l[2][k] / h;
+                        d[r][1] += b[1] * l[2][k] / h;
+                        d[r][2] += b[2] * dl[2][k] / h;
                     }
                 }
             }

@@ -217,16 +217,16 @@ pub fn lagrange_derivative(nodes: &[f64], t: f64) -> Lagrange1d {
     let n = nodes.len();
     let mut out = [0.0; MAX_LAGRANGE_NODES];
     for (i, o) in out[..n].iter_mut().enumerate() {
-        // `P(t) = Π_{r≠i} (t − t_r)` and `P'(t)` factor by factor:
-        // `(P q)' = P' q + P` for each new factor `q = t − t_r`.
-        let (mut value, mut slope, mut scale) = (1.0, 0.0, 1.0);
-        let others = nodes.iter().enumerate().filter(|&(r, _)| r != i);
-        for (_, &tr) in others {
-            slope = slope * (t - tr) + value;
-            value *= t - tr;
-            scale *= nodes[i] - tr;
-        }
-        *o = slope / scale;
+        *o = (0..n)
+            .filter(|&k| k != i)
+            .map(|k| {
+                let others: f64 = (0..n)
+                    .filter(|&r| r != i && r != k)
+                    .map(|r| (t - nodes[r]) / (nodes[i] - nodes[r]))
+                    .product();
+                others / (nodes[i] - nodes[k])
+            })
+            .sum();
     }
     out
 }
