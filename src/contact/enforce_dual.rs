@@ -6,24 +6,30 @@
 //! Rules: `(a ± b)'' = a'' ± b''`,
 //! `(ab)'' = a b'' + b a'' + a'⊗b' + b'⊗a'` and, for a scalar function `f`,
 //! `f(a)'' = f'(a) a'' + f''(a) a'⊗a'` (used for `1/a` and `√a`).
+//!
+//! The Hessian is `H × H`: `H = N` carries it, `H = 0` drops it (first
+//! order, for a residual without its tangent). Values and gradients never
+//! read the Hessian, so they are the same to the bit either way.
 
 use std::ops::{Add, Mul, Sub};
 
-/// A value with its gradient and Hessian in `N` variables.
+/// A value with its gradient in `N` variables and its Hessian (`H = N`) or
+/// none (`H = 0`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HyperDual<const N: usize> {
+pub struct HyperDual<const N: usize, const H: usize> {
     pub v: f64,
     pub g: [f64; N],
-    pub h: [[f64; N]; N],
+    pub h: [[f64; H]; H],
 }
 
-impl<const N: usize> HyperDual<N> {
+impl<const N: usize, const H: usize> HyperDual<N, H> {
     /// A constant.
     pub fn cst(v: f64) -> Self {
+        const { assert!(H == N || H == 0, "a Hessian is N × N or absent") };
         HyperDual {
             v,
             g: [0.0; N],
-            h: [[0.0; N]; N],
+            h: [[0.0; H]; H],
         }
     }
 
@@ -47,7 +53,9 @@ impl<const N: usize> HyperDual<N> {
         let mut r = Self::cst(f);
         for i in 0..N {
             r.g[i] = df * self.g[i];
-            for j in 0..N {
+        }
+        for i in 0..H {
+            for j in 0..H {
                 r.h[i][j] = df * self.h[i][j] + ddf * self.g[i] * self.g[j];
             }
         }
@@ -71,17 +79,27 @@ impl<const N: usize> HyperDual<N> {
     /// `y` and its derivatives in the `B` variables of `y` from there:
     /// `∇q = Σ_r q_r ∇z_r`,
     /// `∇²q = Σ_rs q_rs ∇z_r ⊗ ∇z_s + Σ_r q_r ∇²z_r`.
-    pub fn compose<const K: usize, const B: usize>(
-        q: &HyperDual<K>,
-        z: &[(usize, HyperDual<B>); K],
+    /// With a Hessian (`H = N`) `q` and the `z_r` carry theirs.
+    pub fn compose<const K: usize, const HK: usize, const B: usize, const HB: usize>(
+        q: &HyperDual<K, HK>,
+        z: &[(usize, HyperDual<B, HB>); K],
     ) -> Self {
+        const {
+            assert!(
+                H == 0 || (HK == K && HB == B),
+                "second order needs inner Hessians"
+            )
+        };
         // A block may run past the end of `y`: its entries there are zero.
         let len = |offset: usize| B.min(N.saturating_sub(offset));
+        let hessian_len = |offset: usize| B.min(H.saturating_sub(offset));
         let mut out = Self::cst(q.v);
         for (&(offset, ref zr), &qr) in z.iter().zip(&q.g) {
             for a in 0..len(offset) {
                 out.g[offset + a] += qr * zr.g[a];
-                for b in 0..len(offset) {
+            }
+            for a in 0..hessian_len(offset) {
+                for b in 0..hessian_len(offset) {
                     out.h[offset + a][offset + b] += qr * zr.h[a][b];
                 }
             }
@@ -91,9 +109,9 @@ impl<const N: usize> HyperDual<N> {
                 if w == 0.0 {
                     continue;
                 }
-                for a in 0..len(oa) {
+                for a in 0..hessian_len(oa) {
                     let wa = w * za.g[a];
-                    for b in 0..len(ob) {
+                    for b in 0..hessian_len(ob) {
                         out.h[oa + a][ob + b] += wa * zb.g[b];
                     }
                 }
@@ -103,11 +121,12 @@ impl<const N: usize> HyperDual<N> {
     }
 
     /// A number in `B` variables placed at `offset` among `N`.
-    pub fn embed<const B: usize>(offset: usize, x: &HyperDual<B>) -> Self {
+    pub fn embed<const B: usize, const HB: usize>(offset: usize, x: &HyperDual<B, HB>) -> Self {
+        const { assert!(H == 0 || HB == B, "second order needs the block's Hessian") };
         let mut out = Self::cst(x.v);
-        for a in 0..B {
-            out.g[offset + a] = x.g[a];
-            for b in 0..B {
+        out.g[offset..offset + B].copy_from_slice(&x.g);
+        for a in 0..B.min(H) {
+            for b in 0..B.min(H) {
                 out.h[offset + a][offset + b] = x.h[a][b];
             }
         }
@@ -119,7 +138,9 @@ impl<const N: usize> HyperDual<N> {
         r.v = f(self.v, o.v);
         for i in 0..N {
             r.g[i] = f(self.g[i], o.g[i]);
-            for j in 0..N {
+        }
+        for i in 0..H {
+            for j in 0..H {
                 r.h[i][j] = f(self.h[i][j], o.h[i][j]);
             }
         }
@@ -127,27 +148,29 @@ impl<const N: usize> HyperDual<N> {
     }
 }
 
-impl<const N: usize> Add for HyperDual<N> {
+impl<const N: usize, const H: usize> Add for HyperDual<N, H> {
     type Output = Self;
     fn add(self, o: Self) -> Self {
         self.zip(o, |a, b| a + b)
     }
 }
 
-impl<const N: usize> Sub for HyperDual<N> {
+impl<const N: usize, const H: usize> Sub for HyperDual<N, H> {
     type Output = Self;
     fn sub(self, o: Self) -> Self {
         self.zip(o, |a, b| a - b)
     }
 }
 
-impl<const N: usize> Mul for HyperDual<N> {
+impl<const N: usize, const H: usize> Mul for HyperDual<N, H> {
     type Output = Self;
     fn mul(self, o: Self) -> Self {
         let mut r = Self::cst(self.v * o.v);
         for i in 0..N {
             r.g[i] = self.v * o.g[i] + self.g[i] * o.v;
-            for j in 0..N {
+        }
+        for i in 0..H {
+            for j in 0..H {
                 r.h[i][j] = self.v * o.h[i][j]
                     + self.h[i][j] * o.v
                     + self.g[i] * o.g[j]
@@ -165,7 +188,10 @@ mod tests {
     #[test]
     fn derivatives_of_a_rational_root_are_exact() {
         // f(x, y) = √x · y / (x + y) at (4, 1).
-        let (x, y) = (HyperDual::<2>::var(4.0, 0), HyperDual::<2>::var(1.0, 1));
+        let (x, y) = (
+            HyperDual::<2, 2>::var(4.0, 0),
+            HyperDual::<2, 2>::var(1.0, 1),
+        );
         let f = x.sqrt() * y * (x + y).recip();
         let (xv, yv) = (4.0f64, 1.0f64);
         let s = xv + yv;

@@ -32,7 +32,7 @@
 //! `g_T = (I − n1 ⊗ n1)(x1 − a)`.
 
 use super::enforce_dual::HyperDual;
-use super::patch::{cofactor_times, cross, dot, sub, Patch};
+use super::patch::{cofactor_times, cross, dot, sub, Patch, Real};
 
 /// Number of kinematic variables.
 pub const NVAR: usize = 33;
@@ -48,62 +48,116 @@ pub const A: usize = 21;
 /// Offset of the normal at master corner `k` in `y` is `M + 3k`.
 pub const M: usize = 24;
 
-/// A scalar with derivatives in `y`.
-pub type D = HyperDual<NVAR>;
-type V = [D; 3];
-
 /// Number of inner variables of the gap, `z = [x1, c, p0, p1, p2, m0, m1, m2]`.
 const NZ: usize = 24;
-/// A scalar with derivatives in `z`.
-type Z = HyperDual<NZ>;
-/// A scalar with derivatives in a block of 9 consecutive entries of `y`.
-type Block = HyperDual<9>;
+
+/// The numbers a point's kinematics are computed in: with their Hessians
+/// ([`Second`], for the tangent) or gradients only ([`First`], for the
+/// residual: the same values and gradients, a hundredth of the work).
+pub trait Order: Clone + std::fmt::Debug {
+    /// A scalar with derivatives in `y`.
+    type Y: Real;
+    /// A scalar with derivatives in `z`.
+    type Z: Real;
+    /// A scalar with derivatives in a block of 9 consecutive entries of `y`.
+    type Block: Real;
+    fn var_y(v: f64, i: usize) -> Self::Y;
+    fn var_z(v: f64, i: usize) -> Self::Z;
+    fn var_block(v: f64, i: usize) -> Self::Block;
+    /// A block's number among the `y` ([`HyperDual::embed`]).
+    fn embed(offset: usize, x: &Self::Block) -> Self::Y;
+    /// `q(z(y))` ([`HyperDual::compose`]).
+    fn compose(q: &Self::Z, z: &[(usize, Self::Block); NZ]) -> Self::Y;
+    /// `∇_y` of a number.
+    fn gradient(x: &Self::Y) -> &[f64; NVAR];
+}
+
+/// Values, gradients and Hessians.
+#[derive(Clone, Debug)]
+pub struct Second;
+
+/// Values and gradients.
+#[derive(Clone, Debug)]
+pub struct First;
+
+/// [`Order`] for the Hessian extents `HY`, `HZ`, `HB` (each its type's
+/// variable count, or 0).
+macro_rules! order {
+    ($order:ty, $hy:expr, $hz:expr, $hb:expr) => {
+        impl Order for $order {
+            type Y = HyperDual<NVAR, $hy>;
+            type Z = HyperDual<NZ, $hz>;
+            type Block = HyperDual<9, $hb>;
+            fn var_y(v: f64, i: usize) -> Self::Y {
+                HyperDual::var(v, i)
+            }
+            fn var_z(v: f64, i: usize) -> Self::Z {
+                HyperDual::var(v, i)
+            }
+            fn var_block(v: f64, i: usize) -> Self::Block {
+                HyperDual::var(v, i)
+            }
+            fn embed(offset: usize, x: &Self::Block) -> Self::Y {
+                HyperDual::embed(offset, x)
+            }
+            fn compose(q: &Self::Z, z: &[(usize, Self::Block); NZ]) -> Self::Y {
+                HyperDual::compose(q, z)
+            }
+            fn gradient(x: &Self::Y) -> &[f64; NVAR] {
+                &x.g
+            }
+        }
+    };
+}
+
+order!(Second, NVAR, NZ, 9);
+order!(First, 0, 0, 0);
 
 /// The point's kinematics, each with derivatives in `y`.
 #[derive(Clone, Debug)]
-pub struct LocalGap {
+pub struct LocalGap<O: Order> {
     /// `g_N`.
-    pub gap: D,
+    pub gap: O::Y,
     /// `J_s`.
-    pub area_ratio: D,
+    pub area_ratio: O::Y,
     /// `n1`.
-    pub normal: [D; 3],
+    pub normal: [O::Y; 3],
     /// `g_T`.
-    pub slip: [D; 3],
+    pub slip: [O::Y; 3],
 }
 
-fn vector(y: &[f64; NVAR], at: usize) -> V {
-    [0, 1, 2].map(|i| D::var(y[at + i], at + i))
+fn vector<O: Order>(y: &[f64; NVAR], at: usize) -> [O::Y; 3] {
+    [0, 1, 2].map(|i| O::var_y(y[at + i], at + i))
 }
 
 /// The entries `y[at..at + 3]` as variables of their block.
-fn block_vector(y: &[f64; NVAR], at: usize) -> [(usize, Block); 3] {
-    [0, 1, 2].map(|i| (at, Block::var(y[at + i], i)))
+fn block_vector<O: Order>(y: &[f64; NVAR], at: usize) -> [(usize, O::Block); 3] {
+    [0, 1, 2].map(|i| (at, O::var_block(y[at + i], i)))
 }
 
 /// `cof(M) N` for the row-major 3 × 3 matrix `M = y[at..at + 9]`, in its
 /// block.
-fn cofactor_block(y: &[f64; NVAR], at: usize, n: [f64; 3]) -> [(usize, Block); 3] {
-    let rows = [0, 1, 2].map(|i| [0, 1, 2].map(|j| Block::var(y[at + 3 * i + j], 3 * i + j)));
+fn cofactor_block<O: Order>(y: &[f64; NVAR], at: usize, n: [f64; 3]) -> [(usize, O::Block); 3] {
+    let rows = [0, 1, 2].map(|i| [0, 1, 2].map(|j| O::var_block(y[at + 3 * i + j], 3 * i + j)));
     cofactor_times(&rows, n).map(|c| (at, c))
 }
 
 /// `g_N` in the inner variables `z` (values `zv`), from `start`, the
 /// search's `(s, t, g_N)`: the ray–patch solve refined in `f64`, then two
 /// Newton steps in forward-mode numbers.
-fn gap_in_z(zv: &[f64; NZ], start: [f64; 3]) -> Z {
-    let var = |r: usize| Z::var(zv[r], r);
+fn gap_in_z<O: Order>(zv: &[f64; NZ], start: [f64; 3]) -> O::Z {
+    let var = |r: usize| O::var_z(zv[r], r);
     let x1 = [0, 1, 2].map(var);
     let c = [3, 4, 5].map(var);
     let p = [0, 1, 2].map(|k| [0, 1, 2].map(|i| var(6 + 3 * k + i)));
     let m = [0, 1, 2].map(|k| [0, 1, 2].map(|i| var(15 + 3 * k + i)));
-    let value = |x: &[Z; 3]| x.map(|c| c.v);
+    let value = |x: &[O::Z; 3]| x.map(|c| c.value());
     let plain = Patch::new(&p.each_ref().map(value), &m.each_ref().map(value));
     let d = super::patch::unit(&value(&c));
     let z = plain.intersect(value(&x1), d, start).unwrap_or(start);
     let patch = Patch::new(&p, &m);
     let d = super::patch::unit(&c);
-    let mut z = z.map(Z::cst);
+    let mut z = z.map(O::Z::cst);
     for _ in 0..2 {
         z = patch.newton_step(&x1, &d, z);
     }
@@ -113,9 +167,9 @@ fn gap_in_z(zv: &[f64; NZ], start: [f64; 3]) -> Z {
 /// `g_N` on the plane of a flat facet, in closed form: the ray meets the
 /// plane of normal `ν = (p1 − p0) × (p2 − p0)` at
 /// `g_N = |c| (p0 − x1)·ν / (c·ν)`.
-fn flat_gap(y: &[f64; NVAR], c: &V) -> D {
-    let x1 = vector(y, X1);
-    let p = [0, 1, 2].map(|k| vector(y, P + 3 * k));
+fn flat_gap<O: Order>(y: &[f64; NVAR], c: &[O::Y; 3]) -> O::Y {
+    let x1 = vector::<O>(y, X1);
+    let p = [0, 1, 2].map(|k| vector::<O>(y, P + 3 * k));
     let nu = cross(&sub(&p[1], &p[0]), &sub(&p[2], &p[0]));
     dot(c, c).sqrt() * dot(&sub(&p[0], &x1), &nu) * dot(c, &nu).recip()
 }
@@ -124,29 +178,34 @@ fn flat_gap(y: &[f64; NVAR], c: &V) -> D {
 /// point's reference unit normal `n_ref`, the search's patch coordinates and
 /// gap `start = (s, t, g_N)` (where the Newton iteration starts), on the
 /// curved patch (`curved`, corner normals `m_k` from `y`) or the flat facet
-/// (the `m_k` of `y` are not used).
-pub fn local_gap(y: &[f64; NVAR], n_ref: [f64; 3], start: [f64; 3], curved: bool) -> LocalGap {
-    let c = cofactor_block(y, F, n_ref);
-    let mut z: Vec<(usize, Block)> = block_vector(y, X1).to_vec();
+/// (the `m_k` of `y` are not used), to the order `O`.
+pub fn local_gap<O: Order>(
+    y: &[f64; NVAR],
+    n_ref: [f64; 3],
+    start: [f64; 3],
+    curved: bool,
+) -> LocalGap<O> {
+    let c = cofactor_block::<O>(y, F, n_ref);
+    let mut z: Vec<(usize, O::Block)> = block_vector::<O>(y, X1).to_vec();
     z.extend(c);
-    (0..3).for_each(|k| z.extend(block_vector(y, P + 3 * k)));
-    (0..3).for_each(|k| z.extend(block_vector(y, M + 3 * k)));
-    let z: [(usize, Block); NZ] = z.try_into().expect("24 inner variables");
-    let c_y = c.map(|(at, b)| D::embed(at, &b));
+    (0..3).for_each(|k| z.extend(block_vector::<O>(y, P + 3 * k)));
+    (0..3).for_each(|k| z.extend(block_vector::<O>(y, M + 3 * k)));
+    let z: [(usize, O::Block); NZ] = z.try_into().expect("24 inner variables");
+    let c_y = c.map(|(at, b)| O::embed(at, &b));
     let gap = if curved {
-        let zv = z.each_ref().map(|(_, b)| b.v);
-        D::compose(&gap_in_z(&zv, start), &z)
+        let zv = z.each_ref().map(|(_, b)| b.value());
+        O::compose(&gap_in_z::<O>(&zv, start), &z)
     } else {
-        flat_gap(y, &c_y)
+        flat_gap::<O>(y, &c_y)
     };
 
     let c = c_y;
     let area_ratio = dot(&c, &c).sqrt();
     let inverse_norm = area_ratio.recip();
     let n1 = c.map(|ci| ci * inverse_norm);
-    let x1 = vector(y, X1);
-    let anchor = vector(y, A);
-    let d: V = [0, 1, 2].map(|i| x1[i] - anchor[i]);
+    let x1 = vector::<O>(y, X1);
+    let anchor = vector::<O>(y, A);
+    let d: [O::Y; 3] = [0, 1, 2].map(|i| x1[i] - anchor[i]);
     let normal_part = dot(&n1, &d);
     let slip = [0, 1, 2].map(|i| d[i] - n1[i] * normal_part);
     LocalGap {
@@ -180,11 +239,32 @@ mod tests {
     }
 
     #[test]
+    fn first_order_gives_the_second_orders_values_and_gradients_to_the_bit() {
+        let y = state();
+        let start = [1.0 / 3.0, 1.0 / 3.0, 0.0];
+        for curved in [false, true] {
+            let full = local_gap::<Second>(&y, [0.0, 0.0, -1.0], start, curved);
+            let first = local_gap::<First>(&y, [0.0, 0.0, -1.0], start, curved);
+            let pairs = [
+                (&full.gap, &first.gap),
+                (&full.area_ratio, &first.area_ratio),
+            ]
+            .into_iter()
+            .chain(full.normal.iter().zip(&first.normal))
+            .chain(full.slip.iter().zip(&first.slip));
+            for (a, b) in pairs {
+                assert_eq!((a.v, a.g), (b.v, b.g), "curved {curved}");
+                assert!(a.h.iter().flatten().any(|&h| h != 0.0), "curved {curved}");
+            }
+        }
+    }
+
+    #[test]
     fn the_gap_is_the_ray_distance_to_the_patch_and_its_hessian_matches_differences() {
         let n_ref = [0.0, 0.0, -1.0];
         let y = state();
         let start = [1.0 / 3.0, 1.0 / 3.0, 0.0];
-        let lg = local_gap(&y, n_ref, start, true);
+        let lg = local_gap::<Second>(&y, n_ref, start, true);
         // Independent value: x1 + g n1 lies on the current patch.
         let fm = [0, 1, 2].map(|i| [0, 1, 2].map(|j| y[F + 3 * i + j]));
         let n1 = crate::contact::current_normal(&fm, n_ref);
@@ -208,8 +288,8 @@ mod tests {
             yp[b] += eps;
             ym[b] -= eps;
             let (gp, gm) = (
-                local_gap(&yp, n_ref, start, true).gap,
-                local_gap(&ym, n_ref, start, true).gap,
+                local_gap::<Second>(&yp, n_ref, start, true).gap,
+                local_gap::<Second>(&ym, n_ref, start, true).gap,
             );
             for a in 0..NVAR {
                 let fd = (gp.g[a] - gm.g[a]) / (2.0 * eps);
@@ -222,8 +302,8 @@ mod tests {
             let fd = (gp.v - gm.v) / (2.0 * eps);
             assert!((fd - lg.gap.g[b]).abs() < 1e-8, "{b}");
             let (sp, sm) = (
-                local_gap(&yp, n_ref, start, true).slip,
-                local_gap(&ym, n_ref, start, true).slip,
+                local_gap::<Second>(&yp, n_ref, start, true).slip,
+                local_gap::<Second>(&ym, n_ref, start, true).slip,
             );
             for i in 0..3 {
                 for a in 0..NVAR {

@@ -18,10 +18,12 @@
 //! (the branch of the return map is fixed, everything else varies),
 //! `K_y = w Σ_pairs [t ∇g ⊗ ∇J_s + J_s ∇g ⊗ ∇t + J_s t ∇²g]`
 //! (row index first). `∇t` comes from the forward-mode numbers: `t` is
-//! computed from `g_N`, `n1` and `g_T` as a [`HyperDual`].
+//! computed from `g_N`, `n1` and `g_T` as a [`HyperDual`]
+//! (`super::enforce_dual`). The residual needs gradients only: the law is
+//! generic over the [`Order`] of its numbers.
 
-use super::enforce_dual::HyperDual;
-use super::enforce_gap::{LocalGap, D, NVAR};
+use super::enforce_gap::{LocalGap, Order, Second, NVAR};
+use super::patch::Real;
 
 /// What the law needs besides the kinematics.
 #[derive(Clone, Copy, Debug)]
@@ -38,18 +40,18 @@ pub struct LawInput {
 
 /// The tractions of an active point.
 #[derive(Clone, Debug)]
-pub struct Tractions {
+pub struct Tractions<O: Order> {
     /// `λ_N < 0`.
-    pub normal: D,
+    pub normal: O::Y,
     /// `t_T` and whether it slips, when friction applies.
-    pub tangential: Option<([D; 3], bool)>,
+    pub tangential: Option<([O::Y; 3], bool)>,
 }
 
 /// The tractions at the kinematic state `lg`, or `None` when the point is
 /// not active.
-pub fn tractions(lg: &LocalGap, input: &LawInput) -> Option<Tractions> {
-    let trial = lg.gap.scale(input.kappa) + D::cst(input.recovered);
-    if trial.v >= 0.0 {
+pub fn tractions<O: Order>(lg: &LocalGap<O>, input: &LawInput) -> Option<Tractions<O>> {
+    let trial = lg.gap.scale(input.kappa) + O::Y::cst(input.recovered);
+    if trial.value() >= 0.0 {
         return None;
     }
     let tangential = input
@@ -63,14 +65,19 @@ pub fn tractions(lg: &LocalGap, input: &LawInput) -> Option<Tractions> {
 }
 
 /// The return map of `t_trial` onto `|t_T| ≤ μ |λ_N|`.
-fn friction_traction(lg: &LocalGap, lambda: &D, old: [f64; 3], input: &LawInput) -> ([D; 3], bool) {
+fn friction_traction<O: Order>(
+    lg: &LocalGap<O>,
+    lambda: &O::Y,
+    old: [f64; 3],
+    input: &LawInput,
+) -> ([O::Y; 3], bool) {
     let n1 = &lg.normal;
     let along = n1[0].scale(old[0]) + n1[1].scale(old[1]) + n1[2].scale(old[2]);
-    let trial: [D; 3] =
-        [0, 1, 2].map(|i| D::cst(old[i]) - n1[i] * along + lg.slip[i].scale(input.kappa));
+    let trial: [O::Y; 3] =
+        [0, 1, 2].map(|i| O::Y::cst(old[i]) - n1[i] * along + lg.slip[i].scale(input.kappa));
     let size2 = trial[0] * trial[0] + trial[1] * trial[1] + trial[2] * trial[2];
-    let bound = -input.friction * lambda.v;
-    if size2.v.sqrt() <= bound {
+    let bound = -input.friction * lambda.value();
+    if size2.value().sqrt() <= bound {
         return (trial, false);
     }
     let factor = lambda.scale(-input.friction) * size2.sqrt().recip();
@@ -78,7 +85,7 @@ fn friction_traction(lg: &LocalGap, lambda: &D, old: [f64; 3], input: &LawInput)
 }
 
 /// The conjugate pairs `(t, g)` of the tractions.
-fn pairs<'a>(lg: &'a LocalGap, tr: &'a Tractions) -> Vec<(&'a D, &'a D)> {
+fn pairs<'a, O: Order>(lg: &'a LocalGap<O>, tr: &'a Tractions<O>) -> Vec<(&'a O::Y, &'a O::Y)> {
     let mut out = vec![(&tr.normal, &lg.gap)];
     if let Some((t, _)) = &tr.tangential {
         out.extend(t.iter().zip(&lg.slip));
@@ -87,18 +94,19 @@ fn pairs<'a>(lg: &'a LocalGap, tr: &'a Tractions) -> Vec<(&'a D, &'a D)> {
 }
 
 /// `R_y = w J_s Σ t ∇g`.
-pub fn residual_in_y(lg: &LocalGap, tr: &Tractions, w: f64) -> [f64; NVAR] {
+pub fn residual_in_y<O: Order>(lg: &LocalGap<O>, tr: &Tractions<O>, w: f64) -> [f64; NVAR] {
     let mut r = [0.0; NVAR];
     for (t, g) in pairs(lg, tr) {
-        let s = w * lg.area_ratio.v * t.v;
-        (0..NVAR).for_each(|a| r[a] += s * g.g[a]);
+        let s = w * lg.area_ratio.value() * t.value();
+        let g = O::gradient(g);
+        (0..NVAR).for_each(|a| r[a] += s * g[a]);
     }
     r
 }
 
 /// `K_y = w Σ [t ∇g ⊗ ∇J_s + J_s ∇g ⊗ ∇t + J_s t ∇²g]`.
-pub fn tangent_in_y(lg: &LocalGap, tr: &Tractions, w: f64) -> Vec<[f64; NVAR]> {
-    let j: &HyperDual<NVAR> = &lg.area_ratio;
+pub fn tangent_in_y(lg: &LocalGap<Second>, tr: &Tractions<Second>, w: f64) -> Vec<[f64; NVAR]> {
+    let j = &lg.area_ratio;
     let mut k = vec![[0.0; NVAR]; NVAR];
     for (t, g) in pairs(lg, tr) {
         for (a, row) in k.iter_mut().enumerate() {

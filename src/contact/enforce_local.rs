@@ -16,10 +16,11 @@ use super::enforce::SlaveQuadraturePoint;
 use super::enforce::{
     ContactBody, ContactPairData, FrictionState, MasterPoint, PointHistory, PointState,
 };
-use super::enforce_gap::{local_gap, A, F, M, NVAR, P, X1};
-use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput};
+use super::enforce_gap::{local_gap, First, LocalGap, Order, Second, A, F, M, NVAR, P, X1};
+use super::enforce_law::{residual_in_y, tangent_in_y, tractions, LawInput, Tractions};
 use super::enforce_normals::CornerNormals;
 use super::enforce_tangent::PointTangent;
+use super::patch::Real;
 use super::search::{area_ratio, current_normal, MasterSurface};
 use crate::element::{shape_gradients, shape_values};
 use crate::spatial::vec3::dot;
@@ -226,31 +227,31 @@ pub fn point_contact(
         CornerNormals::add_columns(&mut jac, &pair.master, master, surface.current(), vertices)
     });
     let start = [hit.barycentric[1], hit.barycentric[2], hit.gap];
-    let lg = local_gap(&y, p.normal, start, normals.is_some());
-    state.hit = Some((hit.triangle, lg.gap.v));
     let input = LawInput {
         recovered: history.recovered,
         kappa: pair.stiffness(),
         friction: pair.friction,
         previous_tangential: anchor.map(|_| history.tangential),
     };
-    let Some(tr) = tractions(&lg, &input) else {
-        return (state, None);
-    };
-    state.pressure = -tr.normal.v;
-    if let Some((t, slipping)) = &tr.tangential {
-        state.tangential = t.map(|ti| ti.v);
-        state.friction = match slipping {
-            true => FrictionState::Slip,
-            false => FrictionState::Stick,
+    let curved = normals.is_some();
+    // The residual needs gradients only; the tangent the Hessians too.
+    let (r_y, k_y) = if tangent {
+        let Some((lg, tr)) = law::<Second>(&y, p, start, curved, &input, &mut state) else {
+            return (state, None);
         };
-    }
-    let r_y = residual_in_y(&lg, &tr, p.weight);
+        let r_y = residual_in_y(&lg, &tr, p.weight);
+        (r_y, Some(tangent_in_y(&lg, &tr, p.weight)))
+    } else {
+        let Some((lg, tr)) = law::<First>(&y, p, start, curved, &input, &mut state) else {
+            return (state, None);
+        };
+        (residual_in_y(&lg, &tr, p.weight), None)
+    };
     let residual = jac.columns.iter().map(|c| dot_n(c, &r_y)).collect();
-    let tangent = tangent.then(|| PointTangent {
+    let tangent = k_y.map(|k_y| PointTangent {
         dofs: jac.dofs.clone(),
         columns: jac.columns,
-        k_y: tangent_in_y(&lg, &tr, p.weight),
+        k_y,
         normals: normals.map_or_else(Default::default, |n| n.second_derivatives(master, &r_y)),
     });
     let local = Local {
@@ -259,6 +260,32 @@ pub fn point_contact(
         tangent,
     };
     (state, Some(local))
+}
+
+/// The point's kinematics and tractions to the order `O` at the state `y`,
+/// recorded in `state`; `None` when the point is not active.
+fn law<O: Order>(
+    y: &[f64; NVAR],
+    p: &SlaveQuadraturePoint,
+    start: [f64; 3],
+    curved: bool,
+    input: &LawInput,
+    state: &mut PointState,
+) -> Option<(LocalGap<O>, Tractions<O>)> {
+    let lg = local_gap::<O>(y, p.normal, start, curved);
+    if let Some((triangle, _)) = state.hit {
+        state.hit = Some((triangle, lg.gap.value()));
+    }
+    let tr = tractions(&lg, input)?;
+    state.pressure = -tr.normal.value();
+    if let Some((t, slipping)) = &tr.tangential {
+        state.tangential = t.map(|ti| ti.value());
+        state.friction = match slipping {
+            true => FrictionState::Slip,
+            false => FrictionState::Stick,
+        };
+    }
+    Some((lg, tr))
 }
 
 fn dot_n(a: &[f64; NVAR], b: &[f64]) -> f64 {

@@ -63,7 +63,9 @@ use std::ops::{Add, Mul, Sub};
 use super::enforce_dual::HyperDual;
 
 /// The arithmetic the patch needs.
-pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
+pub trait Real:
+    Copy + std::fmt::Debug + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
+{
     fn cst(v: f64) -> Self;
     fn scale(self, s: f64) -> Self;
     fn recip(self) -> Self;
@@ -89,7 +91,7 @@ impl Real for f64 {
     }
 }
 
-impl<const N: usize> Real for HyperDual<N> {
+impl<const N: usize, const H: usize> Real for HyperDual<N, H> {
     fn cst(v: f64) -> Self {
         HyperDual::cst(v)
     }
