@@ -248,11 +248,9 @@ pub fn point_contact(
         (residual_in_y(&lg, &tr, p.weight), None)
     };
     let residual = jac.columns.iter().map(|c| dot_n(c, &r_y)).collect();
-    let tangent = k_y.map(|k_y| PointTangent {
-        dofs: jac.dofs.clone(),
-        columns: jac.columns,
-        k_y,
-        normals: normals.map_or_else(Default::default, |n| n.second_derivatives(master, &r_y)),
+    let tangent = k_y.map(|k_y| {
+        let normals = normals.map_or_else(Default::default, |n| n.second_derivatives(master, &r_y));
+        PointTangent::new(jac.dofs.clone(), &jac.columns, k_y, normals)
     });
     let local = Local {
         dofs: jac.dofs,

@@ -7,8 +7,9 @@
 //! cells of the hit patch's corners and of the vertices around them): the
 //! dense blocks cost far more than the factors (`33 n + 1 089`), so the
 //! tangent is kept factored and applied matrix-free,
-//! `K v = Σ_p Aᵀ (K_y (A v_p))` in `O(33 n)` per point; its diagonal (for
-//! Jacobi) and the assembled triplets are available too.
+//! `K v = Σ_p Aᵀ (K_y (A v_p))` in `O(33 n)` per point, `A` by its
+//! nonzero entries (a few per column); its diagonal (for Jacobi) and the
+//! assembled triplets are available too.
 
 use faer::sparse::Triplet;
 
@@ -19,13 +20,18 @@ use crate::spatial::vec3::cross;
 #[derive(Clone, Debug)]
 pub struct PointTangent {
     /// Global dofs of the local columns (repeats allowed; they add up).
-    pub(super) dofs: Vec<usize>,
-    /// `A`'s column per local dof.
-    pub(super) columns: Vec<[f64; NVAR]>,
+    dofs: Vec<usize>,
+    /// `A`'s column per local dof, by its nonzero entries (a slave dof
+    /// moves `x1` and one row of `F`, a master dof one corner or the
+    /// anchor: a few of the 33): column `j` is `rows`/`values`
+    /// `[starts[j]..starts[j + 1]]`, by increasing row.
+    starts: Vec<u32>,
+    rows: Vec<u8>,
+    values: Vec<f64>,
     /// `K_y`, row-major.
-    pub(super) k_y: Vec<[f64; NVAR]>,
+    k_y: Vec<[f64; NVAR]>,
     /// The corner normals' second-derivative term.
-    pub(super) normals: NormalTerms,
+    normals: NormalTerms,
 }
 
 /// A master vertex's current position as a function of the dofs:
@@ -109,14 +115,55 @@ fn dot(a: &[f64; NVAR], b: &[f64; NVAR]) -> f64 {
 }
 
 impl PointTangent {
+    /// The factors of a point with the local `dofs`, `A`'s `columns` (one
+    /// per dof), `K_y` and the normals' term.
+    pub(super) fn new(
+        dofs: Vec<usize>,
+        columns: &[[f64; NVAR]],
+        k_y: Vec<[f64; NVAR]>,
+        normals: NormalTerms,
+    ) -> PointTangent {
+        assert_eq!(dofs.len(), columns.len(), "a column per dof");
+        let (mut starts, mut rows, mut values) = (vec![0], Vec::new(), Vec::new());
+        for c in columns {
+            for (r, &x) in c.iter().enumerate().filter(|(_, &x)| x != 0.0) {
+                rows.push(r as u8);
+                values.push(x);
+            }
+            starts.push(rows.len() as u32);
+        }
+        PointTangent {
+            dofs,
+            starts,
+            rows,
+            values,
+            k_y,
+            normals,
+        }
+    }
+
+    /// Column `j`'s nonzero entries `(row, value)`, by increasing row.
+    fn entries(&self, j: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let range = self.starts[j] as usize..self.starts[j + 1] as usize;
+        self.rows[range.clone()]
+            .iter()
+            .zip(&self.values[range])
+            .map(|(&r, &x)| (r as usize, x))
+    }
+
+    /// Column `j`, all 33 entries.
+    fn column(&self, j: usize) -> [f64; NVAR] {
+        let mut c = [0.0; NVAR];
+        self.entries(j).for_each(|(r, x)| c[r] = x);
+        c
+    }
+
     /// `K_y A`, one column of 33 per local dof.
     fn k_y_times_columns(&self) -> Vec<[f64; NVAR]> {
-        self.columns
-            .iter()
-            .map(|c| {
-                let mut out = [0.0; NVAR];
-                (0..NVAR).for_each(|r| out[r] = dot(&self.k_y[r], c));
-                out
+        (0..self.dofs.len())
+            .map(|j| {
+                let c = self.column(j);
+                std::array::from_fn(|r| dot(&self.k_y[r], &c))
             })
             .collect()
     }
@@ -138,12 +185,12 @@ impl ContactTangent {
     pub fn apply_add(&self, v: &[f64], out: &mut [f64]) {
         for p in &self.points {
             let mut av = [0.0; NVAR];
-            for (c, &d) in p.columns.iter().zip(&p.dofs) {
-                (0..NVAR).for_each(|r| av[r] += c[r] * v[d]);
+            for (j, &d) in p.dofs.iter().enumerate() {
+                p.entries(j).for_each(|(r, x)| av[r] += x * v[d]);
             }
             let kav: [f64; NVAR] = std::array::from_fn(|r| dot(&p.k_y[r], &av));
-            for (c, &d) in p.columns.iter().zip(&p.dofs) {
-                out[d] += dot(c, &kav);
+            for (j, &d) in p.dofs.iter().enumerate() {
+                out[d] += p.entries(j).map(|(r, x)| x * kav[r]).sum::<f64>();
             }
             p.normals.apply_add(v, out);
         }
@@ -155,10 +202,11 @@ impl ContactTangent {
     pub fn add_diagonal(&self, out: &mut [f64]) {
         for p in &self.points {
             let ka = p.k_y_times_columns();
-            for (ca, &da) in p.columns.iter().zip(&p.dofs) {
+            for (a, &da) in p.dofs.iter().enumerate() {
+                let ca = p.column(a);
                 for (kb, &db) in ka.iter().zip(&p.dofs) {
                     if da == db {
-                        out[da] += dot(ca, kb);
+                        out[da] += dot(&ca, kb);
                     }
                 }
             }
@@ -170,9 +218,10 @@ impl ContactTangent {
         let mut out = Vec::new();
         for p in &self.points {
             let ka = p.k_y_times_columns();
-            for (ca, &da) in p.columns.iter().zip(&p.dofs) {
+            for (a, &da) in p.dofs.iter().enumerate() {
+                let ca = p.column(a);
                 for (kb, &db) in ka.iter().zip(&p.dofs) {
-                    out.push(Triplet::new(da, db, dot(ca, kb)));
+                    out.push(Triplet::new(da, db, dot(&ca, kb)));
                 }
             }
             p.normals.triplets(&mut out);
