@@ -72,46 +72,40 @@ pub trait Order: Clone + std::fmt::Debug {
     fn gradient(x: &Self::Y) -> &[f64; NVAR];
 }
 
-/// Values, gradients and Hessians.
+/// The [`Order`] whose numbers have the Hessian extents `HY`, `HZ`, `HB`
+/// (each its type's variable count, or 0).
 #[derive(Clone, Debug)]
-pub struct Second;
+pub struct Extents<const HY: usize, const HZ: usize, const HB: usize>;
+
+/// Values, gradients and Hessians.
+pub type Second = Extents<NVAR, NZ, 9>;
 
 /// Values and gradients.
-#[derive(Clone, Debug)]
-pub struct First;
+pub type First = Extents<0, 0, 0>;
 
-/// [`Order`] for the Hessian extents `HY`, `HZ`, `HB` (each its type's
-/// variable count, or 0).
-macro_rules! order {
-    ($order:ty, $hy:expr, $hz:expr, $hb:expr) => {
-        impl Order for $order {
-            type Y = HyperDual<NVAR, $hy>;
-            type Z = HyperDual<NZ, $hz>;
-            type Block = HyperDual<9, $hb>;
-            fn var_y(v: f64, i: usize) -> Self::Y {
-                HyperDual::var(v, i)
-            }
-            fn var_z(v: f64, i: usize) -> Self::Z {
-                HyperDual::var(v, i)
-            }
-            fn var_block(v: f64, i: usize) -> Self::Block {
-                HyperDual::var(v, i)
-            }
-            fn embed(offset: usize, x: &Self::Block) -> Self::Y {
-                HyperDual::embed(offset, x)
-            }
-            fn compose(q: &Self::Z, z: &[(usize, Self::Block); NZ]) -> Self::Y {
-                HyperDual::compose(q, z)
-            }
-            fn gradient(x: &Self::Y) -> &[f64; NVAR] {
-                &x.g
-            }
-        }
-    };
+impl<const HY: usize, const HZ: usize, const HB: usize> Order for Extents<HY, HZ, HB> {
+    type Y = HyperDual<NVAR, HY>;
+    type Z = HyperDual<NZ, HZ>;
+    type Block = HyperDual<9, HB>;
+    fn var_y(v: f64, i: usize) -> Self::Y {
+        HyperDual::var(v, i)
+    }
+    fn var_z(v: f64, i: usize) -> Self::Z {
+        HyperDual::var(v, i)
+    }
+    fn var_block(v: f64, i: usize) -> Self::Block {
+        HyperDual::var(v, i)
+    }
+    fn embed(offset: usize, x: &Self::Block) -> Self::Y {
+        HyperDual::embed(offset, x)
+    }
+    fn compose(q: &Self::Z, z: &[(usize, Self::Block); NZ]) -> Self::Y {
+        HyperDual::compose(q, z)
+    }
+    fn gradient(x: &Self::Y) -> &[f64; NVAR] {
+        &x.g
+    }
 }
-
-order!(Second, NVAR, NZ, 9);
-order!(First, 0, 0, 0);
 
 /// The point's kinematics, each with derivatives in `y`.
 #[derive(Clone, Debug)]

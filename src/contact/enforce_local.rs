@@ -271,9 +271,7 @@ fn law<O: Order>(
     state: &mut PointState,
 ) -> Option<(LocalGap<O>, Tractions<O>)> {
     let lg = local_gap::<O>(y, p.normal, start, curved);
-    if let Some((triangle, _)) = state.hit {
-        state.hit = Some((triangle, lg.gap.value()));
-    }
+    state.hit = state.hit.map(|(triangle, _)| (triangle, lg.gap.value()));
     let tr = tractions(&lg, input)?;
     state.pressure = -tr.normal.value();
     if let Some((t, slipping)) = &tr.tangential {
